@@ -1,0 +1,39 @@
+"""The one error type every reader and the configuration parser raise on bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class InputError(ValueError):
+    """Bad input, located: which file, which line or field, and what was expected.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file that is wrong.
+    message : str
+        What was found and what was expected, in one sentence.
+    line : int, optional
+        1-based line number in the file, when the fault is on a line.
+    field : str, optional
+        Dotted field name (``vehicle.mass_kg``) or column name, when known.
+
+    Notes
+    -----
+    ``str(err)`` is a single line ``FILE:LINE: field 'F': MESSAGE`` suitable for a
+    command-line tool to print as is.
+    """
+
+    def __init__(self, path: str | Path, message: str, *, line: int | None = None,
+                 field: str | None = None) -> None:
+        self.path = str(path)
+        self.line = line
+        self.field = field
+        self.message = message
+        super().__init__(self._format())
+
+    def _format(self) -> str:
+        where = self.path if self.line is None else f"{self.path}:{self.line}"
+        what = f"field '{self.field}': " if self.field else ""
+        return f"{where}: {what}{self.message}"
