@@ -126,29 +126,31 @@ def parse_floats(path: str | Path, cells: Sequence[str], line_numbers: Sequence[
         On an unparseable number, a blank cell (unless allowed), or a NaN or infinite
         value written in the file; the line and column are given.
     """
-    arr = np.asarray(cells, dtype=str)
-    if allow_empty:
-        blank = np.char.str_len(np.char.strip(arr)) == 0
-        arr = np.where(blank, "nan", arr)
-    else:
-        blank = np.zeros(arr.shape, dtype=bool)
+    convert = _float_or_nan if allow_empty else float
     try:
-        values = arr.astype(np.float64)
+        values = np.fromiter(map(convert, cells), dtype=np.float64, count=len(cells))
     except ValueError:
-        for k, text in enumerate(arr):
+        for k, text in enumerate(cells):
             try:
-                float(text)
+                convert(text)
             except ValueError:
                 shown = text.strip()
                 msg = "empty value" if not shown else f"not a number: '{shown[:40]}'"
                 raise InputError(path, msg, line=int(line_numbers[k]), field=field) from None
         raise InputError(path, "unparseable number", field=field) from None
-    bad = ~np.isfinite(values) & ~blank
+    bad = ~np.isfinite(values)
+    if allow_empty:
+        bad &= np.array([bool(c.strip()) for c in cells], dtype=bool)
     if bad.any():
         k = int(np.argmax(bad))
-        raise InputError(path, f"non-finite value '{arr[k].strip()}'; expected a finite number",
-                         line=int(line_numbers[k]), field=field)
+        raise InputError(path, f"non-finite value '{cells[k].strip()}'; expected a finite "
+                         "number", line=int(line_numbers[k]), field=field)
     return values
+
+
+def _float_or_nan(text: str) -> float:
+    """``float(text)``, NaN for a blank cell."""
+    return float(text) if text.strip() else np.nan
 
 
 def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str], line: int,
