@@ -1,0 +1,191 @@
+"""``casrecon inspect FILE``: say what an input file is, what it holds and what looks wrong.
+
+Problems reported:
+
+- GPS cold start: leading fixes with ``hAcc > 10 m`` or ``vAcc > 10 m`` or ``sAcc > 1 m/s``
+  or ``0 <= numSV < 6``, and the time the first good fix arrives;
+- gaps: steps longer than twice the median step (count and the largest);
+- IMU saturation: samples equal to an axis' extreme value when that value repeats
+  (at least 3 samples), the signature of a clipped sensor;
+- soundings: levels dropped for missing values, IGRA2 launches that are truncated.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.io._csvtools import read_lines
+from casrecon.io.errors import InputError
+from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
+from casrecon.io.imu import ImuCsvSpec, ImuLog, read_imu_csv
+from casrecon.io.sounding import Sounding, detect_sounding_format, igra2_launches, read_sounding
+
+SUPPORTED = ("FlySight 1 CSV, FlySight 2 TRACK.CSV, University of Wyoming TEXT:CSV or "
+             "TEXT:LIST sounding, IGRA2 v2 sounding, plain sounding CSV "
+             "(altitude_msl_m,pressure_pa,...), IMU CSV (time_s,ax,ay,az,wx,wy,wz or "
+             "ts,...,Ax,Ay,Az,Gx,Gy,Gz)")
+ROCKET_SPEC = ImuCsvSpec(time_column="ts", accel_columns=("Ax", "Ay", "Az"),
+                         gyro_columns=("Gx", "Gy", "Gz"), gyro_unit="deg/s")
+COLD_H_ACC_M = 10.0
+COLD_V_ACC_M = 10.0
+COLD_S_ACC_MPS = 1.0
+COLD_MIN_SV = 6
+SATURATION_MIN_REPEATS = 3
+
+
+def inspect_file(path: str | Path) -> str:
+    """Detect the kind of an input file and describe it.
+
+    Parameters
+    ----------
+    path : str or Path
+        Any casrecon input data file.
+
+    Returns
+    -------
+    str
+        Multi-line human-readable report: kind, rows, time span, columns and units, value
+        ranges and obvious problems.
+
+    Raises
+    ------
+    InputError
+        If the file is unreadable, of an unknown kind (the message lists the supported
+        kinds) or malformed (the reader's located error).
+    """
+    lines = read_lines(path)
+    first = lines[0].strip() if lines else ""
+    header = [h.strip() for h in first.split(",")]
+    if first.startswith("$FLYS") or ("time" in header and "lat" in header):
+        return _report_gps(read_flysight(path), lines)
+    if detect_sounding_format(lines) is not None:
+        return _report_sounding(read_sounding(path), lines)
+    for spec in (ImuCsvSpec(), ROCKET_SPEC):
+        if all(c in header for c in spec.columns):
+            return _report_imu(read_imu_csv(path, spec), spec)
+    raise InputError(path, f"unknown kind of file; supported: {SUPPORTED}", line=1)
+
+
+def _gaps(t: np.ndarray, when: Callable[[float], str] = lambda x: f"t = {x:.6g} s") -> str:
+    if t.size < 3:
+        return "gaps: too few samples to judge"
+    step = np.diff(t)
+    med = float(np.median(step))
+    big = step > 2.0 * med
+    if not big.any():
+        return f"gaps: none longer than 2x the median step ({med:.4g} s)"
+    k = int(np.argmax(step))
+    return (f"gaps: {int(big.sum())} steps longer than 2x the median step ({med:.4g} s); "
+            f"largest {step[k]:.4g} s after sample {k} ({when(t[k])})")
+
+
+def _span(t: np.ndarray) -> str:
+    step = float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+    rate = f", {1.0 / step:.4g} Hz" if step > 0 else ""
+    return f"{t[-1] - t[0]:.6g} s, median step {step:.4g} s{rate}"
+
+
+def _gps_columns(lines: list[str], fmt: str) -> str:
+    if fmt == "flysight1":
+        names = lines[0].split(",")
+        units = lines[1].split(",") if len(lines) > 1 else [""] * len(names)
+    else:
+        names = next(ln.split(",")[2:] for ln in lines if ln.startswith("$COL,GNSS"))
+        units = next((ln.split(",")[2:] for ln in lines if ln.startswith("$UNIT,GNSS")),
+                     [""] * len(names))
+    units = [*units, *[""] * len(names)]
+    return ", ".join(f"{n.strip()} [{u.strip().strip('()')}]" if u.strip() else n.strip()
+                     for n, u in zip(names, units, strict=False))
+
+
+def _cold_start(g: GpsTrack) -> str:
+    bad = (g.h_acc_m > COLD_H_ACC_M) | (g.v_acc_m > COLD_V_ACC_M) \
+        | (g.s_acc_mps > COLD_S_ACC_MPS) | ((g.num_sv >= 0) & (g.num_sv < COLD_MIN_SV))
+    rule = (f"hAcc > {COLD_H_ACC_M:g} m or vAcc > {COLD_V_ACC_M:g} m or sAcc > "
+            f"{COLD_S_ACC_MPS:g} m/s or numSV < {COLD_MIN_SV}")
+    if bad.all():
+        return f"cold start: every fix is poor ({rule}); no good fix"
+    lead = int(np.argmax(~bad))
+    later = int(bad[lead:].sum())
+    text = (f"cold start: {lead} leading fixes poor ({rule}); good fixes start at "
+            f"{iso_utc(g.time_unix_s[lead])} (+{g.time_unix_s[lead] - g.time_unix_s[0]:.1f} s)")
+    return text + (f"; {later} poor fixes later in the track" if later else "")
+
+
+def _report_gps(g: GpsTrack, lines: list[str]) -> str:
+    kind = "FlySight 1 GPS track" if g.format == "flysight1" else "FlySight 2 GNSS track"
+    t = g.time_unix_s
+    gs = np.hypot(g.vel_n_mps, g.vel_e_mps)
+    out = [f"{g.path}: {kind} ({g.format})",
+           f"rows: {g.n}",
+           f"time: {iso_utc(t[0])} to {iso_utc(t[-1])} UTC ({_span(t)})",
+           f"columns: {_gps_columns(lines, g.format)}",
+           f"altitude hMSL: {g.h_msl_m.min():.1f} to {g.h_msl_m.max():.1f} m",
+           f"latitude: {g.lat_deg.min():.6f} to {g.lat_deg.max():.6f} deg; longitude: "
+           f"{g.lon_deg.min():.6f} to {g.lon_deg.max():.6f} deg",
+           f"velD: {g.vel_d_mps.min():.2f} to {g.vel_d_mps.max():.2f} m/s; ground speed max "
+           f"{gs.max():.2f} m/s",
+           f"accuracy: hAcc {g.h_acc_m.min():.2f} to {g.h_acc_m.max():.1f} m, vAcc "
+           f"{g.v_acc_m.min():.2f} to {g.v_acc_m.max():.1f} m, sAcc {g.s_acc_mps.min():.2f} "
+           f"to {g.s_acc_mps.max():.2f} m/s",
+           _cold_start(g),
+           _gaps(t, lambda x: f"at {iso_utc(x)}")]
+    return "\n".join(out)
+
+
+def _report_sounding(s: Sounding, lines: list[str]) -> str:
+    speed = np.hypot(s.wind_north_mps, s.wind_east_mps)
+    names = {"wyoming-csv": "University of Wyoming TEXT:CSV sounding",
+             "wyoming-list": "University of Wyoming TEXT:LIST sounding",
+             "igra2": "IGRA2 v2 sounding", "plain-csv": "plain CSV sounding"}
+    out = [f"{s.path}: {names[s.format]} ({s.format})",
+           f"description: {s.description or '(none in file)'}",
+           f"levels: {s.n} usable, {s.dropped_levels} dropped (missing a required value or "
+           "repeating an altitude)",
+           f"altitude MSL: {s.altitude_msl_m[0]:.0f} to {s.altitude_msl_m[-1]:.0f} m",
+           f"pressure: {s.pressure_pa.max() / 100:.1f} to {s.pressure_pa.min() / 100:.1f} hPa",
+           f"temperature: {s.temperature_k.min():.1f} to {s.temperature_k.max():.1f} K",
+           f"wind speed: {speed.min():.1f} to {speed.max():.1f} m/s",
+           f"density: {'given' if s.density_kgm3 is not None else 'not given'}"]
+    if s.format == "igra2":
+        for k, info in enumerate(igra2_launches(s.path, lines)):
+            note = "" if info.present_levels == info.declared_levels else (
+                f"; TRUNCATED: {info.present_levels} of {info.declared_levels} levels present")
+            out.append(f"launch {k}: {info.description}, line {info.line}, "
+                       f"{info.declared_levels} levels{note}")
+    return "\n".join(out)
+
+
+def _saturation(name: str, values: np.ndarray, axes: tuple[str, str, str]) -> list[str]:
+    out = []
+    for k, axis in enumerate(axes):
+        v = values[:, k]
+        for label, extreme in (("max", v.max()), ("min", v.min())):
+            count = int(np.count_nonzero(v == extreme))
+            if count >= SATURATION_MIN_REPEATS and v.min() != v.max():
+                out.append(f"possible {name} saturation: {count} samples of {axis} at its "
+                           f"{label} {extreme:.6g}")
+    return out
+
+
+def _report_imu(m: ImuLog, spec: ImuCsvSpec) -> str:
+    acc = m.accel_mps2
+    gyr = np.degrees(m.gyro_radps)
+    out = [f"{m.path}: IMU CSV",
+           f"rows: {m.n}",
+           f"time: {m.time_s[0]:.6g} to {m.time_s[-1]:.6g} s IMU clock ({_span(m.time_s)})",
+           f"columns: {spec.time_column} [{spec.time_unit}], "
+           f"{', '.join(spec.accel_columns)} [{spec.accel_unit}], "
+           f"{', '.join(spec.gyro_columns)} [{spec.gyro_unit}] (other columns ignored)"]
+    for k in range(3):
+        out.append(f"{spec.accel_columns[k]}: {acc[:, k].min():.3f} to {acc[:, k].max():.3f} "
+                   f"m/s^2; {spec.gyro_columns[k]}: {gyr[:, k].min():.2f} to "
+                   f"{gyr[:, k].max():.2f} deg/s")
+    out.append(_gaps(m.time_s))
+    sat = _saturation("accelerometer", acc, spec.accel_columns) \
+        + _saturation("gyro", gyr, spec.gyro_columns)
+    out.extend(sat or ["saturation: no axis sits repeatedly at its extreme value"])
+    return "\n".join(out)
