@@ -1,0 +1,98 @@
+"""inspect_file on every real file kind, on hand-made IMU/plain files and on unknown kinds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from casrecon.io.errors import InputError
+from casrecon.io.imu import write_imu_csv
+from casrecon.io.inspect import inspect_file
+
+REAL = Path("/work/shared/realdata")
+FS1 = REAL / "flysight-speed-ssscoring/fs1-byron-2019-05-25.CSV"
+FS2 = REAL / "flysight-speed-ssscoring/fs2-chicago-2024-09-17/TRACK.CSV"
+SENSOR = REAL / "flysight-speed-ssscoring/fs2-chicago-2024-09-17/SENSOR.CSV"
+
+
+def test_fs1_report_cold_start_and_columns():
+    r = inspect_file(FS1)
+    assert "FlySight 1 GPS track" in r and "rows: 5729" in r
+    assert "2019-05-25T20:21:18.600Z" in r and "hMSL [m]" in r
+    # hAcc 41.8, 30.4, 23.9, ... m at the start: 16 poor fixes, first good one 3.2 s later
+    assert "cold start: 16 leading fixes poor" in r
+    assert "good fixes start at 2019-05-25T20:21:21.800Z" in r
+
+
+def test_fs2_report_gap_and_cold_start():
+    r = inspect_file(FS2)
+    assert "FlySight 2 GNSS track" in r and "rows: 16022" in r
+    assert "cold start: 27 leading fixes poor" in r
+    assert "largest 623.3 s" in r  # logging paused for about ten minutes on the ride up
+
+
+def test_sensor_csv_recognised_but_refused():
+    with pytest.raises(InputError, match="FlySight 2 SENSOR.CSV: not yet supported"):
+        inspect_file(SENSOR)
+
+
+@pytest.mark.parametrize("name,kind", [
+    ("20110522_OUN_12Z.txt", "TEXT:LIST"), ("may4_sounding.txt", "TEXT:LIST"),
+    ("BOI_72681_2010-12-09_12Z_wyoming.csv", "TEXT:CSV"),
+    ("OUN_72357_2023-05-22_12Z_wyoming.csv", "TEXT:CSV"),
+    ("USM00070026-data.txt", "IGRA2")])
+def test_soundings(name, kind):
+    r = inspect_file(REAL / "soundings" / name)
+    assert kind in r and "levels:" in r and "altitude MSL" in r
+
+
+def test_igra2_lists_launches_and_truncation():
+    r = inspect_file(REAL / "soundings/USM00070026-data.txt")
+    assert "launch 2:" in r and "TRUNCATED: 0 of 147" in r
+
+
+def test_rocket_imu():
+    r = inspect_file(REAL / "rocket-drogue-descent-hedy/imu.csv")
+    assert "IMU CSV" in r and "rows: 24564" in r and "100 Hz" in r and "deg/s" in r
+
+
+def test_imu_saturation_and_gap(tmp_path):
+    t = np.arange(100) * 0.01
+    t[50:] += 0.5
+    acc = np.zeros((100, 3))
+    acc[:, 0] = np.linspace(-10, 40, 100)
+    acc[90:, 0] = 49.0  # clipped: ten samples sit at the maximum
+    f = tmp_path / "imu.csv"
+    write_imu_csv(f, t, acc, np.zeros((100, 3)) + np.linspace(0, 1, 100)[:, None])
+    r = inspect_file(f)
+    assert "possible accelerometer saturation: 10 samples of ax at its max 49" in r
+    assert "gaps: 1 steps" in r and "largest 0.51 s" in r
+
+
+@pytest.mark.parametrize("name", ["LICENSE", "baro.csv"])
+def test_unknown_kind(name):
+    path = REAL / "rocket-drogue-descent-hedy" / name
+    with pytest.raises(InputError) as exc:
+        inspect_file(path)
+    text = str(exc.value)
+    assert name in text and "supported:" in text and "FlySight 1" in text and "\n" not in text
+
+
+@pytest.mark.parametrize("content", [b"", b"\x00\x01binary"])
+def test_empty_and_binary(tmp_path, content):
+    f = tmp_path / "x.bin"
+    f.write_bytes(content)
+    with pytest.raises(InputError, match="x.bin"):
+        inspect_file(f)
+
+
+def test_malformed_flysight_reports_reader_error(tmp_path):
+    lines = FS1.read_text().splitlines()
+    lines[99] = lines[99][:20]
+    f = tmp_path / "cut.CSV"
+    f.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError) as exc:
+        inspect_file(f)
+    assert exc.value.line == 100 and "cut.CSV:100:" in str(exc.value)
