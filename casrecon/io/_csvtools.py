@@ -6,8 +6,8 @@ Every helper raises :class:`casrecon.io.errors.InputError` (never a bare ``Value
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 import re
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np

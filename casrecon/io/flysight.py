@@ -26,8 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.io._csvtools import (check_increasing, find_columns, parse_floats, read_lines,
-                                   split_rows)
+from casrecon.io._csvtools import check_increasing, find_columns, parse_floats, read_lines, split_rows
 from casrecon.io.errors import InputError
 
 #: Required columns and the unit each must have in the units row.

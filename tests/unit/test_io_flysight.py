@@ -6,7 +6,7 @@ Real tracks: pr3d4t0r/SSScoring (BSD-3) and skyderby/skyderby (O'Saasy), see
 
 from __future__ import annotations
 
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +23,7 @@ SENSOR = REAL / "flysight-speed-ssscoring/fs2-chicago-2024-09-17/SENSOR.CSV"
 
 
 def unix(*args: int) -> float:
-    return datetime(*args, tzinfo=timezone.utc).timestamp()
+    return datetime(*args, tzinfo=UTC).timestamp()
 
 
 def assert_located(err: InputError, path: Path, line: int | None = None,

@@ -10,8 +10,13 @@ import numpy as np
 import pytest
 
 from casrecon.io.errors import InputError
-from casrecon.io.sounding import (KNOT_MPS, igra2_launches, read_sounding, wind_from_direction,
-                                  write_sounding_csv)
+from casrecon.io.sounding import (
+    KNOT_MPS,
+    igra2_launches,
+    read_sounding,
+    wind_from_direction,
+    write_sounding_csv,
+)
 
 SND = Path("/work/shared/realdata/soundings")
 LIST = SND / "20110522_OUN_12Z.txt"
