@@ -21,6 +21,7 @@ Every fix is kept, including cold-start fixes with poor accuracy: filtering on
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,6 +35,7 @@ REQUIRED_UNITS: dict[str, str] = {
     "lat": "deg", "lon": "deg", "hMSL": "m", "velN": "m/s", "velE": "m/s", "velD": "m/s",
     "hAcc": "m", "vAcc": "m", "sAcc": "m/s",
 }
+_ISO_UTC = re.compile(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d{1,6})?Z")
 _FS1_HEADER = ("time", "lat", "lon", "hMSL", "velN", "velE", "velD", "hAcc", "vAcc", "sAcc",
                "heading", "cAcc", "gpsFix", "numSV")
 _FS1_UNITS = ("", "(deg)", "(deg)", "(m)", "(m/s)", "(m/s)", "(m/s)", "(m)", "(m)", "(m/s)",
@@ -104,15 +106,14 @@ def parse_iso_times(path: str | Path, cells: list[str], line_numbers: list[int],
     InputError
         On a time that is not ``YYYY-MM-DDThh:mm:ss[.fff]Z``, with its line.
     """
-    arr = np.char.strip(np.asarray(cells, dtype=str))
-    good = (np.char.str_len(arr) >= 20) & np.char.endswith(arr, "Z") \
-        & (np.char.find(arr, "T") == 10)
+    texts = [c.strip() for c in cells]
+    good = [_ISO_UTC.fullmatch(c) is not None for c in texts]
     try:
-        if not good.all():
+        if not all(good):
             raise ValueError
-        us = np.char.rstrip(arr, "Z").astype("datetime64[us]").astype(np.int64)
+        us = np.array([c[:-1] for c in texts], dtype="datetime64[us]").astype(np.int64)
     except ValueError:
-        for k, text in enumerate(arr):
+        for k, text in enumerate(texts):
             try:
                 if not good[k]:
                     raise ValueError

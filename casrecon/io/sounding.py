@@ -206,6 +206,9 @@ def _finish(path: str | Path, fmt: str, cols: dict[str, np.ndarray], lines: np.n
     dropped = int(np.count_nonzero(~have))
     cols = {k: v[have] for k, v in cols.items()}
     lines = np.asarray(lines)[have]
+    if lines.size < 2:
+        raise InputError(path, f"fewer than 2 usable levels ({lines.size} usable, {dropped} "
+                         "dropped for missing values)")
     step = np.diff(cols["z"])
     if np.any(step < 0):
         k = int(np.argmax(step < 0)) + 1
