@@ -166,13 +166,13 @@ def _read_fs1(path: str | Path, lines: list[str]) -> GpsTrack:
     if len(lines) > 1 and (lines[1].startswith(",") or "(" in lines[1]):
         units = [u.strip().strip("()") for u in lines[1].split(",")]
         start = 2
-    return _build(path, "flysight1", header, units, 2, lines[start:], start + 1)
+    return _build(path, "flysight1", (header, 1), units, 2, lines[start:], start + 1)
 
 
 def _read_fs2(path: str | Path, lines: list[str]) -> GpsTrack:
     header: list[str] | None = None
     units: list[str] | None = None
-    unit_line = 0
+    unit_line = header_line = 0
     data_at = None
     kinds = []
     for k, line in enumerate(lines):
@@ -180,7 +180,7 @@ def _read_fs2(path: str | Path, lines: list[str]) -> GpsTrack:
         if fields[0] == "$COL" and len(fields) > 1:
             kinds.append(fields[1])
             if fields[1] == "GNSS":
-                header = fields[2:]
+                header, header_line = fields[2:], k + 1
         elif fields[0] == "$UNIT" and len(fields) > 1 and fields[1] == "GNSS":
             units, unit_line = fields[2:], k + 1
         elif fields[0] == "$DATA":
@@ -203,7 +203,7 @@ def _read_fs2(path: str | Path, lines: list[str]) -> GpsTrack:
         elif not line.startswith("$"):
             raise InputError(path, "data line does not start with '$' (expected '$GNSS,...')",
                              line=k + 1)
-    return _build(path, "flysight2", header, units, unit_line, body, numbers)
+    return _build(path, "flysight2", (header, header_line), units, unit_line, body, numbers)
 
 
 def _check_units(path: str | Path, header: list[str], units: list[str] | None,
@@ -220,10 +220,17 @@ def _check_units(path: str | Path, header: list[str], units: list[str] | None,
                              f"'{expected}'", line=unit_line, field=name)
 
 
-def _build(path: str | Path, fmt: str, header: list[str], units: list[str] | None,
+def _build(path: str | Path, fmt: str, located_header: tuple[list[str], int],
+           units: list[str] | None,
            unit_line: int, body: list[str], first: int | list[int]) -> GpsTrack:
+    """Parse the data rows of either format into a GpsTrack.
+
+    ``located_header`` is (column names, 1-based header line); ``first`` is the line of
+    ``body[0]`` (rows contiguous) or the list of line numbers of every row.
+    """
     wanted = ["time", *REQUIRED_UNITS]
-    col = find_columns(path, header, wanted, line=1)
+    header, header_line = located_header
+    col = find_columns(path, header, wanted, line=header_line)
     _check_units(path, header, units, unit_line)
     numbers = list(range(first, first + len(body))) if isinstance(first, int) else first
     if not body:

@@ -170,7 +170,7 @@ FS2_BREAKS = {
     "unknown unit": (lambda L: [ln.replace("$UNIT,GNSS,,deg,deg,m,", "$UNIT,GNSS,,deg,deg,ft,")
                                 for ln in L], 6, "hMSL"),
     "truncated row": (lambda L: L[:99] + [L[99][:30]] + L[100:], 100, None),
-    "missing column": (lambda L: [ln.replace(",velD,", ",vD,") for ln in L], 1, "velD"),
+    "missing column": (lambda L: [ln.replace(",velD,", ",vD,") for ln in L], 5, "velD"),
     "nan": (lambda L: _set(L, 50, 4, "NaN"), 50, "hMSL"),
     "not a $ line": (lambda L: L[:200] + ["garbage"] + L[200:], 201, None),
 }

@@ -96,3 +96,36 @@ def test_malformed_flysight_reports_reader_error(tmp_path):
     with pytest.raises(InputError) as exc:
         inspect_file(f)
     assert exc.value.line == 100 and "cut.CSV:100:" in str(exc.value)
+
+
+def test_random_corruptions_only_raise_input_error(tmp_path):
+    """Deterministic fuzz: cut, delete, insert and replace bytes in copies of real files."""
+    import random
+
+    rng = random.Random(20240917)
+    sources = [REAL / "flysight-speed-skyderby/speed_skydiving_411.csv",
+               *(p for p in (REAL / "soundings").iterdir() if p.name != "LICENSE")]
+    blobs = [(p.name, p.read_bytes()) for p in sources]
+    imu_rows = (REAL / "rocket-drogue-descent-hedy/imu.csv").read_bytes().splitlines(True)
+    blobs.append(("imu.csv", b"".join(imu_rows[:300])))
+    alphabet = b",.-0123456789 \nabcZT:$#e\t\r+"
+    for _ in range(150):
+        name, raw = rng.choice(blobs)
+        b = bytearray(raw)
+        for _ in range(rng.randint(1, 3)):
+            i = rng.randrange(len(b))
+            op = rng.random()
+            if op < 0.3:
+                del b[i:i + rng.randint(1, 20)]
+            elif op < 0.6:
+                b[i] = rng.choice(alphabet)
+            elif op < 0.8:
+                b[i:i] = bytes([rng.choice(alphabet)])
+            else:
+                b = b[:i]
+        f = tmp_path / name
+        f.write_bytes(bytes(b))
+        try:
+            inspect_file(f)
+        except InputError as err:
+            assert "\n" not in str(err) and name in str(err)
