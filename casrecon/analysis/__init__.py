@@ -1,0 +1,1 @@
+"""Forward simulation, synthetic data and (later) sensitivity and Monte Carlo analyses."""

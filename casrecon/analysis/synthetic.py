@@ -1,0 +1,183 @@
+"""Synthetic flight data in the real formats, from a known truth (seeded, deterministic).
+
+What is made, and the simplifications kept (documented for whoever fits it):
+
+- **IMU** at ``rate_hz`` on its own clock (IMU time 0 = ``clock_utc_at_zero`` as recorded; the true
+  UTC of a sample is that plus ``t_imu`` plus the truth ``clock_offset_s``). Before release the
+  vehicle hangs still at the release attitude (specific force -g, rates as at release); in flight
+  the simulator's samples fall exactly on the IMU clock; after impact it rests at the impact
+  attitude. Truth bias plus white noise (``accel_noise_mps2``, ``gyro_noise_dps``) are added and
+  values beyond the declared saturation limits are clipped to them, as a real device does.
+- **GPS** (FlySight 1 CSV, ``rate_hz`` on whole UTC multiples of the period): antenna position and
+  velocity from the lever arm; before release it moves with the helicopter at the release
+  velocity. Each fix carries hAcc, vAcc, sAcc, and its error is drawn with exactly those 1-sigma
+  values per axis (north and east from hAcc, down from vAcc, each velocity component from sAcc).
+  The first fixes are a cold start (accuracies from tens of metres down to nominal), and fixes
+  after impact are poor (a receiver on its side in the dirt: accuracies growing, numSV falling).
+- **truth.json**: every parameter the estimator may estimate, by the names it uses.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+
+import numpy as np
+import pymap3d
+
+from casrecon.analysis.simulate import Simulator, Trajectory
+from casrecon.io.flysight import GpsTrack
+from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE
+from casrecon.physics.aero import DISPERSION_NAMES
+from casrecon.physics.dynamics import OUTPUT_NAMES
+from casrecon.physics.rotations import dcm_body_to_ned
+from casrecon.scenario import Scenario
+
+COLD_START_FIXES = 12
+POOR_FIX_GROWTH = 4.0  # hAcc growth after impact, m/s
+
+
+@dataclass(frozen=True)
+class SyntheticData:
+    """Arrays ready for the file writers, and the truth behind them."""
+
+    trajectory: Trajectory
+    imu_time_s: np.ndarray
+    imu_accel_mps2: np.ndarray
+    imu_gyro_radps: np.ndarray
+    gps: GpsTrack
+    truth: dict
+
+
+def _unix(t: dt.datetime) -> float:
+    return t.timestamp()
+
+
+def simulate_truth(scenario: Scenario) -> tuple[Trajectory, float]:
+    """Simulate the truth flight on the IMU's true clock grid.
+
+    Returns the trajectory and ``t_zero``: the release time on the IMU clock (s), so that a sample
+    at IMU time ``t_imu`` happened at flight time ``t_imu - t_zero``.
+    """
+    cfg = scenario.config
+    dt_s = 1.0 / cfg.imu.rate_hz
+    clock = cfg.truth.clock_offset_s if cfg.truth else 0.0
+    t_zero = _unix(cfg.release.time_utc) - _unix(cfg.imu.clock_utc_at_zero) - clock
+    first = dt_s - (t_zero % dt_s) if t_zero % dt_s > 1e-12 else dt_s
+    sim = Simulator(scenario.model, dt_s=dt_s, substeps=max(1, round(dt_s / cfg.simulation.dt_s)))
+    traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s, first)
+    if not traj.impacted:
+        raise RuntimeError(f"{cfg.name}: no ground impact within t_max_s = {cfg.simulation.t_max_s} s")
+    return traj, t_zero
+
+
+def _gravity_body(scenario: Scenario, state: np.ndarray) -> np.ndarray:
+    g = np.asarray(scenario.model.gravity_ned(state), float).ravel()
+    return np.asarray(dcm_body_to_ned(state[6:10]), float).T @ g
+
+
+def _imu_signals(scenario: Scenario, traj: Trajectory, t_zero: float):
+    """Noise-free IMU signals (IMU axes) on the IMU clock from pre-release to post-impact."""
+    cfg = scenario.config
+    dt_s = 1.0 / cfg.imu.rate_hz
+    r_ib = np.asarray(scenario.config.vehicle.imu_to_body)
+    k_fly = int(round((t_zero + traj.time_s[1]) / dt_s))  # first in-flight sample on the IMU clock
+    in_flight = slice(1, traj.time_s.size - 1)  # release sample is pre-flight; impact is off-grid
+    n_fly, n_post = traj.time_s.size - 2, int(round(cfg.simulation.post_impact_s / dt_s))
+    time = dt_s * np.arange(k_fly + n_fly + n_post)  # the log starts at IMU time 0
+    t_pre = time[:k_fly]
+    col = OUTPUT_NAMES.index
+    f_fly = traj.outputs[in_flight, col("imu_fx"):col("imu_fz") + 1]
+    w_fly = traj.outputs[in_flight, col("gyro_x"):col("gyro_z") + 1]
+    f_pre = r_ib.T @ -_gravity_body(scenario, traj.states[0])
+    f_post = r_ib.T @ -_gravity_body(scenario, traj.states[-1])
+    w_pre = r_ib.T @ traj.states[0, 10:13]
+    accel = np.vstack([np.tile(f_pre, (t_pre.size, 1)), f_fly, np.tile(f_post, (n_post, 1))])
+    gyro = np.vstack([np.tile(w_pre, (t_pre.size, 1)), w_fly, np.zeros((n_post, 3))])
+    return time, accel, gyro
+
+
+def _clip(values: np.ndarray, limits, scale: float) -> np.ndarray:
+    if limits is None:
+        return values
+    lo = np.array([p[0] for p in limits]) * scale
+    hi = np.array([p[1] for p in limits]) * scale
+    return np.clip(values, lo, hi)
+
+
+def _noisy_imu(scenario: Scenario, traj: Trajectory, t_zero: float, rng: np.random.Generator):
+    cfg, truth = scenario.config, scenario.config.truth
+    time, accel, gyro = _imu_signals(scenario, traj, t_zero)
+    accel = accel + np.asarray(truth.accel_bias_mps2) + rng.normal(0, cfg.imu.accel_noise_mps2, accel.shape)
+    gyro = gyro + np.asarray(truth.gyro_bias_radps) + rng.normal(0, cfg.imu.gyro_noise_radps, gyro.shape)
+    spec = cfg.imu.spec
+    accel = _clip(accel, spec.accel_limits, ACCEL_SCALE[spec.accel_unit])
+    gyro = _clip(gyro, spec.gyro_limits, GYRO_SCALE[spec.gyro_unit])
+    return time, accel, gyro
+
+
+def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator) -> GpsTrack:
+    cfg = scenario.config
+    period = 1.0 / cfg.gps.rate_hz
+    t_rel = _unix(cfg.release.time_utc)
+    start = np.ceil((t_rel - cfg.simulation.pre_release_s - COLD_START_FIXES * period) / period) * period
+    stop = t_rel + traj.flight_time_s + cfg.simulation.post_impact_s
+    utc = np.arange(start, stop, period)
+    t = utc - t_rel
+    col = OUTPUT_NAMES.index
+    ant = traj.outputs[:, col("gps_n"):col("gps_vd") + 1]
+    pos = np.column_stack([np.interp(t, traj.time_s, ant[:, i]) for i in range(6)])
+    before, after = t < 0, t > traj.flight_time_s
+    pos[before, :3] = ant[0, :3] + np.outer(t[before], ant[0, 3:])
+    pos[before, 3:] = ant[0, 3:]
+    pos[after, :3], pos[after, 3:] = ant[-1, :3], 0.0
+    h_acc, v_acc, s_acc, num_sv = _accuracies(cfg.gps, t, traj.flight_time_s, rng)
+    sigma = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
+    meas = pos + rng.normal(size=pos.shape) * sigma
+    site = cfg.site
+    lat, lon, alt = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], site.lat_deg, site.lon_deg,
+                                         site.ground_alt_msl_m)
+    return GpsTrack(path="", format="flysight1", time_unix_s=np.round(utc, 3), lat_deg=lat, lon_deg=lon,
+                    h_msl_m=alt, vel_n_mps=meas[:, 3], vel_e_mps=meas[:, 4], vel_d_mps=meas[:, 5],
+                    h_acc_m=h_acc, v_acc_m=v_acc, s_acc_mps=s_acc, num_sv=num_sv)
+
+
+def _accuracies(gps, t: np.ndarray, t_impact: float, rng: np.random.Generator):
+    """Reported 1-sigma accuracies per fix: cold start, nominal with jitter, poor after impact."""
+    jitter = 1 + 0.1 * rng.uniform(-1, 1, t.size)
+    decay = np.exp(-np.arange(t.size) / 3.0) * 40.0
+    h_acc = gps.h_acc_m * jitter + decay
+    v_acc = gps.v_acc_m * jitter + 1.3 * decay
+    s_acc = gps.s_acc_mps * jitter + 0.1 * decay
+    late = np.clip(t - t_impact, 0, None)
+    h_acc, v_acc, s_acc = h_acc + POOR_FIX_GROWTH * late, v_acc + 2 * POOR_FIX_GROWTH * late, s_acc + 0.5 * late
+    num_sv = np.where(t > t_impact, 5, 14) - (decay > 5).astype(int) * 8
+    return np.round(h_acc, 3), np.round(v_acc, 3), np.round(s_acc, 3), num_sv.astype(np.int64)
+
+
+def truth_parameters_by_name(scenario: Scenario) -> dict[str, float]:
+    """Every estimable parameter's true value, by the estimator's names (SI units)."""
+    truth = scenario.config.truth
+    out = {n: float(truth.dispersions[n]) for n in DISPERSION_NAMES}
+    out.update(wind_bias_n=truth.wind_bias_mps[0], wind_bias_e=truth.wind_bias_mps[1],
+               density_factor=truth.density_factor, clock_offset_s=truth.clock_offset_s)
+    for axis, a, g in zip("xyz", truth.accel_bias_mps2, truth.gyro_bias_radps):
+        out[f"accel_bias_{axis}"] = float(a)
+        out[f"gyro_bias_{axis}"] = float(g)
+    return out
+
+
+def make_synthetic(scenario: Scenario, seed: int | None = None) -> SyntheticData:
+    """Simulate the truth and make IMU and GPS data; ``seed`` overrides ``[truth] seed``."""
+    cfg = scenario.config
+    if cfg.truth is None:
+        raise ValueError(f"{cfg.path}: synthetic data need a [truth] table")
+    rng = np.random.default_rng(cfg.truth.seed if seed is None else seed)
+    traj, t_zero = simulate_truth(scenario)
+    imu_t, accel, gyro = _noisy_imu(scenario, traj, t_zero, rng)
+    gps = _gps_track(scenario, traj, rng)
+    truth = {"problem": cfg.name, "seed": cfg.truth.seed if seed is None else seed,
+             "parameters": truth_parameters_by_name(scenario),
+             "release_imu_time_s": t_zero, "release_utc": cfg.release.time_utc.isoformat(),
+             "summary": traj.summary()}
+    return SyntheticData(traj, imu_t, accel, gyro, gps, truth)

@@ -1,0 +1,373 @@
+"""``problem.toml`` and the vehicle and aero TOML files it includes, parsed once into frozen
+dataclasses and validated. Every error is an :class:`InputError` naming the file and the field.
+
+Layout of a problem folder (see ``problems/ees-drop-1/problem.toml`` for a commented example)::
+
+    [problem]     name, description, vehicle = "vehicle.toml", aero = "aero.toml"
+    [site]        lat_deg, lon_deg, ground_alt_msl_m
+    [atmosphere]  sounding, launch, wind_3sigma_mps, density_3sigma
+    [dynamics]    gravity, earth_rotation
+    [release]     time_utc, h_agl_m, vel_ned_mps, euler_deg, rates_dps, pos_ne_m
+    [sensors.imu] file, columns, units, limits, noise and bias sigmas, clock
+    [sensors.gps] file, rate_hz, accuracy levels of the synthetic receiver
+    [truth]       what the simulator uses to make synthetic data (dispersions, biases, seed)
+    [simulation]  dt_s, substeps, t_max_s, pre_release_s, post_impact_s
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.io.errors import InputError
+from casrecon.io.imu import ImuCsvSpec
+from casrecon.io.toml_fields import Fields, load_toml
+from casrecon.physics.aero import (DISPERSION_NAMES, AeroDatabase, AnalyticCoefficients,
+                                   DispersionSizes, SpinVanes, TableCoefficients)
+from casrecon.physics.dynamics import DynamicsOptions, Site
+from casrecon.physics.vehicle import Vehicle
+
+IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+@dataclass(frozen=True)
+class AtmosphereConfig:
+    """Balloon sounding file and its stated uncertainty (3-sigma, as the EES paper gives it)."""
+
+    sounding: Path
+    launch: int = 0
+    wind_3sigma_mps: float = 1.0
+    density_3sigma: float = 0.01
+
+
+@dataclass(frozen=True)
+class ReleaseConfig:
+    """Initial conditions at release (EES paper Table 3 style); SI except where named.
+
+    ``time_utc`` is the UTC instant of release; ``pos_ne_m`` the north/east offset of the centre of
+    mass from the site reference point, m.
+    """
+
+    time_utc: dt.datetime
+    h_agl_m: float
+    vel_ned_mps: tuple[float, float, float]
+    euler_deg: tuple[float, float, float]
+    rates_dps: tuple[float, float, float]
+    pos_ne_m: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class ImuConfig:
+    """IMU file layout, noise model and clock.
+
+    ``clock_utc_at_zero`` is the UTC instant of IMU time 0 as recorded; the true relation is
+    ``utc = clock_utc_at_zero + t_imu + clock_offset`` with ``clock_offset`` estimated (truth in
+    ``[truth]``). Noise and bias sigmas are 1-sigma, SI units.
+    """
+
+    file: Path | None
+    spec: ImuCsvSpec
+    rate_hz: float
+    accel_noise_mps2: float
+    gyro_noise_radps: float
+    accel_bias_sigma_mps2: float
+    gyro_bias_sigma_radps: float
+    clock_utc_at_zero: dt.datetime
+
+
+@dataclass(frozen=True)
+class GpsConfig:
+    """GPS (FlySight) file and the synthetic receiver's accuracy levels (1-sigma)."""
+
+    file: Path | None
+    rate_hz: float = 5.0
+    h_acc_m: float = 1.5
+    v_acc_m: float = 2.5
+    s_acc_mps: float = 0.25
+
+
+@dataclass(frozen=True)
+class TruthConfig:
+    """True values used to simulate synthetic data. Dispersions are normalised (3-sigma = 1)."""
+
+    seed: int
+    dispersions: dict[str, float]
+    wind_bias_mps: tuple[float, float]
+    density_factor: float
+    accel_bias_mps2: tuple[float, float, float]
+    gyro_bias_radps: tuple[float, float, float]
+    clock_offset_s: float
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """Integrator settings and how much data to make before release and after impact."""
+
+    dt_s: float = 0.002
+    substeps: int = 1
+    t_max_s: float = 300.0
+    pre_release_s: float = 2.0
+    post_impact_s: float = 2.0
+
+
+@dataclass(frozen=True)
+class ProblemConfig:
+    """Everything in one problem folder, validated."""
+
+    path: Path
+    name: str
+    description: str
+    vehicle: Vehicle
+    aero: AeroDatabase
+    site: Site
+    atmosphere: AtmosphereConfig
+    dynamics: DynamicsOptions
+    release: ReleaseConfig
+    imu: ImuConfig
+    gps: GpsConfig
+    truth: TruthConfig | None
+    simulation: SimulationConfig
+    sources: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def folder(self) -> Path:
+        return self.path.parent
+
+
+def load_problem(path: str | Path) -> ProblemConfig:
+    """Parse and validate ``problem.toml`` (a file, or a folder containing one)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "problem.toml"
+    f = load_toml(path)
+    head = f.table("problem", required=True)
+    vehicle_path = head.path_of("vehicle", required=True)
+    aero_path = head.path_of("aero", required=True)
+    sensors = f.table("sensors", required=True)
+    cfg = ProblemConfig(
+        path=path.resolve(), name=head.string("name", required=True),
+        description=head.string("description", default=""),
+        vehicle=load_vehicle(vehicle_path), aero=load_aero(aero_path),
+        site=_site(f.table("site", required=True)),
+        atmosphere=_atmosphere(f.table("atmosphere", required=True)),
+        dynamics=_dynamics(f.table("dynamics") or Fields({}, path, "dynamics.")),
+        release=_release(f.table("release", required=True)),
+        imu=_imu(sensors.table("imu", required=True)), gps=_gps(sensors.table("gps", required=True)),
+        truth=_truth(f.table("truth")),
+        simulation=_simulation(f.table("simulation") or Fields({}, path, "simulation.")),
+        sources={"problem": str(path.resolve()), "vehicle": str(vehicle_path), "aero": str(aero_path)},
+    )
+    for t in (head, sensors, f):
+        t.reject_unknown()
+    return cfg
+
+
+def _utc(t: Fields, key: str) -> dt.datetime:
+    value = t.raw(key, required=True)
+    if isinstance(value, dt.datetime):
+        parsed = value
+    elif isinstance(value, str):
+        try:
+            parsed = dt.datetime.fromisoformat(value.replace("Z", "+00:00"))
+        except ValueError:
+            raise t.error(key, f"expected an ISO-8601 UTC time like 2023-10-03T16:05:12.3Z, got {value!r}") from None
+    else:
+        raise t.error(key, f"expected an ISO-8601 UTC time, got {value!r}")
+    if parsed.tzinfo is None:
+        raise t.error(key, "the time must say its zone (end it with Z for UTC)")
+    return parsed.astimezone(dt.timezone.utc)
+
+
+def _site(t: Fields) -> Site:
+    site = Site(lat_deg=t.number("lat_deg", required=True), lon_deg=t.number("lon_deg", required=True),
+                ground_alt_msl_m=t.number("ground_alt_msl_m", required=True))
+    if abs(site.lat_deg) > 90:
+        raise t.error("lat_deg", f"expected a latitude within +-90 deg, got {site.lat_deg}")
+    t.reject_unknown()
+    return site
+
+
+def _atmosphere(t: Fields) -> AtmosphereConfig:
+    cfg = AtmosphereConfig(sounding=t.path_of("sounding", required=True), launch=t.integer("launch", 0, 0),
+                           wind_3sigma_mps=t.number("wind_3sigma_mps", 1.0, positive=True),
+                           density_3sigma=t.number("density_3sigma", 0.01, positive=True))
+    t.reject_unknown()
+    return cfg
+
+
+def _dynamics(t: Fields) -> DynamicsOptions:
+    opts = DynamicsOptions(gravity=t.string("gravity", "wgs84", choices=("wgs84", "constant", "off")),
+                           earth_rotation=t.boolean("earth_rotation", True),
+                           aerodynamics=t.boolean("aerodynamics", True))
+    t.reject_unknown()
+    return opts
+
+
+def _release(t: Fields) -> ReleaseConfig:
+    cfg = ReleaseConfig(time_utc=_utc(t, "time_utc"), h_agl_m=t.number("h_agl_m", required=True, positive=True),
+                        vel_ned_mps=t.vector("vel_ned_mps", 3, required=True),
+                        euler_deg=t.vector("euler_deg", 3, required=True),
+                        rates_dps=t.vector("rates_dps", 3, required=True),
+                        pos_ne_m=t.vector("pos_ne_m", 2, (0.0, 0.0)))
+    t.reject_unknown()
+    return cfg
+
+
+def _limits(t: Fields, key: str):
+    value = t.raw(key)
+    if value is None:
+        return None
+    try:
+        pairs = tuple((float(lo), float(hi)) for lo, hi in value)
+    except (TypeError, ValueError):
+        raise t.error(key, f"expected three [low, high] pairs, got {value!r}") from None
+    if len(pairs) != 3 or any(not lo < hi for lo, hi in pairs):
+        raise t.error(key, f"expected three [low, high] pairs with low < high, got {value!r}")
+    return pairs
+
+
+def _imu(t: Fields) -> ImuConfig:
+    cols = t.table("columns") or Fields({}, t.path, t.name("columns."))
+    try:
+        spec = ImuCsvSpec(
+            time_column=cols.string("time", "time_s"),
+            accel_columns=tuple(cols.raw("accel", ["ax", "ay", "az"])),
+            gyro_columns=tuple(cols.raw("gyro", ["wx", "wy", "wz"])),
+            time_unit=t.string("time_unit", "s"), accel_unit=t.string("accel_unit", "m/s^2"),
+            gyro_unit=t.string("gyro_unit", "rad/s"),
+            accel_limits=_limits(t, "accel_limits"), gyro_limits=_limits(t, "gyro_limits"))
+    except (ValueError, TypeError) as err:
+        raise InputError(t.path, str(err), field=t.name("columns/units/limits")) from None
+    cols.reject_unknown()
+    clock = t.table("clock", required=True)
+    cfg = ImuConfig(
+        file=t.path_of("file", must_exist=False), spec=spec, rate_hz=t.number("rate_hz", 500.0, positive=True),
+        accel_noise_mps2=t.number("accel_noise_mps2", required=True, positive=True),
+        gyro_noise_radps=np.radians(t.number("gyro_noise_dps", required=True, positive=True)),
+        accel_bias_sigma_mps2=t.number("accel_bias_sigma_mps2", required=True, positive=True),
+        gyro_bias_sigma_radps=np.radians(t.number("gyro_bias_sigma_dps", required=True, positive=True)),
+        clock_utc_at_zero=_utc(clock, "utc_at_zero"))
+    clock.reject_unknown()
+    t.reject_unknown()
+    return cfg
+
+
+def _gps(t: Fields) -> GpsConfig:
+    cfg = GpsConfig(file=t.path_of("file", must_exist=False), rate_hz=t.number("rate_hz", 5.0, positive=True),
+                    h_acc_m=t.number("h_acc_m", 1.5, positive=True), v_acc_m=t.number("v_acc_m", 2.5, positive=True),
+                    s_acc_mps=t.number("s_acc_mps", 0.25, positive=True))
+    t.reject_unknown()
+    return cfg
+
+
+def _truth(t: Fields | None) -> TruthConfig | None:
+    if t is None:
+        return None
+    disp = t.table("dispersions") or Fields({}, t.path, t.name("dispersions."))
+    values = {n: disp.number(n, 0.0) for n in DISPERSION_NAMES}
+    disp.reject_unknown()
+    cfg = TruthConfig(
+        seed=t.integer("seed", 0, 0), dispersions=values,
+        wind_bias_mps=t.vector("wind_bias_mps", 2, (0.0, 0.0)), density_factor=t.number("density_factor", 0.0),
+        accel_bias_mps2=t.vector("accel_bias_mps2", 3, (0.0, 0.0, 0.0)),
+        gyro_bias_radps=tuple(np.radians(t.vector("gyro_bias_dps", 3, (0.0, 0.0, 0.0)))),
+        clock_offset_s=t.number("clock_offset_s", 0.0))
+    t.reject_unknown()
+    return cfg
+
+
+def _simulation(t: Fields) -> SimulationConfig:
+    cfg = SimulationConfig(dt_s=t.number("dt_s", 0.002, positive=True), substeps=t.integer("substeps", 1, 1),
+                           t_max_s=t.number("t_max_s", 300.0, positive=True),
+                           pre_release_s=t.number("pre_release_s", 2.0, minimum=0.0),
+                           post_impact_s=t.number("post_impact_s", 2.0, minimum=0.0))
+    t.reject_unknown()
+    return cfg
+
+
+def load_vehicle(path: str | Path) -> Vehicle:
+    """Parse a vehicle TOML (mass properties in native axes, mounts, ``native_to_body``)."""
+    f = load_toml(path)
+    inertia = f.table("inertia_kgm2", required=True)
+    moments = {k: inertia.number(k, required=k in ("Ixx", "Iyy", "Izz"), default=0.0)
+               for k in ("Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz")}
+    inertia.reject_unknown()
+    imu = f.table("imu") or Fields({}, f.path, "imu.")
+    gps = f.table("gps") or Fields({}, f.path, "gps.")
+    d = f.number("ref_length_m", required=True, positive=True)
+    kw = dict(name=f.string("name", required=True), mass_kg=f.number("mass_kg", required=True, positive=True),
+              ref_length_m=d, ref_area_m2=f.number("ref_area_m2", np.pi * d * d / 4, positive=True))
+    try:
+        vehicle = Vehicle.from_native(
+            f.matrix("native_to_body", IDENTITY), inertia_kgm2=Vehicle.inertia_from_moments(**{
+                k.lower(): v for k, v in moments.items()}),
+            cm_m=f.vector("cm_m", 3, required=True), mrp_m=f.vector("mrp_m", 3, required=True),
+            imu_position_m=imu.vector("position_m", 3, (0.0, 0.0, 0.0)),
+            imu_to_native=imu.matrix("to_native", IDENTITY),
+            gps_position_m=gps.vector("position_m", 3, (0.0, 0.0, 0.0)), **kw)
+    except ValueError as err:
+        raise InputError(path, str(err)) from None
+    for t in (imu, gps, f):
+        t.reject_unknown()
+    return vehicle
+
+
+def load_aero(path: str | Path) -> AeroDatabase:
+    """Parse an aero database TOML: ``model = "analytic"`` with ``[coefficients]``, or
+    ``model = "table"`` with ``table = "file.csv"`` (columns mach, alpha_t_deg, CA, CN, Cm, Cmq);
+    ``[dispersion_sizes]`` (3-sigma sizes U) and optional ``[vanes]``."""
+    f = load_toml(path)
+    model = f.string("model", required=True, choices=("analytic", "table"))
+    if model == "analytic":
+        coeffs = _analytic(f.table("coefficients", required=True))
+    else:
+        coeffs = _table(f.path_of("table", required=True), f.number("Clp", 0.0), f.number("Cl0", 0.0))
+    sizes_t = f.table("dispersion_sizes", required=True)
+    sizes = DispersionSizes(**{n: sizes_t.number(n, 0.0, minimum=0.0) for n in DISPERSION_NAMES})
+    sizes_t.reject_unknown()
+    vanes_t = f.table("vanes")
+    vanes = None
+    if vanes_t is not None:
+        vanes = SpinVanes(count=vanes_t.integer("count", 0, 1), radius_m=vanes_t.number("radius_m", required=True, positive=True),
+                          area_m2=vanes_t.number("area_m2", required=True, positive=True),
+                          incidence_deg=vanes_t.number("incidence_deg", required=True),
+                          lift_slope_per_rad=vanes_t.number("lift_slope_per_rad", 2 * np.pi / 5, positive=True))
+        vanes_t.reject_unknown()
+    db = AeroDatabase(name=f.string("name", required=True), coefficients=coeffs, sizes=sizes, vanes=vanes,
+                      description=f.string("description", ""))
+    f.reject_unknown()
+    return db
+
+
+def _analytic(t: Fields) -> AnalyticCoefficients:
+    names = ("CA0", "CA2", "CNa", "Cma", "Cmq0", "Cmq2", "Clp", "Cl0")
+    c = AnalyticCoefficients(**{n: t.number(n, required=(n == "CA0"), default=0.0) for n in names})
+    t.reject_unknown()
+    return c
+
+
+TABLE_COLUMNS = ("mach", "alpha_t_deg", "CA", "CN", "Cm", "Cmq")
+
+
+def _table(path: Path, clp: float, cl0: float) -> TableCoefficients:
+    """Read a (Mach, alpha_T) table CSV laid out as a full grid, one row per point."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            header = fh.readline().strip().split(",")
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except (OSError, ValueError, UnicodeDecodeError) as err:
+        raise InputError(path, f"cannot read aero table: {err}") from None
+    if tuple(header) != TABLE_COLUMNS:
+        raise InputError(path, f"header must be {','.join(TABLE_COLUMNS)}, got {','.join(header)}", line=1)
+    if not np.all(np.isfinite(data)):
+        raise InputError(path, "aero table holds a non-finite value")
+    mach, alpha = np.unique(data[:, 0]), np.unique(data[:, 1])
+    if data.shape[0] != mach.size * alpha.size or min(mach.size, alpha.size) < 4:
+        raise InputError(path, "aero table must be a full grid of at least 4 Mach x 4 alpha_T points")
+    order = np.lexsort((data[:, 1], data[:, 0]))
+    grid = data[order].reshape(mach.size, alpha.size, len(TABLE_COLUMNS))
+    cols = {name: tuple(map(tuple, grid[:, :, i])) for i, name in enumerate(TABLE_COLUMNS) if i >= 2}
+    return TableCoefficients(mach=tuple(mach), alpha_t_deg=tuple(alpha), Clp=clp, Cl0=cl0, **cols)

@@ -1,0 +1,144 @@
+"""Typed, located access to a parsed TOML table: every error names the file and the dotted field."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from casrecon.io.errors import InputError
+
+
+def load_toml(path: str | Path) -> "Fields":
+    """Parse a TOML file into :class:`Fields`, turning syntax errors into located InputErrors."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(path, "file not found") from None
+    except tomllib.TOMLDecodeError as err:
+        line = getattr(err, "lineno", None)
+        raise InputError(path, f"not valid TOML: {err}", line=line) from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(path, f"cannot read: {err}") from None
+    return Fields(data, path, "")
+
+
+class Fields:
+    """A TOML table with its file and dotted prefix; getters validate type and range.
+
+    Every getter marks the key as used; :meth:`reject_unknown` then reports misspelt keys.
+    """
+
+    def __init__(self, data: dict, path: Path, prefix: str) -> None:
+        self.data, self.path, self.prefix = data, Path(path), prefix
+        self._used: set[str] = set()
+
+    def name(self, key: str) -> str:
+        return f"{self.prefix}{key}"
+
+    def error(self, key: str, message: str) -> InputError:
+        return InputError(self.path, message, field=self.name(key))
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def raw(self, key: str, default: Any = None, required: bool = False) -> Any:
+        self._used.add(key)
+        if key not in self.data:
+            if required:
+                raise self.error(key, "is required but missing")
+            return default
+        return self.data[key]
+
+    def table(self, key: str, required: bool = False) -> "Fields | None":
+        value = self.raw(key, required=required)
+        if value is None:
+            return None
+        if not isinstance(value, dict):
+            raise self.error(key, f"expected a table, got {type(value).__name__}")
+        return Fields(value, self.path, self.name(key) + ".")
+
+    def string(self, key: str, default: str | None = None, required: bool = False,
+               choices: tuple[str, ...] | None = None) -> str | None:
+        value = self.raw(key, default, required)
+        if value is None:
+            return None
+        if not isinstance(value, str):
+            raise self.error(key, f"expected a string, got {value!r}")
+        if choices and value not in choices:
+            raise self.error(key, f"expected one of {', '.join(choices)}, got {value!r}")
+        return value
+
+    def boolean(self, key: str, default: bool) -> bool:
+        value = self.raw(key, default)
+        if not isinstance(value, bool):
+            raise self.error(key, f"expected true or false, got {value!r}")
+        return value
+
+    def number(self, key: str, default: float | None = None, required: bool = False,
+               minimum: float | None = None, positive: bool = False) -> float | None:
+        value = self.raw(key, default, required)
+        if value is None:
+            return None
+        return self._check_number(key, value, minimum, positive)
+
+    def integer(self, key: str, default: int, minimum: int | None = None) -> int:
+        value = self.raw(key, default)
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise self.error(key, f"expected an integer, got {value!r}")
+        if minimum is not None and value < minimum:
+            raise self.error(key, f"expected an integer >= {minimum}, got {value}")
+        return value
+
+    def vector(self, key: str, n: int, default=None, required: bool = False) -> tuple[float, ...] | None:
+        value = self.raw(key, default, required)
+        if value is None:
+            return None
+        if not isinstance(value, (list, tuple)) or len(value) != n:
+            raise self.error(key, f"expected a list of {n} numbers, got {value!r}")
+        return tuple(self._check_number(key, v, None, False) for v in value)
+
+    def matrix(self, key: str, default=None) -> tuple[tuple[float, ...], ...] | None:
+        value = self.raw(key, default)
+        if value is None:
+            return None
+        if not isinstance(value, (list, tuple)) or len(value) != 3:
+            raise self.error(key, f"expected a 3x3 matrix as three rows of three numbers, got {value!r}")
+        rows = []
+        for row in value:
+            if not isinstance(row, (list, tuple)) or len(row) != 3:
+                raise self.error(key, f"expected a 3x3 matrix as three rows of three numbers, got {value!r}")
+            rows.append(tuple(self._check_number(key, v, None, False) for v in row))
+        return tuple(rows)
+
+    def path_of(self, key: str, required: bool = False, must_exist: bool = True) -> Path | None:
+        """A file path relative to this TOML file's folder."""
+        value = self.string(key, required=required)
+        if value is None:
+            return None
+        path = (self.path.parent / value).resolve()
+        if must_exist and not path.is_file():
+            raise self.error(key, f"file {value!r} not found (looked for {path})")
+        return path
+
+    def reject_unknown(self) -> None:
+        """Raise on keys that no getter asked for (misspellings, stale settings)."""
+        unknown = sorted(set(self.data) - self._used)
+        if unknown:
+            known = ", ".join(sorted(self._used)) or "none"
+            raise self.error(unknown[0], f"unknown field (known here: {known})")
+
+    def _check_number(self, key: str, value: Any, minimum: float | None, positive: bool) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(key, f"expected a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise self.error(key, f"expected a finite number, got {value!r}")
+        if positive and value <= 0:
+            raise self.error(key, f"expected a positive number, got {value}")
+        if minimum is not None and value < minimum:
+            raise self.error(key, f"expected a number >= {minimum}, got {value}")
+        return value

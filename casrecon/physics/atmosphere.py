@@ -1,0 +1,108 @@
+"""Atmosphere from a balloon sounding: smooth CasADi interpolants in altitude (DESIGN 1, 2, 4).
+
+Pressure and density are interpolated in their logarithms, temperature and the wind components
+linearly in value, all by cubic B-splines (``casadi.interpolant(..., 'bspline')``) so that Ipopt
+sees exact, continuous derivatives. Altitudes outside the sounding are clamped to its end levels.
+
+Two estimable corrections act on the balloon's profile:
+
+- ``wind_bias`` (north, east), m/s, added at every altitude, and an optional linear change of that
+  bias with altitude (``wind_gradient``, 1/s, per metre above ``gradient_ref_alt_msl_m``);
+- ``density_factor`` (dimensionless): rho = rho_balloon (1 + density_factor).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+#: Specific gas constant of dry air, J/(kg K). Humidity is neglected (under 1 % in density).
+R_AIR = 287.05287
+#: Ratio of specific heats of air.
+GAMMA_AIR = 1.4
+
+
+@dataclass(frozen=True)
+class AtmosphereCorrections:
+    """Symbolic or numeric corrections applied to the balloon profile (see module docstring)."""
+
+    wind_bias_n: object = 0.0
+    wind_bias_e: object = 0.0
+    density_factor: object = 0.0
+    wind_gradient_n: object = 0.0
+    wind_gradient_e: object = 0.0
+
+
+@dataclass(frozen=True)
+class AtmosphereState:
+    """Air properties at one point: density kg/m^3, temperature K, pressure Pa, speed of sound m/s,
+    wind (NED, where the air moves to) m/s."""
+
+    density: object
+    temperature: object
+    pressure: object
+    sound_speed: object
+    wind_ned: object
+
+
+class Atmosphere:
+    """Interpolated balloon atmosphere.
+
+    Parameters
+    ----------
+    altitude_msl_m, pressure_pa, temperature_k, wind_north_mps, wind_east_mps : array_like
+        The sounding's levels, altitude strictly increasing.
+    density_kgm3 : array_like, optional
+        Measured density; computed from p / (R T) when absent.
+    gradient_ref_alt_msl_m : float
+        Altitude at which the wind-gradient correction is zero, m MSL.
+    """
+
+    def __init__(self, altitude_msl_m, pressure_pa, temperature_k, wind_north_mps, wind_east_mps,
+                 density_kgm3=None, gradient_ref_alt_msl_m: float = 0.0) -> None:
+        h = np.asarray(altitude_msl_m, dtype=float)
+        if h.ndim != 1 or h.size < 2 or np.any(np.diff(h) <= 0):
+            raise ValueError("atmosphere altitudes must be a strictly increasing list of >= 2 levels")
+        p = np.asarray(pressure_pa, dtype=float)
+        t = np.asarray(temperature_k, dtype=float)
+        rho = p / (R_AIR * t) if density_kgm3 is None else np.asarray(density_kgm3, dtype=float)
+        self.altitude_range_m = (float(h[0]), float(h[-1]))
+        self.gradient_ref_alt_msl_m = float(gradient_ref_alt_msl_m)
+        self._levels = {"altitude_msl_m": h, "pressure_pa": p, "temperature_k": t,
+                        "wind_north_mps": np.asarray(wind_north_mps, float),
+                        "wind_east_mps": np.asarray(wind_east_mps, float), "density_kgm3": rho}
+        grid, data = _resample(h, np.vstack([np.log(p), t, np.log(rho), wind_north_mps, wind_east_mps]))
+        self._table = ca.interpolant("atmosphere", "bspline", [grid], data.T.ravel().tolist())
+
+    @classmethod
+    def from_sounding(cls, sounding, gradient_ref_alt_msl_m: float = 0.0) -> "Atmosphere":
+        """Build from a :class:`casrecon.io.sounding.Sounding` (or anything with its fields)."""
+        return cls(sounding.altitude_msl_m, sounding.pressure_pa, sounding.temperature_k,
+                   sounding.wind_north_mps, sounding.wind_east_mps, sounding.density_kgm3,
+                   gradient_ref_alt_msl_m)
+
+    @property
+    def levels(self) -> dict[str, np.ndarray]:
+        """The sounding levels this atmosphere was built from (SI units)."""
+        return dict(self._levels)
+
+    def at(self, alt_msl_m, corr: AtmosphereCorrections = AtmosphereCorrections()) -> AtmosphereState:
+        """Air properties at altitude ``alt_msl_m`` (m MSL, symbolic or numeric)."""
+        lo, hi = self.altitude_range_m
+        values = self._table(ca.fmin(ca.fmax(alt_msl_m, lo), hi))
+        p, t = ca.exp(values[0]), values[1]
+        rho = ca.exp(values[2]) * (1 + corr.density_factor)
+        dh = alt_msl_m - self.gradient_ref_alt_msl_m
+        wind = ca.vertcat(values[3] + corr.wind_bias_n + corr.wind_gradient_n * dh,
+                          values[4] + corr.wind_bias_e + corr.wind_gradient_e * dh, 0)
+        return AtmosphereState(rho, t, p, ca.sqrt(GAMMA_AIR * R_AIR * t), wind)
+
+
+def _resample(h: np.ndarray, data: np.ndarray, step_m: float = 10.0):
+    """Resample levels linearly onto a uniform grid so the B-spline cannot ring between sparse
+    levels; the spline then smooths the corners of the linear profile over about one step."""
+    n = max(int(np.ceil((h[-1] - h[0]) / step_m)) + 1, 4)
+    grid = np.linspace(h[0], h[-1], n)
+    return grid, np.vstack([np.interp(grid, h, row) for row in data])

@@ -1,0 +1,155 @@
+"""The 6-DOF equations of motion (DESIGN 3.1) as CasADi functions shared by simulator and estimator.
+
+State x (13): NED position of the centre of mass relative to the site's ground reference point (m),
+NED velocity (m/s), quaternion body to NED (scalar first), body angular rate (rad/s).
+
+Model parameters p (:data:`PARAMETER_NAMES`): the aero dispersion factors, then the atmosphere
+corrections (wind bias north/east m/s, density factor, wind gradient north/east 1/s).
+
+    m dv/dt = C_nb F_b + m g - 2 m Omega x v
+    I dw/dt = M_cm - w x (I w)
+    dq/dt   = q (x) (0, w) / 2
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from casrecon.physics.aero import DISPERSION_NAMES, AeroDatabase, aero_force_moment, flow_angles
+from casrecon.physics.atmosphere import Atmosphere, AtmosphereCorrections
+from casrecon.physics.earth import coriolis_acceleration, normal_gravity
+from casrecon.physics.rotations import dcm_body_to_ned, euler_from_quat, quat_derivative
+from casrecon.physics.sensors import gps_antenna_ned, imu_angular_rate, imu_specific_force
+from casrecon.physics.vehicle import Vehicle
+
+STATE_NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d", "q0", "q1", "q2", "q3",
+               "omega_x", "omega_y", "omega_z")
+ATMOSPHERE_PARAMETER_NAMES = ("wind_bias_n", "wind_bias_e", "density_factor",
+                              "wind_gradient_n", "wind_gradient_e")
+PARAMETER_NAMES = DISPERSION_NAMES + ATMOSPHERE_PARAMETER_NAMES
+#: Names of the rows of :meth:`FlightModel.outputs`.
+OUTPUT_NAMES = ("h_agl", "roll", "pitch", "yaw", "alpha", "beta", "alpha_t", "qbar", "mach",
+                "airspeed", "imu_fx", "imu_fy", "imu_fz", "gyro_x", "gyro_y", "gyro_z",
+                "gps_n", "gps_e", "gps_d", "gps_vn", "gps_ve", "gps_vd")
+
+
+@dataclass(frozen=True)
+class Site:
+    """The local NED frame's origin: geodetic latitude/longitude (deg) and ground altitude (m MSL)."""
+
+    lat_deg: float
+    lon_deg: float
+    ground_alt_msl_m: float
+
+
+@dataclass(frozen=True)
+class DynamicsOptions:
+    """Switches of the equations of motion.
+
+    Parameters
+    ----------
+    gravity : {"wgs84", "constant", "off"}
+        WGS-84 normal gravity with free-air height change; its value at the ground, constant; none.
+    earth_rotation : bool
+        Coriolis acceleration from the Earth's rate at the site latitude.
+    aerodynamics : bool
+        Aerodynamic force and moment.
+    """
+
+    gravity: str = "wgs84"
+    earth_rotation: bool = True
+    aerodynamics: bool = True
+
+    def __post_init__(self) -> None:
+        if self.gravity not in ("wgs84", "constant", "off"):
+            raise ValueError(f"gravity must be 'wgs84', 'constant' or 'off', not {self.gravity!r}")
+
+
+def default_parameters(**values: float) -> np.ndarray:
+    """Parameter vector with every entry zero except the named ones."""
+    p = np.zeros(len(PARAMETER_NAMES))
+    for name, value in values.items():
+        p[PARAMETER_NAMES.index(name)] = value
+    return p
+
+
+class FlightModel:
+    """A vehicle flying through an atmosphere: builds the CasADi right-hand side and outputs.
+
+    Attributes
+    ----------
+    rhs : casadi.Function
+        ``rhs(x[13], p[np]) -> xdot[13]``.
+    outputs : casadi.Function
+        ``outputs(x, p) -> y[len(OUTPUT_NAMES)]``: altitude AGL (m), Euler angles, flow angles (rad),
+        qbar (Pa), Mach, airspeed (m/s), noise-free IMU specific force (m/s^2) and rate (rad/s) in
+        IMU axes, GPS antenna NED position (m) and velocity (m/s).
+    """
+
+    def __init__(self, vehicle: Vehicle, aero: AeroDatabase, atmosphere: Atmosphere, site: Site,
+                 options: DynamicsOptions = DynamicsOptions()) -> None:
+        self.vehicle, self.aero, self.atmosphere = vehicle, aero, atmosphere
+        self.site, self.options = site, options
+        self._inertia = ca.DM(np.asarray(vehicle.inertia_kgm2))
+        self._inertia_inv = ca.DM(np.linalg.inv(np.asarray(vehicle.inertia_kgm2)))
+        x = ca.SX.sym("x", len(STATE_NAMES))
+        p = ca.SX.sym("p", len(PARAMETER_NAMES))
+        terms = self.terms(x, p)
+        self.rhs = ca.Function("rhs", [x, p], [terms["xdot"]], ["x", "p"], ["xdot"])
+        self.outputs = ca.Function("outputs", [x, p], [self._outputs(x, terms)], ["x", "p"], ["y"])
+
+    @property
+    def n_states(self) -> int:
+        return len(STATE_NAMES)
+
+    @property
+    def n_params(self) -> int:
+        return len(PARAMETER_NAMES)
+
+    def altitude_msl(self, x):
+        """Altitude above mean sea level (m) of state ``x``."""
+        return self.site.ground_alt_msl_m - x[2]
+
+    def gravity_ned(self, x):
+        """Gravity vector in NED, m/s^2, per :class:`DynamicsOptions`."""
+        lat = math.radians(self.site.lat_deg)
+        if self.options.gravity == "off":
+            return ca.DM.zeros(3)
+        h = self.site.ground_alt_msl_m if self.options.gravity == "constant" else self.altitude_msl(x)
+        return ca.vertcat(0, 0, normal_gravity(lat, h))
+
+    def terms(self, x, p) -> dict:
+        """Every intermediate of the equations of motion, for ``x`` and ``p`` (CasADi)."""
+        v_ned, q, w = x[3:6], x[6:10], x[10:13]
+        corr = AtmosphereCorrections(*[p[len(DISPERSION_NAMES) + i] for i in range(5)])
+        air = self.atmosphere.at(self.altitude_msl(x), corr)
+        c_nb = dcm_body_to_ned(q)
+        v_air_body = c_nb.T @ (v_ned - air.wind_ned)
+        veh = self.vehicle
+        if self.options.aerodynamics:
+            force, moment = aero_force_moment(
+                self.aero, v_air_body, w, air.density, air.sound_speed, p[:len(DISPERSION_NAMES)],
+                veh.ref_area_m2, veh.ref_length_m, ca.DM(veh.lever(veh.mrp_m)))
+        else:
+            force, moment = ca.DM.zeros(3), ca.DM.zeros(3)
+        accel = c_nb @ force / veh.mass_kg + self.gravity_ned(x)
+        if self.options.earth_rotation:
+            accel += coriolis_acceleration(math.radians(self.site.lat_deg), v_ned)
+        w_dot = self._inertia_inv @ (moment - ca.cross(w, self._inertia @ w))
+        xdot = ca.vertcat(v_ned, accel, quat_derivative(q, w), w_dot)
+        return {"xdot": xdot, "force_body": force, "moment_cm": moment, "omega_dot": w_dot,
+                "v_air_body": v_air_body, "air": air}
+
+    def _outputs(self, x, t: dict):
+        fl = flow_angles(t["v_air_body"])
+        qbar = 0.5 * t["air"].density * fl.speed**2
+        gps_p, gps_v = gps_antenna_ned(self.vehicle, x[0:3], x[3:6], x[6:10], x[10:13])
+        return ca.vertcat(
+            -x[2], euler_from_quat(x[6:10]), fl.alpha, fl.beta, fl.alpha_t, qbar,
+            fl.speed / t["air"].sound_speed, fl.speed,
+            imu_specific_force(self.vehicle, t["force_body"], x[10:13], t["omega_dot"]),
+            imu_angular_rate(self.vehicle, x[10:13]), gps_p, gps_v)

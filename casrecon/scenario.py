@@ -1,0 +1,57 @@
+"""From a validated :class:`~casrecon.io.problem.ProblemConfig` to the physics objects of one drop.
+
+A :class:`Scenario` holds the atmosphere read from the sounding, the :class:`FlightModel`, and
+knows the release state and the truth parameter vector, so the simulator, the synthetic-data
+writer and (later) the estimator all start from the same place.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.io.problem import ProblemConfig, load_problem
+from casrecon.io.sounding import read_sounding
+from casrecon.physics.aero import DISPERSION_NAMES
+from casrecon.physics.atmosphere import Atmosphere
+from casrecon.physics.dynamics import FlightModel, default_parameters
+from casrecon.physics.rotations import euler_deg_to_quat
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One drop's configuration with its atmosphere and flight model built."""
+
+    config: ProblemConfig
+    atmosphere: Atmosphere
+    model: FlightModel
+
+    @classmethod
+    def load(cls, path: str | Path) -> "Scenario":
+        """Parse ``problem.toml`` (file or folder) and build the model."""
+        return cls.from_config(load_problem(path))
+
+    @classmethod
+    def from_config(cls, config: ProblemConfig) -> "Scenario":
+        sounding = read_sounding(config.atmosphere.sounding, launch=config.atmosphere.launch)
+        atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m)
+        model = FlightModel(config.vehicle, config.aero, atmosphere, config.site, config.dynamics)
+        return cls(config, atmosphere, model)
+
+    def release_state(self) -> np.ndarray:
+        """State vector at release from ``[release]`` (SI, NED position of the centre of mass)."""
+        r = self.config.release
+        return np.concatenate([[r.pos_ne_m[0], r.pos_ne_m[1], -r.h_agl_m], r.vel_ned_mps,
+                               euler_deg_to_quat(r.euler_deg), np.radians(r.rates_dps)])
+
+    def truth_parameters(self) -> np.ndarray:
+        """Model parameter vector of ``[truth]`` (zeros where no truth is given)."""
+        t = self.config.truth
+        if t is None:
+            return default_parameters()
+        values = {n: t.dispersions[n] for n in DISPERSION_NAMES}
+        values.update(wind_bias_n=t.wind_bias_mps[0], wind_bias_e=t.wind_bias_mps[1],
+                      density_factor=t.density_factor)
+        return default_parameters(**values)
