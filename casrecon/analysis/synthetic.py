@@ -5,8 +5,8 @@ What is made, and the simplifications kept (documented for whoever fits it):
 - **IMU** at ``rate_hz`` on its own clock (IMU time 0 = ``clock_utc_at_zero`` as recorded; the true
   UTC of a sample is that plus ``t_imu`` plus the truth ``clock_offset_s``). Before release the
   vehicle hangs still at the release attitude (specific force -g, rates as at release); in flight
-  the simulator's samples fall exactly on the IMU clock; after impact it rests at the impact
-  attitude. Truth bias plus white noise (``accel_noise_mps2``, ``gyro_noise_dps``) are added and
+  the simulator's samples fall exactly on the IMU clock; after impact a 20 ms half-sine ground-reaction
+  pulse (60 g, clipped by the accelerometers) is followed by rest at the impact attitude. Truth bias plus white noise (``accel_noise_mps2``, ``gyro_noise_dps``) are added and
   values beyond the declared saturation limits are clipped to them, as a real device does.
 - **GPS** (FlySight 1 CSV, ``rate_hz`` on whole UTC multiples of the period): antenna position and
   velocity from the lever arm; before release it moves with the helicopter at the release
@@ -34,6 +34,8 @@ from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.scenario import Scenario
 
 COLD_START_FIXES = 12
+IMPACT_PULSE_S = 0.02   # half-sine ground-reaction pulse at impact, s
+IMPACT_PULSE_G = 60.0   # its peak specific force, g (the accelerometers clip it)
 POOR_FIX_GROWTH = 4.0  # hAcc growth after impact, m/s
 
 
@@ -92,9 +94,19 @@ def _imu_signals(scenario: Scenario, traj: Trajectory, t_zero: float):
     f_pre = r_ib.T @ -_gravity_body(scenario, traj.states[0])
     f_post = r_ib.T @ -_gravity_body(scenario, traj.states[-1])
     w_pre = r_ib.T @ traj.states[0, 10:13]
-    accel = np.vstack([np.tile(f_pre, (t_pre.size, 1)), f_fly, np.tile(f_post, (n_post, 1))])
+    accel = np.vstack([np.tile(f_pre, (t_pre.size, 1)), f_fly, np.tile(f_post, (n_post, 1))
+                       + _impact_pulse(traj, r_ib, dt_s, n_post)])
     gyro = np.vstack([np.tile(w_pre, (t_pre.size, 1)), w_fly, np.zeros((n_post, 3))])
     return time, accel, gyro
+
+
+def _impact_pulse(traj: Trajectory, r_ib: np.ndarray, dt_s: float, n: int) -> np.ndarray:
+    """Ground reaction at impact in IMU axes: a half-sine opposing the impact velocity."""
+    v = traj.states[-1, 3:6]
+    direction = -(np.asarray(dcm_body_to_ned(traj.states[-1, 6:10]), float).T @ v) / np.linalg.norm(v)
+    t = dt_s * np.arange(n)
+    shape = np.where(t < IMPACT_PULSE_S, np.sin(np.pi * t / IMPACT_PULSE_S), 0.0)
+    return np.outer(shape * IMPACT_PULSE_G * 9.80665, r_ib.T @ direction)
 
 
 def _clip(values: np.ndarray, limits, scale: float) -> np.ndarray:
