@@ -1,0 +1,77 @@
+"""Shared fixtures: paths, hand-made vehicles and atmospheres, and the shipped drops simulated once.
+
+Simulations of whole drops are session-scoped so every test that needs one shares it; each takes
+about 0.3 s at the problems' own 500 Hz settings.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from casrecon.analysis.simulate import Simulator
+from casrecon.physics.atmosphere import Atmosphere
+from casrecon.physics.dynamics import Site
+from casrecon.physics.vehicle import Vehicle
+from casrecon.scenario import Scenario
+
+REPO = Path(__file__).resolve().parents[1]
+PROBLEMS = REPO / "problems"
+EES_DROPS = ("ees-drop-1", "ees-drop-2", "ees-drop-3", "ees-drop-4")
+ALL_PROBLEMS = (*EES_DROPS, "davinci-ztu")
+
+#: A representative site (the UTTR point of the shipped problems).
+UTTR = Site(lat_deg=40.19, lon_deg=-112.94, ground_alt_msl_m=1310.0)
+
+
+def still_air(ground_msl_m: float = 1310.0, top_msl_m: float = 12000.0, **wind) -> Atmosphere:
+    """An exponential-ish, windless (unless ``wind_north_mps``/``wind_east_mps`` given) atmosphere
+    built directly from arrays: p falls 10 % per km from 86650 Pa, T falls 6.5 K/km from 284 K."""
+    h = np.linspace(ground_msl_m, top_msl_m, 12)
+    dz = (h - ground_msl_m) / 1000.0
+    p = 86650.0 * 0.9**dz
+    t = 284.0 - 6.5 * dz
+    wn = np.full(h.size, float(wind.get("wind_north_mps", 0.0)))
+    we = np.full(h.size, float(wind.get("wind_east_mps", 0.0)))
+    return Atmosphere(h, p, t, wn, we)
+
+
+def simple_vehicle(**kw) -> Vehicle:
+    """A 100 kg axisymmetric body, everything on the x axis, IMU and GPS at the CM unless given."""
+    base = dict(name="test body", mass_kg=100.0, inertia_kgm2=np.diag([10.0, 8.0, 8.0]),
+                cm_m=(0.0, 0.0, 0.0), mrp_m=(0.0, 0.0, 0.0), ref_area_m2=1.2, ref_length_m=1.0)
+    base.update(kw)
+    return Vehicle(**base)
+
+
+def sim_problem(scenario: Scenario, dt_s: float | None = None):
+    """Simulate a scenario the way ``casrecon simulate`` does (its IMU rate and substeps)."""
+    cfg = scenario.config
+    dt = 1.0 / cfg.imu.rate_hz if dt_s is None else dt_s
+    sim = Simulator(scenario.model, dt_s=dt, substeps=max(1, round(dt / cfg.simulation.dt_s)))
+    return sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s)
+
+
+@pytest.fixture(scope="session")
+def ees_runs():
+    """{drop name: (Scenario, Trajectory)} for the four EES drops, simulated once per session."""
+    out = {}
+    for name in EES_DROPS:
+        sc = Scenario.load(PROBLEMS / name)
+        out[name] = (sc, sim_problem(sc))
+    return out
+
+
+@pytest.fixture()
+def problem_copy(tmp_path):
+    """Copy of problems/ees-drop-1 (with vehicles/ and aero/ beside it, so relative paths work);
+    returns the path of the copied problem.toml."""
+    root = tmp_path / "problems"
+    root.mkdir()
+    shutil.copytree(PROBLEMS / "ees-drop-1", root / "ees-drop-1")
+    shutil.copytree(PROBLEMS / "vehicles", root / "vehicles")
+    shutil.copytree(PROBLEMS / "aero", root / "aero")
+    return root / "ees-drop-1" / "problem.toml"
