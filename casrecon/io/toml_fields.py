@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,10 @@ def load_toml(path: str | Path) -> "Fields":
     except FileNotFoundError:
         raise InputError(path, "file not found") from None
     except tomllib.TOMLDecodeError as err:
-        line = getattr(err, "lineno", None)
+        line = getattr(err, "lineno", None)  # Python >= 3.14; before, only in the message
+        if line is None:
+            found = re.search(r"at line (\d+)", str(err))
+            line = int(found.group(1)) if found else None
         raise InputError(path, f"not valid TOML: {err}", line=line) from None
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(path, f"cannot read: {err}") from None
