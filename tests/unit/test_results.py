@@ -1,0 +1,61 @@
+"""atomic_folder: a results folder is replaced only when writing it succeeded."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from casrecon.io.results import atomic_folder, write_columns, write_json
+
+
+def leftovers(parent):
+    return sorted(p.name for p in parent.iterdir() if p.name.startswith("."))
+
+
+def test_creates_folder(tmp_path):
+    target = tmp_path / "deep" / "out"
+    with atomic_folder(target) as tmp:
+        assert tmp != target and not target.exists()  # nothing visible while writing
+        (tmp / "a.txt").write_text("new")
+    assert (target / "a.txt").read_text() == "new"
+    assert leftovers(target.parent) == []
+
+
+def test_replaces_existing_folder_on_success(tmp_path):
+    target = tmp_path / "out"
+    target.mkdir()
+    (target / "old.txt").write_text("old")
+    with atomic_folder(target) as tmp:
+        (tmp / "new.txt").write_text("new")
+        assert (target / "old.txt").exists()  # the old result stays until the swap
+    assert sorted(p.name for p in target.iterdir()) == ["new.txt"]
+    assert leftovers(tmp_path) == []
+
+
+def test_exception_keeps_existing_folder_and_cleans_up(tmp_path):
+    target = tmp_path / "out"
+    target.mkdir()
+    (target / "old.txt").write_text("old")
+    with pytest.raises(RuntimeError, match="boom"):
+        with atomic_folder(target) as tmp:
+            (tmp / "half.txt").write_text("half")
+            raise RuntimeError("boom")
+    assert sorted(p.name for p in target.iterdir()) == ["old.txt"]
+    assert (target / "old.txt").read_text() == "old"
+    assert leftovers(tmp_path) == []  # no temporary folder left behind
+
+
+def test_exception_without_existing_folder_creates_nothing(tmp_path):
+    with pytest.raises(KeyboardInterrupt):
+        with atomic_folder(tmp_path / "out"):
+            raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_writers(tmp_path):
+    write_json(tmp_path / "a.json", {"x": np.float64(1.5), "v": np.arange(3)})
+    assert json.loads((tmp_path / "a.json").read_text()) == {"x": 1.5, "v": [0, 1, 2]}
+    write_columns(tmp_path / "t.csv", ["a", "b"], np.array([[1.0, 2.5], [3.0, 4.0]]))
+    assert (tmp_path / "t.csv").read_text() == "a,b\n1,2.5\n3,4\n"
