@@ -104,7 +104,7 @@ def test_toml_syntax_error_has_a_line(problem_copy):
     edit(problem_copy, "[site]", "[site")
     with pytest.raises(InputError) as err:
         load_problem(problem_copy)
-    line = problem_copy.read_text().splitlines().index("[site") + 1
+    line = 1 + next(k for k, ln in enumerate(problem_copy.read_text().splitlines()) if ln.startswith("[site"))
     assert err.value.path == str(problem_copy) and err.value.line == line
     assert str(err.value).startswith(f"{problem_copy}:{line}: not valid TOML")
 
