@@ -107,7 +107,7 @@ def test_truth_parameter_names(drop1):
 def test_deterministic_files(tmp_path):
     # same seed -> byte-identical files; another seed -> different noise
     outs = [tmp_path / "a", tmp_path / "b", tmp_path / "c"]
-    for out, seed in zip(outs, (None, None, 99)):
+    for out, seed in zip(outs, (None, None, 99), strict=True):
         args = ["simulate", str(PROBLEMS / "ees-drop-2"), "--out", str(out), "--data"]
         assert main(args + ([] if seed is None else ["--seed", str(seed)])) == 0
     for name in ("imu.csv", "gps.csv", "truth.json", "trajectory.csv", "sounding.csv"):

@@ -14,8 +14,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from casrecon.physics.aero import (DISPERSION_NAMES, AeroDatabase, AnalyticCoefficients,
-                                   DispersionSizes, SpinVanes, aero_force_moment, flow_angles)
+from casrecon.physics.aero import (
+    DISPERSION_NAMES,
+    AeroDatabase,
+    AnalyticCoefficients,
+    DispersionSizes,
+    SpinVanes,
+    aero_force_moment,
+    flow_angles,
+)
 from casrecon.physics.sensors import imu_specific_force
 from casrecon.physics.vehicle import Vehicle
 

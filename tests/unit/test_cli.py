@@ -6,6 +6,7 @@ import json
 import shutil
 
 import numpy as np
+import pytest
 from conftest import PROBLEMS
 
 from casrecon.cli import main
@@ -22,10 +23,10 @@ def test_simulate_writes_trajectory_and_summary(tmp_path, capsys):
     assert header[:5] == ["time_s", "pos_n_m", "pos_e_m", "pos_d_m", "h_agl_m"]
     table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
     # 500 Hz samples, the last one at impact with the summary's time and speed
-    assert np.diff(table[1:-1, 0]) == __import__("pytest").approx(0.002, abs=1e-9)
-    assert table[-1, 0] == __import__("pytest").approx(summary["flight_time_s"], abs=1e-6)
+    assert np.diff(table[1:-1, 0]) == pytest.approx(0.002, abs=1e-9)
+    assert table[-1, 0] == pytest.approx(summary["flight_time_s"], abs=1e-6)
     speed = np.linalg.norm(table[-1, 5:8])
-    assert speed == __import__("pytest").approx(summary["impact_speed_mps"], rel=1e-6)
+    assert speed == pytest.approx(summary["impact_speed_mps"], rel=1e-6)
     assert abs(table[-1, 4]) < 1e-6
     assert "ees-drop-2: flight time" in capsys.readouterr().out
 
@@ -51,4 +52,4 @@ def test_every_thins_the_history_but_keeps_impact(tmp_path):
     assert main(["simulate", str(src / "ees-drop-2"), "--out", str(out), "--every", "50"]) == 0
     table = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
     assert abs(table[-1, 4]) < 1e-6  # impact row kept
-    assert np.diff(table[1:-1, 0]) == __import__("pytest").approx(0.1, abs=1e-9)
+    assert np.diff(table[1:-1, 0]) == pytest.approx(0.1, abs=1e-9)

@@ -6,9 +6,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from casrecon.physics.rotations import (dcm_body_to_ned, euler_deg_to_quat, euler_from_quat,
-                                        quat_derivative, quat_from_euler, quat_multiply,
-                                        quat_to_euler_deg)
+from casrecon.physics.rotations import (
+    dcm_body_to_ned,
+    euler_deg_to_quat,
+    euler_from_quat,
+    quat_derivative,
+    quat_from_euler,
+    quat_multiply,
+    quat_to_euler_deg,
+)
 
 RNG = np.random.default_rng(20231003)
 
@@ -59,7 +65,8 @@ def test_dcm_orthonormal_proper_even_for_unnormalised_quaternions():
 def test_dcm_matches_zyx_euler_product():
     # C_nb = Rz(psi) Ry(theta) Rx(phi) with the passive-to-active convention of body-to-NED
     for phi, theta, psi in random_angles(50):
-        cz, sz, cy, sy, cx, sx = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta), np.cos(phi), np.sin(phi)
+        cz, sz, cy, sy = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta)
+        cx, sx = np.cos(phi), np.sin(phi)
         rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
         ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
         rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
