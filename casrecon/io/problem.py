@@ -12,6 +12,7 @@ Layout of a problem folder (see ``problems/ees-drop-1/problem.toml`` for a comme
     [sensors.gps] file, rate_hz, accuracy levels of the synthetic receiver
     [truth]       what the simulator uses to make synthetic data (dispersions, biases, seed)
     [simulation]  dt_s, substeps, t_max_s, pre_release_s, post_impact_s
+    [estimation]  fit window, mesh, Hessian, linear solver, priors, GPS quality rules
 """
 
 from __future__ import annotations
@@ -114,6 +115,65 @@ class SimulationConfig:
 
 
 @dataclass(frozen=True)
+class EstimationConfig:
+    """Settings of the per-drop fit (``[estimation]``); times in seconds.
+
+    Parameters
+    ----------
+    start_after_release_s : float
+        Fit window start after release (the EES paper skipped 3.5 s of rotor downwash).
+    end_before_impact_s : float
+        Fit window end before impact.
+    release_imu_s, impact_imu_s : float, optional
+        Release and impact on the IMU clock; found from the IMU when not given.
+    samples_per_interval : int
+        IMU samples per collocation interval (25 at 500 Hz gives 50 ms intervals).
+    hessian : {"gauss-newton", "exact"}
+        Hessian given to Ipopt and used for the covariance.
+    linear_solver : {"mumps", "spral"}
+        Ipopt's linear solver.
+    max_iter : int
+        Ipopt iteration limit.
+    tol : float
+        Ipopt convergence tolerance.
+    saturation : {"mask", "polynomial"}
+        Saturated IMU samples are left out of the likelihood ("mask"), or replaced by a
+        second-order polynomial through the neighbouring good samples ("polynomial", the EES paper's patch).
+    estimate : tuple of str
+        Dispersion factors to estimate; default every factor whose 3-sigma size is non-zero.
+    dispersion_prior, atmosphere_prior, imu_bias_prior, clock_prior : bool
+        Switch each prior group on or off.
+    clock_sigma_s : float
+        1-sigma prior of the IMU-to-GPS clock offset.
+    max_h_acc_m, max_v_acc_m, max_s_acc_mps : float
+        GPS fixes reporting worse accuracy are dropped.
+    min_num_sv : int
+        GPS fixes with fewer satellites are dropped.
+    """
+
+    start_after_release_s: float = 3.5
+    end_before_impact_s: float = 0.05
+    release_imu_s: float | None = None
+    impact_imu_s: float | None = None
+    samples_per_interval: int = 25
+    hessian: str = "gauss-newton"
+    linear_solver: str = "mumps"
+    max_iter: int = 200
+    tol: float = 1e-8
+    saturation: str = "mask"
+    estimate: tuple[str, ...] | None = None
+    dispersion_prior: bool = True
+    atmosphere_prior: bool = True
+    imu_bias_prior: bool = True
+    clock_prior: bool = True
+    clock_sigma_s: float = 0.05
+    max_h_acc_m: float = 10.0
+    max_v_acc_m: float = 10.0
+    max_s_acc_mps: float = 1.0
+    min_num_sv: int = 6
+
+
+@dataclass(frozen=True)
 class ProblemConfig:
     """Everything in one problem folder, validated."""
 
@@ -130,6 +190,7 @@ class ProblemConfig:
     gps: GpsConfig
     truth: TruthConfig | None
     simulation: SimulationConfig
+    estimation: EstimationConfig = EstimationConfig()
     sources: dict[str, str] = field(default_factory=dict)
 
     @property
@@ -158,6 +219,7 @@ def load_problem(path: str | Path) -> ProblemConfig:
         imu=_imu(sensors.table("imu", required=True)), gps=_gps(sensors.table("gps", required=True)),
         truth=_truth(f.table("truth")),
         simulation=_simulation(f.table("simulation") or Fields({}, path, "simulation.")),
+        estimation=_estimation(f.table("estimation") or Fields({}, path, "estimation.")),
         sources={"problem": str(path.resolve()), "vehicle": str(vehicle_path), "aero": str(aero_path)},
     )
     for t in (head, sensors, f):
@@ -284,6 +346,33 @@ def _simulation(t: Fields) -> SimulationConfig:
                            t_max_s=t.number("t_max_s", 300.0, positive=True),
                            pre_release_s=t.number("pre_release_s", 2.0, minimum=0.0),
                            post_impact_s=t.number("post_impact_s", 2.0, minimum=0.0))
+    t.reject_unknown()
+    return cfg
+
+
+def _estimation(t: Fields) -> EstimationConfig:
+    d = EstimationConfig()
+    estimate = t.raw("estimate")
+    if estimate is not None:
+        if not isinstance(estimate, list) or any(e not in DISPERSION_NAMES for e in estimate):
+            raise t.error("estimate", f"expected a list of dispersion names from {', '.join(DISPERSION_NAMES)}")
+        estimate = tuple(estimate)
+    cfg = EstimationConfig(
+        start_after_release_s=t.number("start_after_release_s", d.start_after_release_s, minimum=0.0),
+        end_before_impact_s=t.number("end_before_impact_s", d.end_before_impact_s, minimum=0.0),
+        release_imu_s=t.number("release_imu_s"), impact_imu_s=t.number("impact_imu_s"),
+        samples_per_interval=t.integer("samples_per_interval", d.samples_per_interval, 4),
+        hessian=t.string("hessian", d.hessian, choices=("gauss-newton", "exact")),
+        linear_solver=t.string("linear_solver", d.linear_solver, choices=("mumps", "spral")),
+        max_iter=t.integer("max_iter", d.max_iter, 1), tol=t.number("tol", d.tol, positive=True),
+        saturation=t.string("saturation", d.saturation, choices=("mask", "polynomial")), estimate=estimate,
+        dispersion_prior=t.boolean("dispersion_prior", True), atmosphere_prior=t.boolean("atmosphere_prior", True),
+        imu_bias_prior=t.boolean("imu_bias_prior", True), clock_prior=t.boolean("clock_prior", True),
+        clock_sigma_s=t.number("clock_sigma_s", d.clock_sigma_s, positive=True),
+        max_h_acc_m=t.number("max_h_acc_m", d.max_h_acc_m, positive=True),
+        max_v_acc_m=t.number("max_v_acc_m", d.max_v_acc_m, positive=True),
+        max_s_acc_mps=t.number("max_s_acc_mps", d.max_s_acc_mps, positive=True),
+        min_num_sv=t.integer("min_num_sv", d.min_num_sv, 0))
     t.reject_unknown()
     return cfg
 
