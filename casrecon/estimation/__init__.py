@@ -1,0 +1,1 @@
+"""The fit: data preparation, collocation transcription, NLP assembly, Ipopt solve, covariance."""

@@ -1,0 +1,95 @@
+"""Global sparse derivatives assembled from per-block (per-interval, per-fix) pieces.
+
+A block depends on a few local variables (two neighbouring nodes and the parameters). Its value
+function (residuals, constraints), its derivative function (J_r^T r, J_g nonzeros and the
+Gauss-Newton Hessian nonzeros triu(J_r^T J_r)) and its exact-Hessian function are small SX
+functions built once and evaluated for every block by ``map`` on two threads. :class:`SparseTarget`
+sums the mapped nonzeros into one global sparse matrix with a precomputed index (neighbouring
+intervals share a node; every block shares the parameters).
+
+Because the local variables of a block are a fixed set of entries of z, a block's Hessian in local
+upper-triangular order lands in the global upper triangle (the local-to-global map is increasing).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+
+class SparseTarget:
+    """Where each source entry lands in a global sparse matrix (duplicates are summed).
+
+    Parameters
+    ----------
+    shape : (int, int)
+    rows, cols : int arrays
+        Global row and column of every source entry, in the order the source vector stacks them.
+    """
+
+    def __init__(self, shape: tuple[int, int], rows: np.ndarray, cols: np.ndarray) -> None:
+        lin = np.asarray(cols, np.int64) * shape[0] + np.asarray(rows, np.int64)
+        unique, self.target = np.unique(lin, return_inverse=True)
+        self.nnz = unique.size
+        self.sparsity = ca.Sparsity.triplet(shape[0], shape[1], (unique % shape[0]).tolist(),
+                                            (unique // shape[0]).tolist())
+
+    def assemble(self, source: np.ndarray) -> ca.DM:
+        """Global sparse DM from the stacked source values."""
+        return ca.DM(self.sparsity, np.bincount(self.target, weights=source, minlength=self.nnz))
+
+
+def _triplet(m: ca.SX) -> tuple[np.ndarray, np.ndarray]:
+    r, c = m.sparsity().get_triplet()
+    return np.array(r, np.int64), np.array(c, np.int64)
+
+
+class BlockKind:
+    """One kind of block: SX functions of its local (scaled) variables and per-block data.
+
+    Parameters
+    ----------
+    name : str
+    local : SX column
+        The block's local decision variables.
+    data : list of SX
+        Per-block data inputs (measurements, weights).
+    residual : SX column
+        Whitened residuals of the block.
+    constraint : SX column or None
+        Equality constraints of the block (= 0).
+
+    Attributes
+    ----------
+    values : Function
+        ``(local, *data) -> (r[, g])``.
+    derivatives : Function
+        ``(local, *data) -> (J_r^T r, triu(J_r^T J_r) nonzeros[, J_g nonzeros])``.
+    exact_hessian : Function
+        ``(local, *data, sigma, lam) -> triu(Hessian of sigma |r|^2 / 2 + lam^T g) nonzeros``.
+    patterns : dict
+        Local (row, col) triplets of "jtj", "jg" and "hess".
+    """
+
+    def __init__(self, name: str, local: ca.SX, data: list, residual: ca.SX, constraint) -> None:
+        jr = ca.jacobian(residual, local)
+        jtj = ca.triu(ca.mtimes(jr.T, jr))
+        self.n_constraints = 0 if constraint is None else constraint.numel()
+        self.patterns = {"jtj": _triplet(jtj)}
+        outs = [ca.mtimes(jr.T, residual), ca.vec(jtj.nz[:])]
+        plain = [residual]
+        lagr_g = 0
+        lam = ca.SX.sym("lam", self.n_constraints)
+        if constraint is not None:
+            jg = ca.jacobian(constraint, local)
+            outs.append(ca.vec(jg.nz[:]))
+            plain.append(constraint)
+            self.patterns["jg"] = _triplet(jg)
+            lagr_g = ca.dot(lam, constraint)
+        sigma = ca.SX.sym("sigma")
+        hess = ca.triu(ca.hessian(sigma * 0.5 * ca.sumsqr(residual) + lagr_g, local)[0])
+        self.patterns["hess"] = _triplet(hess)
+        self.values = ca.Function(f"{name}_values", [local, *data], plain)
+        self.derivatives = ca.Function(f"{name}_derivatives", [local, *data], outs)
+        self.exact_hessian = ca.Function(f"{name}_hess", [local, *data, sigma, lam], [ca.vec(hess.nz[:])])
+        self.n_local = local.numel()

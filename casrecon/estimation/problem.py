@@ -1,0 +1,254 @@
+"""Assembly of one drop's NLP: min 1/2 |r(z)|^2 s.t. collocation defects = 0, |q_0|^2 = 1.
+
+Decision vector z (every entry scaled to order one): the node states, node after node
+(state / STATE_SCALE), then the estimated parameters (value / scale). Residuals stack the IMU
+rows (interval after interval), the GPS rows (fix after fix) and the priors; each group's slice is
+kept for per-group chi-square.
+
+Every derivative Ipopt needs is assembled from blocks (:mod:`casrecon.estimation.assembly`): an
+interval block sees its two nodes and the parameters, a GPS block the two nodes around its fix and
+the parameters, the prior block the parameters. Block functions are SX and mapped over the mesh
+(two threads), so no large expression graph is ever differentiated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from casrecon.estimation.assembly import BlockKind, SparseTarget
+from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.parameters import SENSOR_NAMES, ParameterSet
+from casrecon.estimation.transcription import (STATE_SCALE, ImuBlocks, Mesh, compress_imu, gps_function,
+                                               interval_function)
+from casrecon.physics.dynamics import FlightModel
+
+NS = 13
+
+
+@dataclass
+class FitNlp:
+    """The assembled NLP: symbolic z, residuals and constraints, and the block derivatives."""
+
+    mesh: Mesh
+    params: ParameterSet
+    z: ca.MX
+    residuals: ca.MX
+    constraints: ca.MX
+    groups: dict[str, slice]
+    imu_blocks: ImuBlocks
+    derivatives: "BlockDerivatives"
+
+    @property
+    def n_state_vars(self) -> int:
+        return NS * self.mesh.t_nodes.size
+
+    def unpack(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Node states (K, 13) in SI and parameter values (SI) from a scaled z."""
+        z = np.asarray(z, float).ravel()
+        states = z[:self.n_state_vars].reshape(-1, NS) * STATE_SCALE
+        return states, z[self.n_state_vars:] * self.params.scales
+
+    def pack(self, states: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """Scaled z from node states (K, 13) and parameter values (SI)."""
+        return np.concatenate([(states / STATE_SCALE).ravel(), np.asarray(values) / self.params.scales])
+
+
+@dataclass
+class _BlockSet:
+    """All blocks of one kind: the kind, its local-to-global columns (n_blocks, n_local),
+    numeric data inputs, and the global rows of its constraints (or None)."""
+
+    kind: BlockKind
+    cols: np.ndarray
+    data: list
+    g_rows: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = self.cols.shape[0]
+        self.derivs = self.kind.derivatives.map(n, "thread", 2) if n > 1 else self.kind.derivatives
+        self.hess = self.kind.exact_hessian.map(n, "thread", 2) if n > 1 else self.kind.exact_hessian
+
+    def local(self, z: np.ndarray) -> np.ndarray:
+        return z[self.cols].T
+
+
+class BlockDerivatives:
+    """Gradient, constraint Jacobian and Hessian of the NLP at z, from the block functions.
+
+    The three are computed together and cached for the last z, because Ipopt asks for all of them
+    at each new iterate. ``hessian="gauss-newton"`` gives sigma triu(J^T J) (the constraint
+    curvature is left out); ``"exact"`` the exact Hessian of the Lagrangian, block by block.
+    """
+
+    def __init__(self, sets: list[_BlockSet], n_z: int, n_g: int, quat_cols: np.ndarray, hessian: str):
+        self.sets, self.n_z, self.n_g, self.hessian = sets, n_z, n_g, hessian
+        self.quat_cols = quat_cols
+        key = "jtj" if hessian == "gauss-newton" else "hess"
+        self.hess_target = SparseTarget((n_z, n_z), *self._stack(key, rows_from_cols=True))
+        jg_rows, jg_cols = self._stack("jg", rows_from_cols=False)
+        self.jac_target = SparseTarget((n_g, n_z), np.r_[jg_rows, [n_g - 1] * 4], np.r_[jg_cols, quat_cols])
+        self._z = None
+
+    def _stack(self, key: str, rows_from_cols: bool):
+        rows, cols = [], []
+        for bs in self.sets:
+            if key not in bs.kind.patterns:
+                continue
+            lr, lc = bs.kind.patterns[key]
+            rows.append(bs.cols[:, lr].ravel() if rows_from_cols else (bs.g_rows[:, None] + lr[None, :]).ravel())
+            cols.append(bs.cols[:, lc].ravel())
+        return np.concatenate(rows), np.concatenate(cols)
+
+    def evaluate(self, z: np.ndarray) -> None:
+        """Compute and cache the gradient, J_g nonzeros and J^T J nonzeros at z (scaled)."""
+        z = np.asarray(z, float).ravel()
+        if self._z is not None and np.array_equal(z, self._z):
+            return
+        grad, jtj, jg = np.zeros(self.n_z), [], []
+        for bs in self.sets:
+            out = [np.asarray(o) for o in bs.derivs(bs.local(z), *bs.data)]
+            grad += np.bincount(bs.cols.ravel(), weights=out[0].T.ravel(), minlength=self.n_z)
+            jtj.append(out[1].T.ravel())
+            if len(out) > 2:
+                jg.append(out[2].T.ravel())
+        jg.append(2 * z[self.quat_cols])
+        self._z, self.grad, self._jtj, self._jg = z, grad, np.concatenate(jtj), np.concatenate(jg)
+
+    def gradient(self, z) -> np.ndarray:
+        self.evaluate(z)
+        return self.grad
+
+    def jacobian_g(self, z) -> ca.DM:
+        self.evaluate(z)
+        return self.jac_target.assemble(self._jg)
+
+    def hessian_lagrangian(self, z, sigma: float, lam_g: np.ndarray) -> ca.DM:
+        """Upper triangle of the Hessian of sigma f + lam_g^T g (Gauss-Newton or exact)."""
+        if self.hessian == "gauss-newton":
+            self.evaluate(z)
+            return self.hess_target.assemble(sigma * self._jtj)
+        z = np.asarray(z, float).ravel()
+        parts = []
+        for bs in self.sets:
+            n_c, n_b = bs.kind.n_constraints, bs.cols.shape[0]
+            lam = lam_g[bs.g_rows[:, None] + np.arange(n_c)[None, :]].T if n_c else np.zeros((0, n_b))
+            parts.append(np.asarray(bs.hess(bs.local(z), *bs.data, sigma, lam)).T.ravel())
+        return self.hess_target.assemble(np.concatenate(parts))
+
+
+def _selection(rows: int, pairs: list[tuple[int, int]], n_cols: int) -> ca.DM:
+    s = np.zeros((rows, n_cols))
+    for r, c in pairs:
+        s[r, c] = 1.0
+    return ca.DM(s)
+
+
+def _imu_sigma(cfg) -> np.ndarray:
+    return np.r_[np.full(3, cfg.imu.accel_noise_mps2), np.full(3, cfg.imu.gyro_noise_radps)]
+
+
+class _Unscale:
+    """SI quantities from the scaled local variables of a block."""
+
+    def __init__(self, model: FlightModel, params: ParameterSet) -> None:
+        self.p_sel = _selection(model.n_params, params.model_selection(), params.n)
+        self.b_sel = _selection(6, [(j, params.index(n)) for j, n in enumerate(SENSOR_NAMES)
+                                    if n in params.names], params.n)
+        self.scales = ca.DM(params.scales)
+        self.clock = params.index("clock_offset_s") if "clock_offset_s" in params.names else None
+
+    def split(self, v: ca.SX):
+        xk = v[:NS] * ca.DM(STATE_SCALE)
+        xk1 = v[NS:2 * NS] * ca.DM(STATE_SCALE)
+        theta = v[2 * NS:] * self.scales
+        return xk, xk1, theta
+
+    def model_params(self, theta):
+        return self.p_sel @ theta
+
+    def biases(self, theta):
+        return self.b_sel @ theta
+
+
+def _interval_kind(model, mesh, params, un: _Unscale) -> BlockKind:
+    v = ca.SX.sym("v", 2 * NS + params.n)
+    d, rr = ca.SX.sym("d", 24), ca.SX.sym("R", 96)
+    xk, xk1, theta = un.split(v)
+    defect, r_imu = interval_function(model, mesh.h)(xk, xk1, un.model_params(theta), un.biases(theta), d, rr)
+    return BlockKind("interval", v, [d, rr], r_imu, defect)
+
+
+def _gps_kind(model, mesh, params, un: _Unscale) -> BlockKind:
+    v = ca.SX.sym("v", 2 * NS + params.n)
+    tau0, y, w = ca.SX.sym("tau0"), ca.SX.sym("y", 6), ca.SX.sym("w", 6)
+    xk, xk1, theta = un.split(v)
+    tau = tau0 - (theta[un.clock] / mesh.h if un.clock is not None else 0)
+    r = gps_function(model, mesh.h)(xk, xk1, un.model_params(theta), tau, y, w)
+    return BlockKind("gps", v, [tau0, y, w], r, None)
+
+
+def _prior_kind(params: ParameterSet) -> tuple[BlockKind | None, dict[str, slice]]:
+    v = ca.SX.sym("v", params.n)
+    rows, groups = [], {}
+    for group in ("atmosphere", "aero", "imu", "clock"):
+        members = [(i, s) for i, s in enumerate(params.specs) if s.group == group and s.prior_sigma]
+        if members:
+            groups[f"prior_{group}"] = slice(len(rows), len(rows) + len(members))
+            rows += [v[i] * s.scale / s.prior_sigma for i, s in members]
+    if not rows:
+        return None, {}
+    return BlockKind("prior", v, [], ca.vertcat(*rows), None), groups
+
+
+def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg,
+              hessian: str = "gauss-newton") -> FitNlp:
+    """Assemble the NLP of one drop (see the module docstring)."""
+    n_nodes, n_int = mesh.t_nodes.size, mesh.n_intervals
+    n_sv = NS * n_nodes
+    n_z = n_sv + params.n
+    z = ca.MX.sym("z", n_z)
+    un = _Unscale(model, params)
+    k = mesh.samples_per_interval
+    y = np.column_stack([data.accel_imu, data.gyro_imu])[:n_int * k]
+    valid = np.column_stack([data.accel_valid, data.gyro_valid])[:n_int * k]
+    blocks = compress_imu(mesh, y, valid, _imu_sigma(cfg))
+    theta_cols = n_sv + np.arange(params.n)
+
+    def node_cols(kk: np.ndarray) -> np.ndarray:
+        return np.column_stack([NS * kk[:, None] + np.arange(2 * NS)[None, :], np.tile(theta_cols, (kk.size, 1))])
+
+    t_fix = data.gps_time_s
+    kfix = np.clip(((t_fix - mesh.t_nodes[0]) // mesh.h).astype(int), 0, n_int - 1)
+    gps_data = [ca.DM((t_fix - mesh.t_nodes[kfix]) / mesh.h).T,
+                ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T), ca.DM(1.0 / data.gps_sigma.T)]
+    sets = [_BlockSet(_interval_kind(model, mesh, params, un), node_cols(np.arange(n_int)),
+                      [ca.DM(blocks.d), ca.DM(blocks.R)], NS * np.arange(n_int)),
+            _BlockSet(_gps_kind(model, mesh, params, un), node_cols(kfix), gps_data)]
+    prior_kind, prior_groups = _prior_kind(params)
+    if prior_kind is not None:
+        sets.append(_BlockSet(prior_kind, theta_cols[None, :], []))
+    residual_parts, groups, start, g_parts = [], {}, 0, []
+    for bs, name in zip(sets, ("imu", "gps", "prior")):
+        n_b = bs.cols.shape[0]
+        local = z[bs.cols.ravel().tolist()]
+        local = ca.reshape(local, bs.kind.n_local, n_b)
+        fn = bs.kind.values.map(n_b, "thread", 2) if n_b > 1 else bs.kind.values
+        out = fn(local, *bs.data)
+        out = out if isinstance(out, (list, tuple)) else [out]
+        r = ca.vec(out[0])
+        if name == "prior":
+            groups.update({g: slice(start + s_.start, start + s_.stop) for g, s_ in prior_groups.items()})
+        else:
+            groups[name] = slice(start, start + r.numel())
+        residual_parts.append(r)
+        start += r.numel()
+        if len(out) > 1:
+            g_parts.append(ca.vec(out[1]))
+    q0 = z[6:10]
+    g_parts.append(ca.dot(q0, q0) - 1)
+    constraints = ca.vertcat(*g_parts)
+    derivs = BlockDerivatives(sets, n_z, constraints.numel(), np.arange(6, 10), hessian)
+    return FitNlp(mesh, params, z, ca.vertcat(*residual_parts), constraints, groups, blocks, derivs)
