@@ -1,0 +1,116 @@
+"""Covariance of the fit from the KKT matrix at the solution (DESIGN section 1).
+
+For min 1/2 |r(z)|^2 s.t. g(z) = 0 the covariance of z is the z-block of the inverse of
+K = [[H, A^T], [A, 0]], H the Hessian (Gauss-Newton J^T J, the Fisher information, by default) and
+A = dg/dz. With Z a basis of the null space of A that block equals Z (Z^T H Z)^-1 Z^T, which is how
+it is computed: the collocation defects make every node after the first a function of the first
+node and the parameters, so Z = [-A_D^-1 A_I N; N] with A_D the (block-bidiagonal, sparse LU)
+defect Jacobian in the later nodes, A_I the rest, and N a basis of the null space of the
+quaternion-norm row. Z has as many columns as there are free directions (13 + parameters - 1), so
+marginal variances of every node state and every derived output cost a few small dense products.
+``tests/unit/test_covariance.py`` checks this against a dense inverse of K.
+
+Two covariances are reported: the absolute one (noise sigmas taken as given) and the one scaled
+by the reduced chi-square chi2 / dof (as lmfit does), dof = measurements - free directions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sps
+from scipy.linalg import null_space
+from scipy.sparse.linalg import splu
+
+from casrecon.estimation.problem import NS, FitNlp
+
+#: A reduced Hessian with condition number above this is reported as singular.
+MAX_CONDITION = 1e13
+
+
+class SingularCovariance(RuntimeError):
+    """The reduced Hessian is singular: some parameter combination is not determined."""
+
+
+@dataclass(frozen=True)
+class Covariance:
+    """Covariance of the fit in reduced coordinates w: dz = Z w, cov(w) = Hr^-1.
+
+    Attributes
+    ----------
+    basis : (n_z, n_w) array
+        Z, in scaled z units.
+    cov_w : (n_w, n_w) array
+        (Z^T H Z)^-1 (absolute: noise sigmas as given).
+    reduced_chi2 : float
+        chi2 / dof; multiply variances by it for the chi-square-scaled covariance.
+    condition : float
+        Condition number of Z^T H Z.
+    """
+
+    basis: np.ndarray
+    cov_w: np.ndarray
+    reduced_chi2: float
+    condition: float
+
+    def rows(self, idx) -> np.ndarray:
+        """Z rows of the given z indices (scaled units)."""
+        return self.basis[np.asarray(idx)]
+
+    def covariance_of(self, idx, scale=None) -> np.ndarray:
+        """Absolute covariance matrix of z[idx] (times ``scale`` per entry, e.g. to SI)."""
+        zr = self.rows(idx)
+        if scale is not None:
+            zr = zr * np.asarray(scale)[:, None]
+        return zr @ self.cov_w @ zr.T
+
+
+def null_space_basis(a: sps.csc_matrix, n_sv: int) -> np.ndarray:
+    """Z with A Z = 0 for the fit's constraint Jacobian (defect rows, then the quaternion row)."""
+    n_z = a.shape[1]
+    n_def = a.shape[0] - 1
+    indep = np.r_[np.arange(NS), np.arange(n_sv, n_z)]
+    dep = np.arange(NS, n_sv)
+    a_def = a[:n_def]
+    a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].toarray()
+    n_basis = null_space(a[n_def:, indep].toarray())
+    z_dep = -splu(a_d).solve(a_i @ n_basis)
+    basis = np.zeros((n_z, n_basis.shape[1]))
+    basis[indep] = n_basis
+    basis[dep] = z_dep
+    return basis
+
+
+def _to_scipy(m: ca.DM) -> sps.csc_matrix:
+    sp = m.sparsity()
+    return sps.csc_matrix((np.asarray(m.nonzeros()), np.asarray(sp.row()), np.asarray(sp.colind())),
+                          shape=(m.size1(), m.size2()))
+
+
+def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Covariance:
+    """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J."""
+    d = nlp.derivatives
+    a = _to_scipy(d.jacobian_g(z))
+    d.evaluate(z)
+    h_upper = _to_scipy(d.hess_target.assemble(d._jtj))
+    h = h_upper + sps.triu(h_upper, 1).T
+    basis = null_space_basis(a, nlp.n_state_vars)
+    hr = basis.T @ (h @ basis)
+    hr = 0.5 * (hr + hr.T)
+    eig, vec = np.linalg.eigh(hr)
+    cond = float(eig[-1] / max(eig[0], 1e-300))
+    if eig[0] <= 0 or cond > MAX_CONDITION:
+        raise SingularCovariance(_weakest_direction(nlp, basis, vec[:, 0], cond))
+    cov_w = (vec / eig) @ vec.T
+    return Covariance(basis, cov_w, chi2 / max(dof, 1), cond)
+
+
+def _weakest_direction(nlp: FitNlp, basis: np.ndarray, v: np.ndarray, cond: float) -> str:
+    dz = basis @ v
+    theta = dz[nlp.n_state_vars:]
+    order = np.argsort(-np.abs(theta))[:3]
+    names = ", ".join(f"{nlp.params.names[i]} ({theta[i]:+.2f})" for i in order)
+    return (f"KKT matrix singular (reduced Hessian condition {cond:.3g}): the combination of {names} "
+            f"is not determined by the data; fix one of them or switch its prior on")
