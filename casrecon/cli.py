@@ -1,7 +1,8 @@
-"""The ``casrecon`` command: ``inspect`` and ``simulate`` (``fit``, ``joint``, ... to come).
+"""The ``casrecon`` command: ``inspect``, ``simulate`` and ``fit`` (``joint``, ... to come).
 
 Bad input ends with one line ``casrecon: FILE:LINE: field 'F': MESSAGE`` and exit status 2,
-never a traceback.
+never a traceback; a fit that fails (no convergence, singular KKT matrix) says why and exits 3,
+leaving any earlier results folder untouched.
 """
 
 from __future__ import annotations
@@ -61,6 +62,32 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fit(args: argparse.Namespace) -> int:
+    from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.io.fit_results import write_fit_results
+    from casrecon.io.results import atomic_folder
+    from casrecon.report.fit_report import fit_report
+    from casrecon.report.tables import fit_tables
+    from casrecon.scenario import Scenario
+
+    t0 = time.perf_counter()
+    scenario = Scenario.load(args.problem)
+    try:
+        result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
+                          print_level=5 if args.verbose else 0)
+    except FitError as err:
+        print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
+        return 3
+    report = fit_report(result)
+    with atomic_folder(args.out) as out:
+        result.timings["total_s"] = time.perf_counter() - t0
+        write_fit_results(out, result, report, fit_tables(result))
+    if not args.quiet:
+        print(report)
+    print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="casrecon", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -76,6 +103,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--every", type=int, default=1,
                    help="write every N-th sample of the time history (and the impact sample); default 1")
     p.set_defaults(func=_simulate)
+    p = sub.add_parser("fit", help="reconstruct one drop: trajectory, parameters and 3-sigma")
+    p.add_argument("problem", help="problem folder or problem.toml")
+    p.add_argument("--out", required=True, help="results folder (replaced atomically, kept on failure)")
+    p.add_argument("--linear-solver", choices=("mumps", "spral"), default=None,
+                   help="Ipopt linear solver (default: [estimation] linear_solver)")
+    p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
+                   help="Hessian for Ipopt (default: [estimation] hessian)")
+    p.add_argument("--quiet", action="store_true", help="do not print the fit report")
+    p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
+    p.set_defaults(func=_fit)
     return parser
 
 

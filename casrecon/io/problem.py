@@ -410,10 +410,13 @@ def load_aero(path: str | Path) -> AeroDatabase:
     ``[dispersion_sizes]`` (3-sigma sizes U) and optional ``[vanes]``."""
     f = load_toml(path)
     model = f.string("model", required=True, choices=("analytic", "table"))
+    sources = (str(Path(path).resolve()),)
     if model == "analytic":
         coeffs = _analytic(f.table("coefficients", required=True))
     else:
-        coeffs = _table(f.path_of("table", required=True), f.number("Clp", 0.0), f.number("Cl0", 0.0))
+        table_path = f.path_of("table", required=True)
+        coeffs = _table(table_path, f.number("Clp", 0.0), f.number("Cl0", 0.0))
+        sources += (str(table_path),)
     sizes_t = f.table("dispersion_sizes", required=True)
     sizes = DispersionSizes(**{n: sizes_t.number(n, 0.0, minimum=0.0) for n in DISPERSION_NAMES})
     sizes_t.reject_unknown()
@@ -426,7 +429,7 @@ def load_aero(path: str | Path) -> AeroDatabase:
                           lift_slope_per_rad=vanes_t.number("lift_slope_per_rad", 2 * np.pi / 5, positive=True))
         vanes_t.reject_unknown()
     db = AeroDatabase(name=f.string("name", required=True), coefficients=coeffs, sizes=sizes, vanes=vanes,
-                      description=f.string("description", ""))
+                      description=f.string("description", ""), source_files=sources)
     f.reject_unknown()
     return db
 

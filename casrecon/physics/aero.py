@@ -166,6 +166,7 @@ class AeroDatabase:
     sizes: DispersionSizes
     vanes: SpinVanes | None = None
     description: str = ""
+    source_files: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

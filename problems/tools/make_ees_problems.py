@@ -26,6 +26,14 @@ TABLE1_FLIGHT_TIME = {1: 40.252, 2: 30.906, 3: 38.932, 4: 40.008}
 TABLE5 = {"CA_mult": 0.1641, "CN_add": -0.5860, "CNY_mult": -0.6577, "CY_add": -0.3115,
           "Cm_add": -0.3949, "Cmn_mult": -0.6476, "Cn_add": 0.6854, "Cmq_mult": -0.30, "Cl_add": 0.20}
 
+ESTIMATION = {1: """
+[estimation]
+# The EES paper started its fits 3.5 s after release to skip rotor downwash. These synthetic data
+# have no downwash, and drop 1's gyros clip in the first second (peak pitch rate 167 deg/s against
+# the 157.4 deg/s limit), so its window starts early to exercise the saturation masking.
+start_after_release_s = 0.3
+"""}
+
 TEMPLATE = """\
 # EES helicopter drop {n} (Karlgaard et al., MSR EES drop test reconstruction), SYNTHETIC data.
 # Initial conditions: the paper's Table 3. Paper's Table 1 flight time: {tf} s.
@@ -99,7 +107,7 @@ clock_offset_s = {clk}
 dt_s = 0.002
 pre_release_s = 2.0
 post_impact_s = 2.0
-"""
+{estimation}"""
 
 
 def fmt(values) -> str:
@@ -115,7 +123,7 @@ def main() -> None:
             n=n, tf=TABLE1_FLIGHT_TIME[n], release=RELEASE_UTC[n], imu0=IMU_START_UTC[n], h=h, v=fmt(v),
             e=fmt(e), w=fmt(w), wb=fmt(rng.normal(0, 1 / 3, 2)), rho=f"{rng.normal(0, 0.01 / 3):.5f}",
             ab=fmt(rng.normal(0, 0.05, 3)), gb=fmt(rng.normal(0, 0.1, 3)), clk=f"{rng.uniform(-0.02, 0.02):.4f}",
-            disp=disp)
+            disp=disp, estimation=ESTIMATION.get(n, ""))
         out = root / f"ees-drop-{n}" / "problem.toml"
         out.parent.mkdir(exist_ok=True)
         out.write_text(text)

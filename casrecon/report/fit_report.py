@@ -1,0 +1,61 @@
+"""Console fit report in the spirit of lmfit's: values with sigma, flagged correlations, and why
+an error bar is missing."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from casrecon.physics.aero import DISPERSION_NAMES
+
+#: Correlations above this magnitude are flagged.
+CORRELATION_FLAG = 0.9
+#: A posterior sigma above this fraction of the prior sigma is reported as prior-dominated.
+PRIOR_DOMINATED = 0.9
+
+
+def _parameter_lines(result) -> list[str]:
+    scale = np.sqrt(result.reduced_chi2)
+    lines = []
+    for i, spec in enumerate(result.params.specs):
+        v, s = result.values[i], result.sigma[i]
+        note = ""
+        if spec.prior_sigma and s > PRIOR_DOMINATED * spec.prior_sigma:
+            note = "  <- set mostly by its prior (the data add little)"
+        lines.append(f"    {spec.name:16s} = {v: .6g} +/- {3 * s:.3g} (3-sigma; chi2-scaled {3 * s * scale:.3g})"
+                     f" [{spec.unit}]{note}")
+    fixed = [n for n in DISPERSION_NAMES if n not in result.params.names]
+    for name in fixed:
+        lines.append(f"    {name:16s} = 0 (fixed: not estimated, its database size U is 0 or "
+                     f"[estimation] estimate leaves it out; no error bar)")
+    return lines
+
+
+def _correlation_lines(result) -> list[str]:
+    names, c = result.params.names, result.correlation
+    pairs = [(abs(c[i, j]), names[i], names[j], c[i, j]) for i in range(len(names)) for j in range(i)]
+    pairs.sort(reverse=True)
+    lines = [f"    C({a}, {b}) = {r:+.3f}{'  <- |r| > 0.9' if m > CORRELATION_FLAG else ''}"
+             for m, a, b, r in pairs[:10] if m > 0.5]
+    return lines or ["    none above 0.5"]
+
+
+def fit_report(result) -> str:
+    """Multi-line text report of a :class:`~casrecon.estimation.fit.FitResult`."""
+    cfg, sol, d = result.scenario.config, result.solver, result.data
+    chi2 = sum(result.chi2.values())
+    t = result.timings
+    lines = [f"[[Fit: {cfg.name}]]",
+             f"    {sol.status} in {sol.iterations} iterations; Hessian {sol.hessian}, linear solver "
+             f"{sol.linear_solver}; covariance from the KKT matrix with J^T J",
+             f"    window {d.window[0]:.3f} to {d.window[1]:.3f} s IMU clock "
+             f"({d.window[0] - d.release_imu_s:.2f} s after release to "
+             f"{d.impact_imu_s - d.window[1]:.2f} s before impact)",
+             f"    chi-square {chi2:.1f}, dof {result.dof}, reduced chi-square {result.reduced_chi2:.4f}",
+             "    per group: " + ", ".join(f"{g} {v:.1f}/{result.n_measurements[g]}" for g, v in result.chi2.items()),
+             f"    timings: build {t['build_s']:.2f} s, solve {t['solve_s']:.2f} s, covariance "
+             f"{t['covariance_s']:.2f} s, total {t['total_s']:.2f} s",
+             "[[Parameters]]", *_parameter_lines(result),
+             "[[Correlations]] (largest, |r| > 0.5)", *_correlation_lines(result)]
+    if result.notes:
+        lines += ["[[Data notes]]", *[f"    {n}" for n in result.notes]]
+    return "\n".join(lines)
