@@ -1,0 +1,54 @@
+"""`casrecon fit` end to end: the results folder, and failures that leave nothing behind."""
+
+import json
+
+from casrecon.cli import main
+
+
+def _with_estimation(problem_toml, text: str) -> None:
+    body = problem_toml.read_text()
+    if "[estimation]" in body:
+        body = body.replace("[estimation]", "[estimation]\n" + text)
+    else:
+        body += "\n[estimation]\n" + text
+    problem_toml.write_text(body)
+
+
+def test_fit_writes_the_results_folder(problem_copy, tmp_path, capsys):
+    out = tmp_path / "fit"
+    assert main(["fit", str(problem_copy), "--out", str(out), "--quiet"]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert {"trajectory.csv", "parameters.json", "summary.json", "tables.md", "report.txt", "config"} <= names
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] is True
+    for key in ("build_s", "solve_s", "covariance_s", "total_s", "iterations", "objective", "chi2"):
+        assert key in summary
+    params = json.loads((out / "parameters.json").read_text())
+    truth = json.loads((problem_copy.parent / "data" / "truth.json").read_text())["parameters"]
+    assert set(params["parameters"]) <= set(truth)
+    assert len(params["correlation"]["matrix"]) == len(params["parameters"])
+    header = (out / "trajectory.csv").read_text().splitlines()[0].split(",")
+    for col in ("pos_n_m", "h_agl_m", "vel_d_mps", "roll_deg", "p_dps", "alpha_deg", "beta_deg",
+                "alpha_t_deg", "qbar_pa", "mach"):
+        assert col in header and f"{col}_3sigma" in header
+    assert "Table 5" in (out / "tables.md").read_text()
+
+
+def test_non_converged_fit_exits_nonzero_and_keeps_the_old_folder(problem_copy, tmp_path, capsys):
+    _with_estimation(problem_copy, "max_iter = 2")
+    out = tmp_path / "fit"
+    out.mkdir()
+    (out / "earlier.txt").write_text("an earlier result")
+    assert main(["fit", str(problem_copy), "--out", str(out)]) == 3
+    err = capsys.readouterr().err
+    assert "did not converge" in err and err.count("\n") == 1
+    assert [p.name for p in out.iterdir()] == ["earlier.txt"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".fit.")]
+
+
+def test_bad_estimation_setting_is_a_located_error(problem_copy, tmp_path, capsys):
+    _with_estimation(problem_copy, 'hessian = "newton"')
+    assert main(["fit", str(problem_copy), "--out", str(tmp_path / "fit")]) == 2
+    err = capsys.readouterr().err
+    assert "problem.toml" in err and "estimation.hessian" in err
+    assert not (tmp_path / "fit").exists()
