@@ -128,4 +128,5 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
         condition=cov.condition, notes=data.notes)
     result.extra["covariance"] = cov
     result.extra["nlp"] = nlp
+    result.extra["z"] = sol.z
     return replace(result)

@@ -177,7 +177,7 @@ def _interval_kind(model, mesh, params, un: _Unscale) -> BlockKind:
     v = ca.SX.sym("v", 2 * NS + params.n)
     d, rr = ca.SX.sym("d", 24), ca.SX.sym("R", 96)
     xk, xk1, theta = un.split(v)
-    defect, r_imu = interval_function(model, mesh.h)(xk, xk1, un.model_params(theta), un.biases(theta), d, rr)
+    defect, r_imu, _ = interval_function(model, mesh.h)(xk, xk1, un.model_params(theta), un.biases(theta), d, rr)
     return BlockKind("interval", v, [d, rr], r_imu, defect)
 
 

@@ -91,10 +91,11 @@ def imu_model_function(model: FlightModel) -> ca.Function:
 
 
 def interval_function(model: FlightModel, h: float) -> ca.Function:
-    """``interval(xk, xk1, p, bias6, d24, R96) -> (defect13 scaled, r24)`` for one interval.
+    """``interval(xk, xk1, p, bias6, d24, R96) -> (defect13 scaled, r24, m4)`` for one interval.
 
     ``d`` holds Q^T W y for the 6 IMU channels (4 rows each), ``R`` the 6 4x4 R factors (column
-    major, stacked); ``bias6`` the accelerometer and gyro biases (IMU axes).
+    major, stacked); ``bias6`` the accelerometer and gyro biases (IMU axes); ``m4`` (6 x 4) the
+    predicted IMU output with biases at the points ``IMU_TAU``.
     """
     xk, xk1 = ca.SX.sym("xk", 13), ca.SX.sym("xk1", 13)
     p, b = ca.SX.sym("p", model.n_params), ca.SX.sym("b", 6)
@@ -106,8 +107,8 @@ def interval_function(model: FlightModel, h: float) -> ca.Function:
     inner = [imu(hermite(tau, h, xk, fk, xk1, fk1), p)[1] for tau in IMU_TAU[1:-1]]
     m4 = ca.horzcat(yk, *inner, yk1) + ca.repmat(b, 1, len(IMU_TAU))  # 6 x 4
     res = [d[4 * c:4 * c + 4] - ca.reshape(rr[16 * c:16 * c + 16], 4, 4) @ m4[c, :].T for c in range(6)]
-    return ca.Function("interval", [xk, xk1, p, b, d, rr], [defect, ca.vertcat(*res)],
-                       ["xk", "xk1", "p", "bias", "d", "R"], ["defect", "r_imu"])
+    return ca.Function("interval", [xk, xk1, p, b, d, rr], [defect, ca.vertcat(*res), m4],
+                       ["xk", "xk1", "p", "bias", "d", "R"], ["defect", "r_imu", "m4"])
 
 
 def gps_function(model: FlightModel, h: float) -> ca.Function:

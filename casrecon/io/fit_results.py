@@ -2,8 +2,10 @@
 
 Files: ``trajectory.csv`` (time history with 3-sigma columns), ``parameters.json`` (values,
 1- and 3-sigma absolute and chi-square-scaled, correlations), ``summary.json`` (convergence,
-chi-square per group, timings), ``tables.md`` (EES Tables 3, 4, 5 style), ``report.txt`` (the
-console report), and ``config/`` (the exact input TOML files and the resolved settings).
+chi-square per group, timings, reconciled-simulation differences), ``tables.md`` (EES Tables 3,
+4, 5 style), ``report.txt`` (the console report), ``config/`` (the exact input files and the
+resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv``,
+``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv``, ``gps_fixes.csv``.
 """
 
 from __future__ import annotations
@@ -56,12 +58,39 @@ def trajectory_table(result) -> tuple[list[str], np.ndarray]:
     return cols, np.column_stack(data)
 
 
+def write_diagnostics(out: Path, result) -> dict:
+    """Residual, pitching-moment and reconciled-simulation CSVs; returns the reconciled summary."""
+    from casrecon.estimation import diagnostics as dg
+
+    imu = dg.imu_residuals(result)
+    cols = ["time_imu_s"] + [f"{c}_residual" for c in dg.IMU_CHANNELS] + [f"{c}_used" for c in dg.IMU_CHANNELS]
+    write_columns(out / "residuals_imu.csv", cols, np.column_stack([imu["time_imu_s"], imu["residual"], imu["valid"]]))
+    write_json(out / "imu_sigma.json", dict(zip(dg.IMU_CHANNELS, imu["sigma"].tolist())))
+    gps = dg.gps_residuals(result)
+    names = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
+    write_columns(out / "residuals_gps.csv", ["time_imu_s"] + [f"{n}_residual" for n in names]
+                  + [f"{n}_sigma" for n in names], np.column_stack([gps["time_imu_s"], gps["residual"], gps["sigma"]]))
+    d = result.data
+    write_columns(out / "gps_fixes.csv", ["time_imu_s", "pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps",
+                                          "vel_d_mps"], np.column_stack([gps["time_imu_s"], d.gps_pos_ned, d.gps_vel_ned]))
+    pm = dg.pitching_moment(result)
+    write_columns(out / "pitching_moment.csv", ["time_imu_s", "alpha_deg", "qbar_pa", "cm_recon"],
+                  np.column_stack([pm["time_imu_s"], pm["alpha_deg"], pm["qbar_pa"], pm["cm_recon"]]))
+    write_columns(out / "cm_curves.csv", ["alpha_deg", "cm_nominal", "cm_fitted"],
+                  np.column_stack([pm["alpha_grid_deg"], pm["cm_nominal"], pm["cm_fitted"]]))
+    rec = dg.reconciled_simulation(result)
+    write_columns(out / "reconciled.csv", ["flight_time_s", "h_agl_m", "speed_mps", "alpha_t_deg"],
+                  np.column_stack([rec["flight_time_s"], rec["h_agl_m"], rec["speed_mps"], rec["alpha_t_deg"]])[::5])
+    return rec["summary"]
+
+
 def write_fit_results(out: Path, result, report_text: str, tables_md: str) -> None:
     """Write every file of the results folder into ``out`` (an atomic temporary folder)."""
     out = Path(out)
     write_columns(out / "trajectory.csv", *trajectory_table(result))
     write_json(out / "parameters.json", parameters_document(result))
-    write_json(out / "summary.json", summary_document(result))
+    reconciled = write_diagnostics(out, result)
+    write_json(out / "summary.json", {**summary_document(result), "reconciled": reconciled})
     (out / "tables.md").write_text(tables_md)
     (out / "report.txt").write_text(report_text + "\n")
     cfg = result.scenario.config

@@ -1,0 +1,131 @@
+"""What a fit leaves for plots and checks: per-sample sensor residuals, the pitching moment
+reconstructed from the measured rates, and the reconciled forward simulation (EES paper VI).
+
+All functions take a :class:`~casrecon.estimation.fit.FitResult` and return plain arrays/dicts;
+the results writer stores them as CSV so ``casrecon report`` can redraw every figure.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+from scipy.signal import savgol_filter
+
+from casrecon.analysis.simulate import Simulator
+from casrecon.estimation.problem import _imu_sigma, _Unscale
+from casrecon.estimation.transcription import IMU_TAU, interval_function, lagrange_matrix
+from casrecon.physics.dynamics import OUTPUT_NAMES
+
+IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
+
+
+def _model_params(result) -> tuple[np.ndarray, np.ndarray]:
+    """FlightModel parameter vector and the 6 IMU biases of the fit's estimates."""
+    un = _Unscale(result.scenario.model, result.params)
+    theta = ca.DM(result.values)
+    return np.asarray(un.model_params(theta)).ravel(), np.asarray(un.biases(theta)).ravel()
+
+
+def imu_residuals(result) -> dict[str, np.ndarray]:
+    """Measured minus predicted IMU output at every sample of the fit (IMU axes, SI), with sigma
+    and the validity mask (False where saturated and masked)."""
+    mesh = result.extra["nlp"].mesh
+    model, data = result.scenario.model, result.data
+    p, b = _model_params(result)
+    n, k = mesh.n_intervals, mesh.samples_per_interval
+    f = interval_function(model, mesh.h).map(n, "thread", 2)
+    x = result.states.T
+    zeros_d, zeros_r = np.zeros((24, n)), np.zeros((96, n))
+    m4 = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n), zeros_d, zeros_r)[2])
+    blocks = m4.reshape(6, n, len(IMU_TAU))  # channel, interval, point
+    pred = np.einsum("sj,cij->isc", lagrange_matrix(np.arange(k) / k), blocks).reshape(n * k, 6)
+    y = np.column_stack([data.accel_imu, data.gyro_imu])[:n * k]
+    valid = np.column_stack([data.accel_valid, data.gyro_valid])[:n * k]
+    return {"time_imu_s": data.imu_time_s[:n * k], "residual": y - pred, "valid": valid,
+            "sigma": _imu_sigma(result.scenario.config)}
+
+
+def gps_residuals(result) -> dict[str, np.ndarray]:
+    """GPS antenna position/velocity residuals (NED, SI) at every fix used, with the fix sigmas."""
+    nlp, data = result.extra["nlp"], result.data
+    r = np.asarray(ca.Function("r", [nlp.z], [nlp.residuals])(result.extra["z"])).ravel()
+    whitened = r[nlp.groups["gps"]].reshape(-1, 6)
+    clock = result.parameter("clock_offset_s")[0] if "clock_offset_s" in result.params.names else 0.0
+    return {"time_imu_s": data.gps_time_s - clock, "residual": whitened * data.gps_sigma, "sigma": data.gps_sigma}
+
+
+def pitching_moment(result) -> dict[str, np.ndarray]:
+    """Pitching-moment coefficient about the MRP (body y) reconstructed from the measured rates.
+
+    dw/dt is the Savitzky-Golay derivative (0.1 s window, cubic) of the bias-corrected gyros; the
+    moment about the centre of mass I dw/dt + w x I w is moved to the MRP with the measured
+    specific force, the fitted damping term is removed, and the rest is divided by qbar S d. The
+    model curves are the static C_m,body at beta = 0 of the nominal and of the best-fit dispersed
+    database.
+    """
+    cfg, data = result.scenario.config, result.data
+    veh = cfg.vehicle
+    _, b = _model_params(result)
+    r_ib = np.asarray(veh.imu_to_body)
+    dt = float(np.median(np.diff(data.imu_time_s)))
+    w = (data.gyro_imu - b[3:]) @ r_ib.T
+    f = (data.accel_imu - b[:3]) @ r_ib.T
+    wdot = savgol_filter(w, 51, 3, deriv=1, delta=dt, axis=0)
+    idx = np.clip(np.searchsorted(data.imu_time_s, result.node_time_s), 0, data.imu_time_s.size - 1)
+    w, wdot, f = w[idx], wdot[idx], f[idx]
+    inertia = np.asarray(veh.inertia_kgm2)
+    lever_imu = veh.lever(veh.imu_position_m)
+    f_cm = f - np.cross(wdot, lever_imu) - np.cross(w, np.cross(w, lever_imu))
+    m_cm = wdot @ inertia.T + np.cross(w, w @ inertia.T)
+    m_mrp = m_cm - np.cross(veh.lever(veh.mrp_m), veh.mass_kg * f_cm)
+    qbar = result.column("qbar_pa")[0]
+    alpha = np.radians(result.column("alpha_deg")[0])
+    speed = np.linalg.norm(result.states[:, 3:6], axis=1)
+    d, s = veh.ref_length_m, veh.ref_area_m2
+    cmq = _fitted_cmq(result, np.radians(result.column("alpha_t_deg")[0]))
+    cm = m_mrp[:, 1] / (qbar * s * d) - cmq * d / (2 * speed) * w[:, 1]
+    grid = np.radians(np.linspace(-20, 20, 81))
+    return {"time_imu_s": result.node_time_s, "alpha_deg": np.degrees(alpha), "qbar_pa": qbar, "cm_recon": cm,
+            "alpha_grid_deg": np.degrees(grid), "cm_nominal": _cm_curve(result, grid, False),
+            "cm_fitted": _cm_curve(result, grid, True)}
+
+
+def _fitted_cmq(result, alpha_t: np.ndarray) -> np.ndarray:
+    coeffs = result.scenario.config.aero.coefficients
+    cmq = np.array([float(coeffs.evaluate(0.12, a, np.sin(a))[3]) for a in alpha_t])
+    scale = 1.0
+    if "Cmq_mult" in result.params.names:
+        scale += result.scenario.config.aero.sizes.Cmq_mult * result.parameter("Cmq_mult")[0]
+    return cmq * scale
+
+
+def _cm_curve(result, alpha: np.ndarray, fitted: bool) -> np.ndarray:
+    aero = result.scenario.config.aero
+    mach = float(np.median(result.column("mach")[0]))
+    cm = np.array([float(aero.coefficients.evaluate(mach, abs(a), abs(np.sin(a)))[2]) for a in alpha]) * np.sign(alpha)
+    if not fitted:
+        return cm
+    get = {n: result.parameter(n)[0] if n in result.params.names else 0.0 for n in ("Cmn_mult", "Cm_add")}
+    return cm * (1 + aero.sizes.Cmn_mult * get["Cmn_mult"]) + aero.sizes.Cm_add * get["Cm_add"]
+
+
+def reconciled_simulation(result) -> dict:
+    """Forward simulation from the reconstructed first-node state with the fitted dispersions and
+    atmosphere corrections (EES paper section VI), against the reconstruction."""
+    scenario = result.scenario
+    p, _ = _model_params(result)
+    sim = Simulator(scenario.model, dt_s=0.002)
+    traj = sim.run(result.states[0], p, t_max_s=300.0)
+    t0 = result.flight_time_s[0]
+    t_sim = t0 + traj.time_s
+    recon_impact_flight = result.data.impact_imu_s - result.data.release_imu_s
+    speed = np.linalg.norm(traj.states[:, 3:6], axis=1)
+    col = OUTPUT_NAMES.index
+    return {"flight_time_s": t_sim, "h_agl_m": traj.output("h_agl"), "speed_mps": speed,
+            "alpha_t_deg": np.degrees(traj.outputs[:, col("alpha_t")]),
+            "summary": {"simulated_flight_time_s": float(t_sim[-1]),
+                        "reconstructed_flight_time_s": float(recon_impact_flight),
+                        "flight_time_difference_s": float(t_sim[-1] - recon_impact_flight),
+                        "simulated_impact_speed_mps": float(speed[-1]),
+                        "reconstructed_end_speed_mps": float(np.linalg.norm(result.states[-1, 3:6])),
+                        "impact_speed_difference_mps": float(speed[-1] - np.linalg.norm(result.states[-1, 3:6]))}}
