@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.covariance import Covariance
-from casrecon.estimation.problem import NS, FitNlp, _Unscale
+from casrecon.estimation.problem import NS, DropPart, _Unscale
 from casrecon.estimation.transcription import STATE_SCALE
 from casrecon.physics.dynamics import OUTPUT_NAMES, FlightModel
 
@@ -20,9 +20,8 @@ COLUMNS = (("pos_n_m", 1.0), ("pos_e_m", 1.0), ("pos_d_m", 1.0), ("h_agl_m", 1.0
            ("qbar_pa", 1.0), ("mach", 1.0))
 
 
-def _output_function(model: FlightModel, nlp: FitNlp) -> ca.Function:
+def _output_function(model: FlightModel, params) -> ca.Function:
     """(z_node (13), z_theta) -> (y, dy/d[z_node; z_theta]) for the COLUMNS, scaled inputs."""
-    params = nlp.params
     un = _Unscale(model, params)
     zx, zt = ca.SX.sym("zx", NS), ca.SX.sym("zt", params.n)
     x, theta = zx * ca.DM(STATE_SCALE), zt * ca.DM(params.scales)
@@ -35,20 +34,20 @@ def _output_function(model: FlightModel, nlp: FitNlp) -> ca.Function:
     return ca.Function("outputs_with_jacobian", [zx, zt], [y, ca.jacobian(y, v)])
 
 
-def trajectory_with_bands(model: FlightModel, nlp: FitNlp, z: np.ndarray, cov: Covariance):
-    """Node values of COLUMNS and their absolute 1-sigma, arrays (K, len(COLUMNS)) each."""
-    k = nlp.mesh.t_nodes.size
-    fn = _output_function(model, nlp).map(k, "thread", 2)
-    zx = z[:nlp.n_state_vars].reshape(k, NS).T
-    zt = np.repeat(z[nlp.n_state_vars:, None], k, axis=1)
+def trajectory_with_bands(model: FlightModel, part: DropPart, z: np.ndarray, cov: Covariance):
+    """One drop's node values of COLUMNS and their absolute 1-sigma, arrays (K, len(COLUMNS))."""
+    k = part.mesh.t_nodes.size
+    fn = _output_function(model, part.params).map(k, "thread", 2)
+    zx = z[part.node_cols].reshape(k, NS).T
+    zt = np.repeat(z[part.theta_cols, None], k, axis=1)
     y, jac = fn(zx, zt)
     y = np.asarray(y).T
-    ny, nv = len(COLUMNS), NS + nlp.params.n
+    ny, nv = len(COLUMNS), NS + part.params.n
     jac = np.asarray(jac).reshape(ny, k, nv).transpose(1, 0, 2)  # (k, ny, nv)
-    theta_rows = cov.rows(np.arange(nlp.n_state_vars, z.size))
+    theta_rows = cov.rows(part.theta_cols)
     sigma = np.zeros((k, ny))
     for i in range(k):
-        rows = np.vstack([cov.rows(np.arange(NS * i, NS * i + NS)), theta_rows])
+        rows = np.vstack([cov.rows(part.node_offset + np.arange(NS * i, NS * i + NS)), theta_rows])
         gs = jac[i] @ rows
         sigma[i] = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", gs, cov.cov_w, gs), 0.0))
     return y, sigma

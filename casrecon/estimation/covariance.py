@@ -24,7 +24,7 @@ import scipy.sparse as sps
 from scipy.linalg import null_space
 from scipy.sparse.linalg import splu
 
-from casrecon.estimation.problem import NS, FitNlp
+from casrecon.estimation.problem import FitNlp
 
 #: A reduced Hessian with condition number above this is reported as singular.
 MAX_CONDITION = 1e13
@@ -67,12 +67,13 @@ class Covariance:
         return zr @ self.cov_w @ zr.T
 
 
-def null_space_basis(a: sps.csc_matrix, n_sv: int) -> np.ndarray:
-    """Z with A Z = 0 for the fit's constraint Jacobian (defect rows, then the quaternion row)."""
+def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_quat: int = 1) -> np.ndarray:
+    """Z with A Z = 0 for a fit's constraint Jacobian: defect rows first, then ``n_quat``
+    quaternion-norm rows; ``dep`` are the z indices the defects determine (every node but the
+    first of each drop)."""
     n_z = a.shape[1]
-    n_def = a.shape[0] - 1
-    indep = np.r_[np.arange(NS), np.arange(n_sv, n_z)]
-    dep = np.arange(NS, n_sv)
+    n_def = a.shape[0] - n_quat
+    indep = np.setdiff1d(np.arange(n_z), dep)
     a_def = a[:n_def]
     a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].toarray()
     n_basis = null_space(a[n_def:, indep].toarray())
@@ -96,7 +97,7 @@ def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Cov
     d.evaluate(z)
     h_upper = _to_scipy(d.hess_target.assemble(d._jtj))
     h = h_upper + sps.triu(h_upper, 1).T
-    basis = null_space_basis(a, nlp.n_state_vars)
+    basis = null_space_basis(a, nlp.dependent_columns(), len(nlp.parts))
     hr = basis.T @ (h @ basis)
     hr = 0.5 * (hr + hr.T)
     eig, vec = np.linalg.eigh(hr)
@@ -109,8 +110,9 @@ def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Cov
 
 def _weakest_direction(nlp: FitNlp, basis: np.ndarray, v: np.ndarray, cond: float) -> str:
     dz = basis @ v
-    theta = dz[nlp.n_state_vars:]
-    order = np.argsort(-np.abs(theta))[:3]
-    names = ", ".join(f"{nlp.params.names[i]} ({theta[i]:+.2f})" for i in order)
-    return (f"KKT matrix singular (reduced Hessian condition {cond:.3g}): the combination of {names} "
+    names = nlp.parameter_columns()
+    cols = np.array(list(names))
+    order = cols[np.argsort(-np.abs(dz[cols]))[:3]]
+    combo = ", ".join(f"{names[int(c)]} ({dz[c]:+.2f})" for c in order)
+    return (f"KKT matrix singular (reduced Hessian condition {cond:.3g}): the combination of {combo} "
             f"is not determined by the data; fix one of them or switch its prior on")

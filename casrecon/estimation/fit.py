@@ -112,10 +112,10 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     except SingularCovariance as err:
         raise FitError(str(err)) from None
     states, values = nlp.unpack(sol.z)
-    theta_idx = np.arange(nlp.n_state_vars, sol.z.size)
-    cov_theta = cov.covariance_of(theta_idx, params.scales)
+    part = nlp.parts[0]
+    cov_theta = cov.covariance_of(part.theta_cols, params.scales)
     sigma = np.sqrt(np.diag(cov_theta))
-    table, table_sigma = trajectory_with_bands(scenario.model, nlp, sol.z, cov)
+    table, table_sigma = trajectory_with_bands(scenario.model, part, sol.z, cov)
     t4 = time.perf_counter()
     timings = {"data_s": t1 - t0 - 0.0, "build_s": (t1 - t0) + sol.build_s, "initial_guess_s": t2 - t1,
                "solve_s": sol.solve_s, "covariance_s": t4 - t3, "total_s": t4 - t0}

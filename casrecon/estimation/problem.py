@@ -13,7 +13,7 @@ the parameters, the prior block the parameters. Block functions are SX and mappe
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -29,30 +29,94 @@ NS = 13
 
 
 @dataclass
-class FitNlp:
-    """The assembled NLP: symbolic z, residuals and constraints, and the block derivatives."""
+class DropPart:
+    """One drop inside an NLP: where its nodes, parameters, constraints and residuals sit.
 
+    ``theta_cols[i]`` is the z index of the drop's i-th parameter (``params`` order); in a joint
+    fit the shared aero parameters point at the same columns for every drop.
+    """
+
+    name: str
     mesh: Mesh
     params: ParameterSet
-    z: ca.MX
-    residuals: ca.MX
-    constraints: ca.MX
-    groups: dict[str, slice]
-    imu_blocks: ImuBlocks
-    derivatives: "BlockDerivatives"
+    node_offset: int
+    theta_cols: np.ndarray
+    defect_offset: int
+    imu_blocks: ImuBlocks | None = None
+    groups: dict = field(default_factory=dict)
 
     @property
     def n_state_vars(self) -> int:
         return NS * self.mesh.t_nodes.size
 
+    @property
+    def node_cols(self) -> np.ndarray:
+        return self.node_offset + np.arange(self.n_state_vars)
+
+    def states(self, z: np.ndarray) -> np.ndarray:
+        """Node states (K, 13), SI."""
+        return np.asarray(z)[self.node_cols].reshape(-1, NS) * STATE_SCALE
+
+    def values(self, z: np.ndarray) -> np.ndarray:
+        """The drop's parameter values (SI) in ``params`` order."""
+        return np.asarray(z)[self.theta_cols] * self.params.scales
+
+
+@dataclass
+class FitNlp:
+    """The assembled NLP: symbolic z, residuals and constraints, and the block derivatives.
+
+    ``parts`` holds one :class:`DropPart` per drop (one for a per-drop fit). ``mesh``, ``params``
+    and ``imu_blocks`` are the first drop's, for the per-drop fit's convenience.
+    """
+
+    parts: list[DropPart]
+    z: ca.MX
+    residuals: ca.MX
+    constraints: ca.MX
+    groups: dict[str, slice]
+    derivatives: "BlockDerivatives"
+
+    @property
+    def mesh(self) -> Mesh:
+        return self.parts[0].mesh
+
+    @property
+    def params(self) -> ParameterSet:
+        return self.parts[0].params
+
+    @property
+    def imu_blocks(self) -> ImuBlocks:
+        return self.parts[0].imu_blocks
+
+    @property
+    def n_state_vars(self) -> int:
+        return sum(p.n_state_vars for p in self.parts)
+
+    def parameter_columns(self) -> dict[int, str]:
+        """z index -> parameter name; parameters that several drops share keep their plain name,
+        a drop's own parameters are ``drop.name`` when there is more than one drop."""
+        count: dict[int, int] = {}
+        for part in self.parts:
+            for col in part.theta_cols:
+                count[int(col)] = count.get(int(col), 0) + 1
+        out = {}
+        for part in self.parts:
+            for name, col in zip(part.params.names, part.theta_cols):
+                own = len(self.parts) > 1 and count[int(col)] == 1
+                out[int(col)] = f"{part.name}.{name}" if own else name
+        return dict(sorted(out.items()))
+
+    def dependent_columns(self) -> np.ndarray:
+        """z indices fixed by the defects given the first node of each drop and the parameters."""
+        return np.concatenate([p.node_cols[NS:] for p in self.parts])
+
     def unpack(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Node states (K, 13) in SI and parameter values (SI) from a scaled z."""
-        z = np.asarray(z, float).ravel()
-        states = z[:self.n_state_vars].reshape(-1, NS) * STATE_SCALE
-        return states, z[self.n_state_vars:] * self.params.scales
+        """Per-drop fit: node states (K, 13) and parameter values, SI."""
+        return self.parts[0].states(z), self.parts[0].values(z)
 
     def pack(self, states: np.ndarray, values: np.ndarray) -> np.ndarray:
-        """Scaled z from node states (K, 13) and parameter values (SI)."""
+        """Per-drop fit: scaled z from node states (K, 13) and parameter values (SI)."""
         return np.concatenate([(states / STATE_SCALE).ravel(), np.asarray(values) / self.params.scales])
 
 
@@ -85,11 +149,15 @@ class BlockDerivatives:
 
     def __init__(self, sets: list[_BlockSet], n_z: int, n_g: int, quat_cols: np.ndarray, hessian: str):
         self.sets, self.n_z, self.n_g, self.hessian = sets, n_z, n_g, hessian
-        self.quat_cols = quat_cols
+        self.quat_cols = np.asarray(quat_cols).reshape(-1, 4)
         key = "jtj" if hessian == "gauss-newton" else "hess"
-        self.hess_target = SparseTarget((n_z, n_z), *self._stack(key, rows_from_cols=True))
+        h_rows, h_cols = self._stack(key, rows_from_cols=True)
+        # a block's upper triangle maps to the global upper triangle once each pair is ordered
+        self.hess_target = SparseTarget((n_z, n_z), np.minimum(h_rows, h_cols), np.maximum(h_rows, h_cols))
         jg_rows, jg_cols = self._stack("jg", rows_from_cols=False)
-        self.jac_target = SparseTarget((n_g, n_z), np.r_[jg_rows, [n_g - 1] * 4], np.r_[jg_cols, quat_cols])
+        n_q = self.quat_cols.shape[0]
+        q_rows = np.repeat(n_g - n_q + np.arange(n_q), 4)
+        self.jac_target = SparseTarget((n_g, n_z), np.r_[jg_rows, q_rows], np.r_[jg_cols, self.quat_cols.ravel()])
         self._z = None
 
     def _stack(self, key: str, rows_from_cols: bool):
@@ -114,7 +182,7 @@ class BlockDerivatives:
             jtj.append(out[1].T.ravel())
             if len(out) > 2:
                 jg.append(out[2].T.ravel())
-        jg.append(2 * z[self.quat_cols])
+        jg.append(2 * z[self.quat_cols.ravel()])
         self._z, self.grad, self._jtj, self._jg = z, grad, np.concatenate(jtj), np.concatenate(jg)
 
     def gradient(self, z) -> np.ndarray:
@@ -203,52 +271,73 @@ def _prior_kind(params: ParameterSet) -> tuple[BlockKind | None, dict[str, slice
     return BlockKind("prior", v, [], ca.vertcat(*rows), None), groups
 
 
-def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg,
-              hessian: str = "gauss-newton") -> FitNlp:
-    """Assemble the NLP of one drop (see the module docstring)."""
-    n_nodes, n_int = mesh.t_nodes.size, mesh.n_intervals
-    n_sv = NS * n_nodes
-    n_z = n_sv + params.n
-    z = ca.MX.sym("z", n_z)
+def drop_block_sets(model: FlightModel, data: FitData, part: DropPart, cfg) -> list[_BlockSet]:
+    """The interval, GPS and prior blocks of one drop, with global columns from ``part``."""
+    mesh, params = part.mesh, part.params
+    n_int, k = mesh.n_intervals, mesh.samples_per_interval
     un = _Unscale(model, params)
-    k = mesh.samples_per_interval
     y = np.column_stack([data.accel_imu, data.gyro_imu])[:n_int * k]
     valid = np.column_stack([data.accel_valid, data.gyro_valid])[:n_int * k]
-    blocks = compress_imu(mesh, y, valid, _imu_sigma(cfg))
-    theta_cols = n_sv + np.arange(params.n)
+    part.imu_blocks = compress_imu(mesh, y, valid, _imu_sigma(cfg))
 
     def node_cols(kk: np.ndarray) -> np.ndarray:
-        return np.column_stack([NS * kk[:, None] + np.arange(2 * NS)[None, :], np.tile(theta_cols, (kk.size, 1))])
+        first = part.node_offset + NS * kk[:, None] + np.arange(2 * NS)[None, :]
+        return np.column_stack([first, np.tile(part.theta_cols, (kk.size, 1))])
 
     t_fix = data.gps_time_s
     kfix = np.clip(((t_fix - mesh.t_nodes[0]) // mesh.h).astype(int), 0, n_int - 1)
     gps_data = [ca.DM((t_fix - mesh.t_nodes[kfix]) / mesh.h).T,
                 ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T), ca.DM(1.0 / data.gps_sigma.T)]
     sets = [_BlockSet(_interval_kind(model, mesh, params, un), node_cols(np.arange(n_int)),
-                      [ca.DM(blocks.d), ca.DM(blocks.R)], NS * np.arange(n_int)),
+                      [ca.DM(part.imu_blocks.d), ca.DM(part.imu_blocks.R)],
+                      part.defect_offset + NS * np.arange(n_int)),
             _BlockSet(_gps_kind(model, mesh, params, un), node_cols(kfix), gps_data)]
     prior_kind, prior_groups = _prior_kind(params)
     if prior_kind is not None:
-        sets.append(_BlockSet(prior_kind, theta_cols[None, :], []))
-    residual_parts, groups, start, g_parts = [], {}, 0, []
-    for bs, name in zip(sets, ("imu", "gps", "prior")):
-        n_b = bs.cols.shape[0]
-        local = z[bs.cols.ravel().tolist()]
-        local = ca.reshape(local, bs.kind.n_local, n_b)
-        fn = bs.kind.values.map(n_b, "thread", 2) if n_b > 1 else bs.kind.values
-        out = fn(local, *bs.data)
-        out = out if isinstance(out, (list, tuple)) else [out]
-        r = ca.vec(out[0])
-        if name == "prior":
-            groups.update({g: slice(start + s_.start, start + s_.stop) for g, s_ in prior_groups.items()})
-        else:
-            groups[name] = slice(start, start + r.numel())
-        residual_parts.append(r)
-        start += r.numel()
-        if len(out) > 1:
-            g_parts.append(ca.vec(out[1]))
-    q0 = z[6:10]
-    g_parts.append(ca.dot(q0, q0) - 1)
-    constraints = ca.vertcat(*g_parts)
-    derivs = BlockDerivatives(sets, n_z, constraints.numel(), np.arange(6, 10), hessian)
-    return FitNlp(mesh, params, z, ca.vertcat(*residual_parts), constraints, groups, blocks, derivs)
+        sets.append(_BlockSet(prior_kind, part.theta_cols[None, :], []))
+        part.groups = prior_groups
+    return sets
+
+
+def assemble_nlp(parts: list[DropPart], sets_per_part: list[list[_BlockSet]], n_z: int,
+                 hessian: str = "gauss-newton", prefix_groups: bool = False) -> FitNlp:
+    """Residuals, constraints and derivatives of the NLP made of every drop's blocks.
+
+    Constraint rows: every drop's defects (drop after drop), then one quaternion-norm row per drop.
+    Residual groups: imu, gps, prior_* per drop (prefixed ``name/`` when ``prefix_groups``).
+    """
+    z = ca.MX.sym("z", n_z)
+    residual_parts, groups, start, defects = [], {}, 0, []
+    for part, sets in zip(parts, sets_per_part):
+        pre = f"{part.name}/" if prefix_groups else ""
+        prior_groups, part.groups = part.groups, {}
+        for bs, name in zip(sets, ("imu", "gps", "prior")):
+            n_b = bs.cols.shape[0]
+            local = ca.reshape(z[bs.cols.ravel().tolist()], bs.kind.n_local, n_b)
+            fn = bs.kind.values.map(n_b, "thread", 2) if n_b > 1 else bs.kind.values
+            out = fn(local, *bs.data)
+            out = out if isinstance(out, (list, tuple)) else [out]
+            r = ca.vec(out[0])
+            named = ({pre + g: slice(start + s_.start, start + s_.stop) for g, s_ in prior_groups.items()}
+                     if name == "prior" else {pre + name: slice(start, start + r.numel())})
+            groups.update(named)
+            part.groups.update(named)
+            residual_parts.append(r)
+            start += r.numel()
+            if len(out) > 1:
+                defects.append(ca.vec(out[1]))
+    quat_cols = np.array([p.node_offset + np.arange(6, 10) for p in parts])
+    quats = [ca.dot(z[c.tolist()], z[c.tolist()]) - 1 for c in quat_cols]
+    constraints = ca.vertcat(*defects, *quats)
+    all_sets = [bs for sets in sets_per_part for bs in sets]
+    derivs = BlockDerivatives(all_sets, n_z, constraints.numel(), quat_cols, hessian)
+    return FitNlp(parts, z, ca.vertcat(*residual_parts), constraints, groups, derivs)
+
+
+def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg,
+              hessian: str = "gauss-newton") -> FitNlp:
+    """Assemble the NLP of one drop (see the module docstring)."""
+    n_sv = NS * mesh.t_nodes.size
+    part = DropPart(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), 0)
+    sets = drop_block_sets(model, data, part, cfg)
+    return assemble_nlp([part], [sets], n_sv + params.n, hessian)
