@@ -53,6 +53,10 @@ class DropPart:
     def node_cols(self) -> np.ndarray:
         return self.node_offset + np.arange(self.n_state_vars)
 
+    def groups_size(self, suffix: str) -> int:
+        """Number of residual rows in this drop's group named ``suffix`` (e.g. "imu")."""
+        return sum(s.stop - s.start for g, s in self.groups.items() if g.split("/")[-1] == suffix)
+
     def states(self, z: np.ndarray) -> np.ndarray:
         """Node states (K, 13), SI."""
         return np.asarray(z)[self.node_cols].reshape(-1, NS) * STATE_SCALE
@@ -152,6 +156,8 @@ class BlockDerivatives:
         self.quat_cols = np.asarray(quat_cols).reshape(-1, 4)
         key = "jtj" if hessian == "gauss-newton" else "hess"
         h_rows, h_cols = self._stack(key, rows_from_cols=True)
+        if hessian != "gauss-newton":  # curvature of each unit-norm row |q_0|^2 - 1: 2 lam I on q_0
+            h_rows, h_cols = np.r_[h_rows, self.quat_cols.ravel()], np.r_[h_cols, self.quat_cols.ravel()]
         # a block's upper triangle maps to the global upper triangle once each pair is ordered
         self.hess_target = SparseTarget((n_z, n_z), np.minimum(h_rows, h_cols), np.maximum(h_rows, h_cols))
         jg_rows, jg_cols = self._stack("jg", rows_from_cols=False)
@@ -204,6 +210,8 @@ class BlockDerivatives:
             n_c, n_b = bs.kind.n_constraints, bs.cols.shape[0]
             lam = lam_g[bs.g_rows[:, None] + np.arange(n_c)[None, :]].T if n_c else np.zeros((0, n_b))
             parts.append(np.asarray(bs.hess(bs.local(z), *bs.data, sigma, lam)).T.ravel())
+        n_q = self.quat_cols.shape[0]
+        parts.append(np.repeat(2.0 * lam_g[self.n_g - n_q:], 4))
         return self.hess_target.assemble(np.concatenate(parts))
 
 
