@@ -1,0 +1,86 @@
+"""The null-space covariance Z (Z^T H Z)^-1 Z^T equals the z-block of the dense inverse of the KKT
+matrix [[H, A^T], [A, 0]] (H = J^T J), on a ~1.5 s window of ees-drop-3 fitted to convergence."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from conftest import PROBLEMS
+
+from casrecon.estimation.covariance import compute_covariance
+from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.problem import NS
+from casrecon.estimation.transcription import STATE_SCALE
+from casrecon.scenario import Scenario
+
+
+@pytest.fixture(scope="module")
+def short_fit():
+    sc = Scenario.load(PROBLEMS / "ees-drop-3")
+    cfg = sc.config
+    est = replace(cfg.estimation, start_after_release_s=20.0, end_before_impact_s=17.55)
+    r = fit_drop(Scenario.from_config(replace(cfg, estimation=est)))
+    assert 1.3 <= r.data.window[1] - r.data.window[0] <= 1.7
+    return r
+
+
+@pytest.fixture(scope="module")
+def dense_kkt_cov(short_fit):
+    nlp, z = short_fit.extra["nlp"], short_fit.solver.z
+    d = nlp.derivatives
+    a = np.asarray(d.jacobian_g(z).full())
+    d.evaluate(z)
+    hu = np.asarray(d.hess_target.assemble(d._jtj).full())
+    h = hu + np.triu(hu, 1).T
+    n_z, n_g = h.shape[0], a.shape[0]
+    kkt = np.block([[h, a.T], [a, np.zeros((n_g, n_g))]])
+    return np.linalg.inv(kkt)[:n_z, :n_z]
+
+
+def relative_gap(got: np.ndarray, want: np.ndarray) -> float:
+    """Max |got - want| / sqrt(want_ii want_jj): covariance entries relative to their variances."""
+    s = np.sqrt(np.diag(want))
+    return float(np.max(np.abs(got - want) / np.outer(s, s)))
+
+
+def test_parameter_block_equals_dense_kkt_inverse(short_fit, dense_kkt_cov):
+    nlp = short_fit.extra["nlp"]
+    cov = short_fit.extra["covariance"]
+    idx = np.arange(nlp.n_state_vars, nlp.z.numel())
+    got = cov.covariance_of(idx)
+    want = dense_kkt_cov[np.ix_(idx, idx)]
+    assert relative_gap(got, want) < 1e-6
+    # and what FitResult reports is that block in SI units
+    s = nlp.params.scales
+    assert short_fit.sigma == pytest.approx(np.sqrt(np.diag(want)) * s, rel=1e-6)
+
+
+@pytest.mark.parametrize("node", [0, 1, 13, -1])
+def test_node_state_blocks_equal_dense_kkt_inverse(short_fit, dense_kkt_cov, node):
+    nlp = short_fit.extra["nlp"]
+    cov = short_fit.extra["covariance"]
+    k = nlp.mesh.t_nodes.size
+    node = node % k
+    # node state and its cross-covariance with the parameters
+    idx = np.r_[NS * node + np.arange(NS), np.arange(nlp.n_state_vars, nlp.z.numel())]
+    got = cov.covariance_of(idx)
+    want = dense_kkt_cov[np.ix_(idx, idx)]
+    if node == 0:
+        # the unit-norm row makes the initial quaternion's covariance rank-deficient (q0 dq0 = 0):
+        # compare entries relative to the largest variance of the block instead
+        assert np.max(np.abs(got - want)) / np.max(np.diag(want)) < 1e-6
+        q = short_fit.extra["nlp"].unpack(short_fit.solver.z)[0][0, 6:10] / STATE_SCALE[6:10]
+        assert np.abs(q @ got[6:10, 6:10]).max() < 1e-9 * np.max(np.diag(want))
+    else:
+        assert relative_gap(got, want) < 1e-6
+
+
+def test_recomputed_covariance_is_the_reported_one(short_fit):
+    nlp, z = short_fit.extra["nlp"], short_fit.solver.z
+    cov = compute_covariance(nlp, z, 1.0, 1)
+    ref = short_fit.extra["covariance"]
+    assert cov.basis @ cov.cov_w @ cov.basis[-5:].T == pytest.approx(ref.basis @ ref.cov_w @ ref.basis[-5:].T,
+                                                                     rel=1e-9, abs=1e-15)
+    assert cov.reduced_chi2 == 1.0
