@@ -29,7 +29,7 @@ def _model_params(result) -> tuple[np.ndarray, np.ndarray]:
 def imu_residuals(result) -> dict[str, np.ndarray]:
     """Measured minus predicted IMU output at every sample of the fit (IMU axes, SI), with sigma
     and the validity mask (False where saturated and masked)."""
-    mesh = result.extra["nlp"].mesh
+    mesh = result.extra["part"].mesh
     model, data = result.scenario.model, result.data
     p, b = _model_params(result)
     n, k = mesh.n_intervals, mesh.samples_per_interval
@@ -47,9 +47,10 @@ def imu_residuals(result) -> dict[str, np.ndarray]:
 
 def gps_residuals(result) -> dict[str, np.ndarray]:
     """GPS antenna position/velocity residuals (NED, SI) at every fix used, with the fix sigmas."""
-    nlp, data = result.extra["nlp"], result.data
+    nlp, data, part = result.extra["nlp"], result.data, result.extra["part"]
     r = np.asarray(ca.Function("r", [nlp.z], [nlp.residuals])(result.extra["z"])).ravel()
-    whitened = r[nlp.groups["gps"]].reshape(-1, 6)
+    gps = next(s for g, s in part.groups.items() if g.split("/")[-1] == "gps")
+    whitened = r[gps].reshape(-1, 6)
     clock = result.parameter("clock_offset_s")[0] if "clock_offset_s" in result.params.names else 0.0
     return {"time_imu_s": data.gps_time_s - clock, "residual": whitened * data.gps_sigma, "sigma": data.gps_sigma}
 
