@@ -1,4 +1,4 @@
-"""The ``casrecon`` command: ``inspect``, ``simulate`` and ``fit`` (``joint``, ... to come).
+"""The ``casrecon`` command: ``inspect``, ``simulate``, ``fit``, ``joint`` and ``report``.
 
 Bad input ends with one line ``casrecon: FILE:LINE: field 'F': MESSAGE`` and exit status 2,
 never a traceback; a fit that fails (no convergence, singular KKT matrix) says why and exits 3,
@@ -88,6 +88,38 @@ def _fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _joint(args: argparse.Namespace) -> int:
+    from casrecon.estimation.fit import FitError
+    from casrecon.estimation.joint import JointConfig, fit_joint, load_joint, single_drop_sigmas
+    from casrecon.io.joint_results import write_joint_results
+    from casrecon.io.results import atomic_folder
+    from casrecon.scenario import Scenario
+
+    t0 = time.perf_counter()
+    if len(args.problems) == 1 and Path(args.problems[0]).is_file() and args.problems[0].endswith(".toml"):
+        cfg = load_joint(args.problems[0])
+    else:
+        if len(args.problems) < 2:
+            raise SystemExit("casrecon: joint needs at least two problems, or one joint .toml file")
+        cfg = JointConfig(name=args.name, drops=tuple(Path(p) for p in args.problems),
+                          shared=tuple(args.shared) if args.shared else None, per_drop=tuple(args.per_drop),
+                          fixed=tuple(args.fixed))
+    scenarios = [Scenario.load(p) for p in cfg.drops]
+    try:
+        result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
+                           print_level=5 if args.verbose else 0)
+    except FitError as err:
+        print(f"casrecon: joint fit {cfg.name} failed: {err}", file=sys.stderr)
+        return 3
+    single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
+    with atomic_folder(args.out) as out:
+        result.timings["total_s"] = time.perf_counter() - t0
+        write_joint_results(out, result, single)
+        print((out / "tables.md").read_text())
+    print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="casrecon", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -113,6 +145,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="do not print the fit report")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
     p.set_defaults(func=_fit)
+    p = sub.add_parser("joint", help="joint aero fit of several drops sharing the dispersion factors")
+    p.add_argument("problems", nargs="+", help="problem folders, or one joint .toml file ([joint] drops = [...])")
+    p.add_argument("--out", required=True, help="results folder (replaced atomically, kept on failure)")
+    p.add_argument("--name", default="joint", help="name of the joint fit (when problems are listed)")
+    p.add_argument("--shared", nargs="*", default=None, help="dispersion factors shared (default: all estimated)")
+    p.add_argument("--per-drop", nargs="*", default=[], help="dispersion factors each drop estimates for itself")
+    p.add_argument("--fixed", nargs="*", default=[], help="dispersion factors held at 0")
+    p.add_argument("--no-single", action="store_true", help="skip the single-drop fits of the sigma comparison")
+    p.add_argument("--linear-solver", choices=("mumps", "spral"), default="mumps")
+    p.add_argument("--hessian", choices=("gauss-newton", "exact"), default="gauss-newton")
+    p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
+    p.set_defaults(func=_joint)
     return parser
 
 

@@ -1,0 +1,201 @@
+"""Multi-drop joint aero fit (EES paper Table 5): one NLP in which the aero dispersion factors are
+shared and every drop keeps its own node states, initial conditions, wind biases, density factor,
+IMU biases, clock offset and fit window.
+
+Which dispersions are shared, estimated per drop, or fixed at 0 is configuration
+(:class:`JointConfig`). The paper's tied C_N/C_Y and C_m/C_n multipliers are single factors in
+casrecon's parametrisation (``CNY_mult``, ``Cmn_mult``), so they are tied by construction.
+The prior on a shared factor enters once, not once per drop.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.estimation.fit import (FitError, FitResult, check_converged, covariance_or_fail, drop_result,
+                                     prepare_drop, residual_vector)
+from casrecon.estimation.initial_guess import initial_guess
+from casrecon.estimation.parameters import ParameterSet, parameter_set
+from casrecon.estimation.problem import NS, DropPart, assemble_nlp, drop_block_sets
+from casrecon.estimation.solve import solve
+from casrecon.estimation.transcription import STATE_SCALE
+from casrecon.io.toml_fields import load_toml
+from casrecon.physics.aero import DISPERSION_NAMES
+from casrecon.scenario import Scenario
+
+
+@dataclass(frozen=True)
+class JointConfig:
+    """A joint fit: the drops and what the dispersion factors do.
+
+    Parameters
+    ----------
+    name : str
+    drops : tuple of Path
+        Problem folders (or problem.toml files).
+    shared : tuple of str or None
+        Dispersion factors common to all drops; None: every factor the drops estimate.
+    per_drop : tuple of str
+        Factors each drop estimates for itself.
+    fixed : tuple of str
+        Factors held at 0 (not estimated).
+    """
+
+    name: str
+    drops: tuple[Path, ...]
+    shared: tuple[str, ...] | None = None
+    per_drop: tuple[str, ...] = ()
+    fixed: tuple[str, ...] = ()
+
+
+def _names(t, key: str) -> tuple[str, ...] | None:
+    value = t.raw(key)
+    if value is None:
+        return None
+    if not isinstance(value, list) or any(v not in DISPERSION_NAMES for v in value):
+        raise t.error(key, f"expected a list of dispersion names from {', '.join(DISPERSION_NAMES)}")
+    return tuple(value)
+
+
+def load_joint(path: str | Path) -> JointConfig:
+    """Parse a joint file: ``[joint] name, drops = [...], shared, per_drop, fixed``."""
+    f = load_toml(path)
+    t = f.table("joint", required=True)
+    drops = t.raw("drops", required=True)
+    if not isinstance(drops, list) or len(drops) < 2 or not all(isinstance(d, str) for d in drops):
+        raise t.error("drops", "expected a list of at least two problem folders")
+    folders = []
+    for d in drops:
+        p = (Path(path).parent / d).resolve()
+        if not (p / "problem.toml").is_file() and not p.is_file():
+            raise t.error("drops", f"no problem.toml in {d!r} (looked in {p})")
+        folders.append(p)
+    cfg = JointConfig(name=t.string("name", required=True), drops=tuple(folders), shared=_names(t, "shared"),
+                      per_drop=_names(t, "per_drop") or (), fixed=_names(t, "fixed") or ())
+    overlap = (set(cfg.shared or ()) & set(cfg.per_drop)) | (set(cfg.shared or ()) & set(cfg.fixed)) \
+        | (set(cfg.per_drop) & set(cfg.fixed))
+    if overlap:
+        raise t.error("shared", f"a factor can be shared, per_drop or fixed, not two of them: {sorted(overlap)}")
+    t.reject_unknown()
+    f.reject_unknown()
+    return cfg
+
+
+@dataclass
+class JointResult:
+    """A joint fit: per-drop results (views of the one NLP) and the global parameter vector."""
+
+    config: JointConfig
+    drops: list[FitResult]
+    names: tuple[str, ...]           # global parameter names (shared plain, own as drop.name)
+    values: np.ndarray
+    sigma: np.ndarray
+    correlation: np.ndarray
+    shared: tuple[str, ...]
+    chi2: float
+    dof: int
+    reduced_chi2: float
+    timings: dict[str, float]
+    iterations: int
+    status: str
+
+
+def _parameter_sets(scenarios: list[Scenario], cfg: JointConfig) -> tuple[list[ParameterSet], tuple[str, ...]]:
+    """Each drop's ParameterSet (fixed factors removed; shared priors kept only on the first drop)."""
+    sets = []
+    for sc in scenarios:
+        est = sc.config.estimation
+        wanted = tuple(n for n in (est.estimate or DISPERSION_NAMES) if n not in cfg.fixed)
+        sc_cfg = dataclasses.replace(sc.config, estimation=dataclasses.replace(est, estimate=wanted))
+        sets.append(parameter_set(sc_cfg))
+    aero_sets = [set(n for n, s in zip(p.names, p.specs) if s.group == "aero") for p in sets]
+    common = set.intersection(*aero_sets)
+    shared = tuple(n for n in DISPERSION_NAMES if n in common and n not in cfg.per_drop
+                   and (cfg.shared is None or n in cfg.shared))
+    out = [sets[0]]
+    for p in sets[1:]:
+        out.append(ParameterSet(tuple(dataclasses.replace(s, prior_sigma=None) if s.name in shared else s
+                                      for s in p.specs)))
+    return out, shared
+
+
+def _layout(scenarios, meshes, psets, shared):
+    """DropParts with global columns: all nodes, then shared factors, then each drop's own."""
+    node_offsets = np.cumsum([0] + [NS * m.t_nodes.size for m in meshes])
+    shared_col = {n: int(node_offsets[-1]) + i for i, n in enumerate(shared)}
+    next_col = int(node_offsets[-1]) + len(shared)
+    parts, defect_offset = [], 0
+    for sc, mesh, ps, off in zip(scenarios, meshes, psets, node_offsets):
+        cols = []
+        for name in ps.names:
+            if name in shared_col:
+                cols.append(shared_col[name])
+            else:
+                cols.append(next_col)
+                next_col += 1
+        parts.append(DropPart(sc.config.name, mesh, ps, int(off), np.array(cols), defect_offset))
+        defect_offset += NS * mesh.n_intervals
+    return parts, next_col
+
+
+def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str = "gauss-newton",
+              linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-8,
+              print_level: int = 0) -> JointResult:
+    """Solve the joint NLP. Raises FitError when it does not converge or the KKT matrix is singular."""
+    if len({sc.config.name for sc in scenarios}) != len(scenarios):
+        raise FitError("joint fit: two drops have the same problem name")
+    t0 = time.perf_counter()
+    prepared = [prepare_drop(sc) for sc in scenarios]
+    psets, shared = _parameter_sets(scenarios, cfg)
+    parts, n_z = _layout(scenarios, [m for _, m in prepared], psets, shared)
+    sets = [drop_block_sets(sc.model, data, part, sc.config)
+            for sc, (data, _), part in zip(scenarios, prepared, parts)]
+    nlp = assemble_nlp(parts, sets, n_z, hessian, prefix_groups=True)
+    t1 = time.perf_counter()
+    z0 = np.zeros(n_z)
+    for sc, (data, mesh), part in zip(scenarios, prepared, parts):
+        x0 = initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
+        z0[part.node_cols] = (x0 / STATE_SCALE).ravel()
+    sol = solve(nlp, z0, linear_solver, max_iter, tol, print_level)
+    check_converged(sol)
+    t2 = time.perf_counter()
+    r = residual_vector(nlp, sol.z)
+    cov = covariance_or_fail(nlp, sol.z, r)
+    timings = {"build_s": (t1 - t0) + sol.build_s, "solve_s": sol.solve_s}
+    drops = [drop_result(sc, data, part, nlp, sol, cov, r, timings)
+             for sc, (data, _), part in zip(scenarios, prepared, parts)]
+    columns = nlp.parameter_columns()
+    cols = np.array(list(columns))
+    scales = np.zeros(n_z)
+    for part in parts:
+        scales[part.theta_cols] = part.params.scales
+    c = cov.covariance_of(cols, scales[cols])
+    sigma = np.sqrt(np.diag(c))
+    t3 = time.perf_counter()
+    timings.update(covariance_s=t3 - t2, total_s=t3 - t0)
+    chi2 = float(sum(sum(d.chi2.values()) for d in drops))
+    return JointResult(cfg, drops, tuple(columns.values()), sol.z[cols] * scales[cols], sigma,
+                       c / np.outer(sigma, sigma), shared, chi2, drops[0].dof, cov.reduced_chi2, timings,
+                       sol.iterations, sol.status)
+
+
+def _single_sigma(problem: str) -> tuple[str, dict[str, float]]:
+    from casrecon.estimation.fit import fit_drop
+
+    result = fit_drop(Scenario.load(problem))
+    return result.scenario.config.name, dict(zip(result.params.names, map(float, result.sigma)))
+
+
+def single_drop_sigmas(problems: list[Path], workers: int = 2) -> dict[str, dict[str, float]]:
+    """1-sigma of every parameter in each drop's own fit, fitted in parallel processes."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        return dict(pool.map(_single_sigma, [str(p) for p in problems]))
