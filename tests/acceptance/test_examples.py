@@ -9,8 +9,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.mark.parametrize("script", ["fit_one_drop.py"])
+@pytest.mark.parametrize("script", ["fit_one_drop.py", "joint_aero_fit.py"])
 def test_example_runs(script):
     proc = subprocess.run([sys.executable, str(ROOT / "examples" / script)], capture_output=True, text=True,
-                          timeout=300)
+                          timeout=900)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
