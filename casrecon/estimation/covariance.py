@@ -95,7 +95,7 @@ def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Cov
     d = nlp.derivatives
     a = _to_scipy(d.jacobian_g(z))
     d.evaluate(z)
-    h_upper = _to_scipy(d.hess_target.assemble(d._jtj))
+    h_upper = _to_scipy(d.gauss_newton(z))
     h = h_upper + sps.triu(h_upper, 1).T
     basis = null_space_basis(a, nlp.dependent_columns(), len(nlp.parts))
     hr = basis.T @ (h @ basis)

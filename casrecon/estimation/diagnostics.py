@@ -14,7 +14,7 @@ from scipy.signal import savgol_filter
 from casrecon.analysis.simulate import Simulator
 from casrecon.estimation.problem import _imu_sigma, _Unscale
 from casrecon.estimation.transcription import IMU_TAU, interval_function, lagrange_matrix
-from casrecon.physics.dynamics import OUTPUT_NAMES
+from casrecon.physics.aero import DISPERSION_NAMES
 
 IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
 
@@ -110,23 +110,26 @@ def _cm_curve(result, alpha: np.ndarray, fitted: bool) -> np.ndarray:
     return cm * (1 + aero.sizes.Cmn_mult * get["Cmn_mult"]) + aero.sizes.Cm_add * get["Cm_add"]
 
 
-def reconciled_simulation(result) -> dict:
+def reconciled_simulation(result, nominal: bool = False) -> dict:
     """Forward simulation from the reconstructed first-node state with the fitted dispersions and
-    atmosphere corrections (EES paper section VI), against the reconstruction."""
+    atmosphere corrections (EES paper section VI), against the reconstruction. ``nominal=True``
+    sets the dispersions to 0 (the pre-flight database) and keeps the fitted atmosphere."""
     scenario = result.scenario
     p, _ = _model_params(result)
+    if nominal:
+        p[:len(DISPERSION_NAMES)] = 0.0
     sim = Simulator(scenario.model, dt_s=0.002)
     traj = sim.run(result.states[0], p, t_max_s=300.0)
     t0 = result.flight_time_s[0]
     t_sim = t0 + traj.time_s
     recon_impact_flight = result.data.impact_imu_s - result.data.release_imu_s
     speed = np.linalg.norm(traj.states[:, 3:6], axis=1)
-    col = OUTPUT_NAMES.index
+    end_speed = float(np.linalg.norm(result.states[-1, 3:6]))
     return {"flight_time_s": t_sim, "h_agl_m": traj.output("h_agl"), "speed_mps": speed,
-            "alpha_t_deg": np.degrees(traj.outputs[:, col("alpha_t")]),
+            "alpha_t_deg": np.degrees(traj.output("alpha_t")), "p_dps": np.degrees(traj.state("omega_x")),
             "summary": {"simulated_flight_time_s": float(t_sim[-1]),
                         "reconstructed_flight_time_s": float(recon_impact_flight),
                         "flight_time_difference_s": float(t_sim[-1] - recon_impact_flight),
                         "simulated_impact_speed_mps": float(speed[-1]),
-                        "reconstructed_end_speed_mps": float(np.linalg.norm(result.states[-1, 3:6])),
-                        "impact_speed_difference_mps": float(speed[-1] - np.linalg.norm(result.states[-1, 3:6]))}}
+                        "reconstructed_end_speed_mps": end_speed,
+                        "impact_speed_difference_mps": float(speed[-1] - end_speed)}}

@@ -160,6 +160,11 @@ class BlockDerivatives:
             h_rows, h_cols = np.r_[h_rows, self.quat_cols.ravel()], np.r_[h_cols, self.quat_cols.ravel()]
         # a block's upper triangle maps to the global upper triangle once each pair is ordered
         self.hess_target = SparseTarget((n_z, n_z), np.minimum(h_rows, h_cols), np.maximum(h_rows, h_cols))
+        if hessian == "gauss-newton":
+            self.jtj_target = self.hess_target
+        else:  # the covariance always uses J^T J, whatever Hessian Ipopt was given
+            g_rows, g_cols = self._stack("jtj", rows_from_cols=True)
+            self.jtj_target = SparseTarget((n_z, n_z), np.minimum(g_rows, g_cols), np.maximum(g_rows, g_cols))
         jg_rows, jg_cols = self._stack("jg", rows_from_cols=False)
         n_q = self.quat_cols.shape[0]
         q_rows = np.repeat(n_g - n_q + np.arange(n_q), 4)
@@ -198,6 +203,11 @@ class BlockDerivatives:
     def jacobian_g(self, z) -> ca.DM:
         self.evaluate(z)
         return self.jac_target.assemble(self._jg)
+
+    def gauss_newton(self, z) -> ca.DM:
+        """Upper triangle of J^T J at z (the Fisher information the covariance uses)."""
+        self.evaluate(z)
+        return self.jtj_target.assemble(self._jtj)
 
     def hessian_lagrangian(self, z, sigma: float, lam_g: np.ndarray) -> ca.DM:
         """Upper triangle of the Hessian of sigma f + lam_g^T g (Gauss-Newton or exact)."""

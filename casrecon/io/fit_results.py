@@ -5,7 +5,8 @@ Files: ``trajectory.csv`` (time history with 3-sigma columns), ``parameters.json
 chi-square per group, timings, reconciled-simulation differences), ``tables.md`` (EES Tables 3,
 4, 5 style), ``report.txt`` (the console report), ``config/`` (the exact input files and the
 resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv``,
-``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv``, ``gps_fixes.csv``.
+``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv`` (forward simulation with the fitted
+dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``.
 """
 
 from __future__ import annotations
@@ -78,10 +79,43 @@ def write_diagnostics(out: Path, result) -> dict:
                   np.column_stack([pm["time_imu_s"], pm["alpha_deg"], pm["qbar_pa"], pm["cm_recon"]]))
     write_columns(out / "cm_curves.csv", ["alpha_deg", "cm_nominal", "cm_fitted"],
                   np.column_stack([pm["alpha_grid_deg"], pm["cm_nominal"], pm["cm_fitted"]]))
+    keys = ["flight_time_s", "h_agl_m", "speed_mps", "alpha_t_deg", "p_dps"]
     rec = dg.reconciled_simulation(result)
-    write_columns(out / "reconciled.csv", ["flight_time_s", "h_agl_m", "speed_mps", "alpha_t_deg"],
-                  np.column_stack([rec["flight_time_s"], rec["h_agl_m"], rec["speed_mps"], rec["alpha_t_deg"]])[::5])
-    return rec["summary"]
+    write_columns(out / "reconciled.csv", keys, np.column_stack([rec[k] for k in keys])[::5])
+    nom = dg.reconciled_simulation(result, nominal=True)
+    write_columns(out / "nominal.csv", keys, np.column_stack([nom[k] for k in keys])[::5])
+    summary = {**rec["summary"], "nominal_database": nom["summary"]}
+    if result.scenario.config.aero.vanes is not None:
+        summary["roll_rate"] = roll_rate_comparison(result, rec, nom)
+    return summary
+
+
+def roll_rate_comparison(result, rec: dict, nom: dict, n: int = 6) -> list[dict]:
+    """Reconstructed roll rate (with 3-sigma) against the spin-vane model with the fitted and the
+    nominal lift-curve slope, at ``n`` times through the fit window (deg/s)."""
+    p, p_sigma = result.column("p_dps")
+    t = result.flight_time_s
+    out = []
+    for tt in np.linspace(t[0], t[-1], n):
+        out.append({"flight_time_s": float(tt), "reconstructed_dps": float(np.interp(tt, t, p)),
+                    "reconstructed_3sigma_dps": float(3 * np.interp(tt, t, p_sigma)),
+                    "model_fitted_dps": float(np.interp(tt, rec["flight_time_s"], rec["p_dps"])),
+                    "model_nominal_dps": float(np.interp(tt, nom["flight_time_s"], nom["p_dps"]))})
+    return out
+
+
+def roll_rate_table(rows: list[dict], cla_mult: tuple[float, float] | None) -> str:
+    """Markdown table of :func:`roll_rate_comparison`."""
+    fit = "" if cla_mult is None else f" (CLa_mult {cla_mult[0]:.4f} +/- {3 * cla_mult[1]:.4f}, 3-sigma)"
+    lines = ["### Roll rate: reconstruction vs spin-vane model", "",
+             f"Forward simulations from the reconstructed first state with the fitted C_La{fit} and the nominal "
+             "(2 pi / 5) vane lift-curve slope.", "",
+             "| flight time, s | reconstructed, deg/s | 3-sigma | model, fitted C_La | model, nominal C_La |",
+             "|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['flight_time_s']:.1f} | {r['reconstructed_dps']:.2f} | {r['reconstructed_3sigma_dps']:.3f} | "
+                     f"{r['model_fitted_dps']:.2f} | {r['model_nominal_dps']:.2f} |")
+    return "\n".join(lines) + "\n"
 
 
 def write_fit_results(out: Path, result, report_text: str, tables_md: str) -> None:
@@ -91,6 +125,9 @@ def write_fit_results(out: Path, result, report_text: str, tables_md: str) -> No
     write_json(out / "parameters.json", parameters_document(result))
     reconciled = write_diagnostics(out, result)
     write_json(out / "summary.json", {**summary_document(result), "reconciled": reconciled})
+    if "roll_rate" in reconciled:
+        cla = result.parameter("CLa_mult") if "CLa_mult" in result.params.names else None
+        tables_md += "\n" + roll_rate_table(reconciled["roll_rate"], cla)
     (out / "tables.md").write_text(tables_md)
     (out / "report.txt").write_text(report_text + "\n")
     cfg = result.scenario.config

@@ -355,7 +355,8 @@ def plot_residuals_gps(drop: DropFolder, out: Path) -> Path:
 
 def plot_correlation(parameters: dict, title: str, out: Path) -> Path:
     """The parameter correlation matrix of parameters.json (``correlation`` {names, matrix}) as an
-    image, names on both axes, colour scale -1..1; values printed when there are few parameters."""
+    image, names on both axes, colour scale -1..1; values printed when there are few parameters,
+    black lines between the blocks of a joint fit (shared, then ``<drop>.<name>`` per drop)."""
     corr = parameters.get("correlation")
     if not corr or "names" not in corr or "matrix" not in corr:
         raise MissingInput("parameters.json has no correlation {names, matrix}")
@@ -371,6 +372,11 @@ def plot_correlation(parameters: dict, title: str, out: Path) -> Path:
     font = 9 if n <= 25 else 7 if n <= 50 else 5
     ax.set_xticks(range(n), names, rotation=90, fontsize=font)
     ax.set_yticks(range(n), names, fontsize=font)
+    groups = [name.split(".", 1)[0] if "." in name else "" for name in names]
+    for k in range(1, n):
+        if groups[k] != groups[k - 1]:
+            ax.axhline(k - 0.5, color="k", lw=1.0)
+            ax.axvline(k - 0.5, color="k", lw=1.0)
     if n <= 25:
         for i in range(n):
             for j in range(n):
