@@ -1,0 +1,179 @@
+"""Figures of a results folder: drawn from a tiny synthetic folder (no fit), per-drop and joint."""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+from casrecon.report import plots
+from casrecon.report.plots import draw_figures
+
+RELEASE_IMU_S = 2.0
+DROP_FIGURES = ("altitude_velocity", "qbar_alpha_t", "pitching_moment", "reconciled",
+                "residuals_imu", "residuals_gps", "correlation")
+TRAJ_NAMES = ("pos_n_m", "pos_e_m", "pos_d_m", "h_agl_m", "vel_n_mps", "vel_e_mps", "vel_d_mps",
+              "roll_deg", "pitch_deg", "yaw_deg", "p_dps", "q_dps", "r_dps", "alpha_deg",
+              "beta_deg", "alpha_t_deg", "qbar_pa", "mach")
+PARAM_NAMES = ("CA_mult", "Cm_add", "Cmq_mult", "wind_bias_n")
+
+
+def _write_csv(path: Path, columns: dict[str, np.ndarray]) -> None:
+    np.savetxt(path, np.column_stack(list(columns.values())), delimiter=",",
+               header=",".join(columns), comments="", fmt="%.9g")
+
+
+def _parameters(names) -> dict:
+    n = len(names)
+    corr = 0.5 * np.eye(n) + 0.5 * np.ones((n, n)) * 0.3 + 0.35 * np.eye(n)
+    np.fill_diagonal(corr, 1.0)
+    return {"parameters": {k: {"value": 0.1, "sigma": 0.02, "three_sigma": 0.06, "unit": "-"}
+                           for k in names},
+            "correlation": {"names": list(names), "matrix": corr.tolist()}}
+
+
+def make_drop_folder(folder: Path, name: str = "synthetic-drop", n: int = 200) -> Path:
+    """A per-drop results folder with every file casrecon fit writes, from simple formulas."""
+    folder.mkdir(parents=True)
+    rng = np.random.default_rng(0)
+    t_imu = np.linspace(RELEASE_IMU_S + 1.0, RELEASE_IMU_S + 11.0, n)
+    ft = t_imu - RELEASE_IMU_S
+    alpha = 20.0 * np.exp(-ft / 8.0) * np.sin(2 * np.pi * ft)
+    cols = {"time_imu_s": t_imu, "flight_time_s": ft}
+    values = {name: np.sin(ft + k) for k, name in enumerate(TRAJ_NAMES)}
+    values.update(h_agl_m=400.0 - 35.0 * ft, pos_d_m=-(400.0 - 35.0 * ft), vel_d_mps=35.0 + 0 * ft,
+                  alpha_deg=alpha, alpha_t_deg=np.abs(alpha), qbar_pa=700.0 + 10 * ft)
+    for key in TRAJ_NAMES:
+        cols[key], cols[f"{key}_3sigma"] = values[key], 0.01 + 0.001 * ft
+    _write_csv(folder / "trajectory.csv", cols)
+    tg = t_imu[::10]
+    _write_csv(folder / "gps_fixes.csv", {
+        "time_imu_s": tg, "pos_n_m": 0 * tg, "pos_e_m": 0 * tg, "pos_d_m": -(400 - 35 * (tg - 2)),
+        "vel_n_mps": 0 * tg, "vel_e_mps": 0 * tg, "vel_d_mps": 35 + rng.normal(0, 0.2, tg.size)})
+    gps = {"time_imu_s": tg}
+    gps.update({f"{c}_residual": rng.normal(0, 1, tg.size) for c in
+                ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")})
+    gps.update({f"{c}_sigma": np.full(tg.size, 1.5) for c in
+                ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")})
+    _write_csv(folder / "residuals_gps.csv", gps)
+    imu = {"time_imu_s": t_imu}
+    chans = ("ax", "ay", "az", "wx", "wy", "wz")
+    imu.update({f"{c}_residual": rng.normal(0, 0.05 if c[0] == "a" else 0.002, n) for c in chans})
+    imu.update({f"{c}_used": (np.arange(n) > 5).astype(float) for c in chans})
+    _write_csv(folder / "residuals_imu.csv", imu)
+    (folder / "imu_sigma.json").write_text(json.dumps(
+        {c: 0.05 if c[0] == "a" else 0.00175 for c in chans}))
+    _write_csv(folder / "pitching_moment.csv", {
+        "time_imu_s": t_imu, "alpha_deg": alpha, "qbar_pa": values["qbar_pa"],
+        "cm_recon": -0.002 * alpha + rng.normal(0, 1e-3, n)})
+    a = np.linspace(-20, 20, 81)
+    _write_csv(folder / "cm_curves.csv", {"alpha_deg": a, "cm_nominal": -0.0025 * a,
+                                          "cm_fitted": -0.002 * a})
+    ts = np.linspace(ft[0], ft[-1] + 0.1, 3 * n)
+    _write_csv(folder / "reconciled.csv", {"flight_time_s": ts, "h_agl_m": 400 - 35 * ts,
+                                           "speed_mps": 35 + 0 * ts,
+                                           "alpha_t_deg": np.interp(ts, ft, np.abs(alpha))})
+    (folder / "summary.json").write_text(json.dumps({
+        "problem": name, "release_imu_s": RELEASE_IMU_S,
+        "reconciled": {"flight_time_difference_s": 0.1, "impact_speed_difference_mps": -0.2}}))
+    (folder / "parameters.json").write_text(json.dumps(_parameters(PARAM_NAMES)))
+    return folder
+
+
+@pytest.fixture
+def no_render(monkeypatch):
+    """Build the figures but skip the ~1 s of rendering each (the plumbing tests only need the
+    files); a figure saved under a folder in the returned list is still rendered for real."""
+    real_save = plots._save
+    rendered: list[Path] = []
+
+    def fast_save(fig, path: Path) -> Path:
+        if path.parent in rendered:
+            return real_save(fig, path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(b"not rendered")
+        fig.clear()
+        return path
+
+    monkeypatch.setattr(plots, "_save", fast_save)
+    return rendered
+
+
+def assert_png(path: Path) -> None:
+    assert path.is_file() and path.stat().st_size > 1000, path
+    image = imread(path)
+    assert image.ndim == 3 and image.shape[0] > 300 and image.shape[1] > 300, (path, image.shape)
+
+
+def test_every_figure_of_a_drop_is_a_png(tmp_path):
+    folder = make_drop_folder(tmp_path / "fit")
+    notes: list[str] = []
+    paths = draw_figures(folder, notes)
+    assert notes == []
+    assert sorted(p.name for p in paths) == sorted(f"{f}.png" for f in DROP_FIGURES)
+    for path in paths:
+        assert path.parent == folder / "figures"
+        assert_png(path)
+
+
+@pytest.mark.parametrize("missing, figure", [
+    ("reconciled.csv", "reconciled"), ("pitching_moment.csv", "pitching_moment"),
+    ("residuals_imu.csv", "residuals_imu"), ("residuals_gps.csv", "residuals_gps"),
+    ("parameters.json", "correlation")])
+def test_missing_optional_file_skips_only_its_figure(tmp_path, caplog, no_render, missing, figure):
+    folder = make_drop_folder(tmp_path / "fit")
+    (folder / missing).unlink()
+    notes: list[str] = []
+    with caplog.at_level(logging.WARNING):
+        paths = draw_figures(folder, notes)
+    assert {p.stem for p in paths} == set(DROP_FIGURES) - {figure}
+    assert len(notes) == 1 and missing in notes[0] and figure in notes[0]
+    assert missing in caplog.text
+
+
+def test_missing_decorations_still_draw(tmp_path, no_render):
+    """Files that only decorate a figure (GPS dots, curves, sigma lines) do not skip it."""
+    folder = make_drop_folder(tmp_path / "fit")
+    for name in ("gps_fixes.csv", "cm_curves.csv", "imu_sigma.json"):
+        (folder / name).unlink()
+    notes: list[str] = []
+    assert len(draw_figures(folder, notes)) == len(DROP_FIGURES) and notes == []
+
+
+@pytest.mark.parametrize("required", ["summary.json", "trajectory.csv"])
+def test_not_a_results_folder_names_the_missing_file(tmp_path, required):
+    folder = make_drop_folder(tmp_path / "fit")
+    (folder / required).unlink()
+    with pytest.raises(FileNotFoundError, match=required):
+        draw_figures(folder)
+
+
+def test_empty_or_absent_folder_raises(tmp_path):
+    with pytest.raises(FileNotFoundError, match="summary.json"):
+        draw_figures(tmp_path)
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        draw_figures(tmp_path / "nowhere")
+
+
+def test_joint_folder_draws_each_drop_and_the_top_correlation(tmp_path, no_render):
+    top = tmp_path / "joint"
+    no_render.append(top / "figures")
+    for name in ("ees-drop-1", "ees-drop-3"):
+        make_drop_folder(top / "drops" / name, name=name, n=120)
+    shared = ["CA_mult", "Cm_add"] + [f"{d}.wind_bias_n" for d in ("ees-drop-1", "ees-drop-3")]
+    (top / "parameters.json").write_text(json.dumps(_parameters(shared)))
+    (top / "summary.json").write_text(json.dumps({"drops": ["ees-drop-1", "ees-drop-3"]}))
+    notes: list[str] = []
+    paths = draw_figures(top, notes)
+    assert notes == []
+    for name in ("ees-drop-1", "ees-drop-3"):
+        figs = {p.stem for p in paths if p.parent == top / "drops" / name / "figures"}
+        assert figs == set(DROP_FIGURES) - {"correlation"}
+    assert top / "figures" / "correlation.png" in paths
+    for path in paths:
+        assert path.is_file()
+    assert_png(top / "figures" / "correlation.png")
