@@ -120,19 +120,36 @@ def test_every_figure_of_a_drop_is_a_png(tmp_path):
         assert_png(path)
 
 
-@pytest.mark.parametrize("missing, figure", [
-    ("reconciled.csv", "reconciled"), ("pitching_moment.csv", "pitching_moment"),
-    ("residuals_imu.csv", "residuals_imu"), ("residuals_gps.csv", "residuals_gps"),
-    ("parameters.json", "correlation")])
-def test_missing_optional_file_skips_only_its_figure(tmp_path, caplog, no_render, missing, figure):
+OPTIONAL = {"reconciled.csv": "reconciled", "pitching_moment.csv": "pitching_moment",
+            "residuals_imu.csv": "residuals_imu", "residuals_gps.csv": "residuals_gps",
+            "parameters.json": "correlation"}
+
+
+def test_missing_optional_file_skips_only_its_figure(tmp_path, caplog, no_render):
     folder = make_drop_folder(tmp_path / "fit")
-    (folder / missing).unlink()
+    (folder / "reconciled.csv").unlink()
     notes: list[str] = []
     with caplog.at_level(logging.WARNING):
         paths = draw_figures(folder, notes)
-    assert {p.stem for p in paths} == set(DROP_FIGURES) - {figure}
-    assert len(notes) == 1 and missing in notes[0] and figure in notes[0]
-    assert missing in caplog.text
+    assert {p.stem for p in paths} == set(DROP_FIGURES) - {"reconciled"}
+    assert len(notes) == 1 and "reconciled.csv" in notes[0] and "reconciled" in notes[0]
+    assert "reconciled.csv" in caplog.text
+
+
+def test_each_missing_optional_file_is_noted(tmp_path, no_render):
+    folder = make_drop_folder(tmp_path / "fit")
+    for name in OPTIONAL:
+        (folder / name).unlink()
+    notes: list[str] = []
+    paths = draw_figures(folder, notes)
+    assert {p.stem for p in paths} == set(DROP_FIGURES) - set(OPTIONAL.values())
+    assert len(notes) == len(OPTIONAL)
+    for (name, figure), note in zip(OPTIONAL.items(), sorted(notes, key=_note_order), strict=True):
+        assert name in note and figure in note
+
+
+def _note_order(note: str) -> int:
+    return next(k for k, name in enumerate(OPTIONAL) if name in note)
 
 
 def test_missing_decorations_still_draw(tmp_path, no_render):
