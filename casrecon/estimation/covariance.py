@@ -76,7 +76,7 @@ def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_quat: int = 1) -> np.
     indep = np.setdiff1d(np.arange(n_z), dep)
     a_def = a[:n_def]
     a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].toarray()
-    n_basis = null_space(a[n_def:, indep].toarray())
+    n_basis = null_space(a[n_def:, indep].toarray()) if n_quat else np.eye(indep.size)
     z_dep = -splu(a_d).solve(a_i @ n_basis)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
@@ -97,7 +97,7 @@ def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Cov
     d.evaluate(z)
     h_upper = _to_scipy(d.gauss_newton(z))
     h = h_upper + sps.triu(h_upper, 1).T
-    basis = null_space_basis(a, nlp.dependent_columns(), len(nlp.parts))
+    basis = null_space_basis(a, nlp.dependent_columns(), nlp.derivatives.quat_cols.shape[0])
     hr = basis.T @ (h @ basis)
     hr = 0.5 * (hr + hr.T)
     eig, vec = np.linalg.eigh(hr)

@@ -44,10 +44,15 @@ class DropPart:
     defect_offset: int
     imu_blocks: ImuBlocks | None = None
     groups: dict = field(default_factory=dict)
+    state_scale: np.ndarray = field(default_factory=lambda: STATE_SCALE)
+
+    @property
+    def n_states(self) -> int:
+        return self.state_scale.size
 
     @property
     def n_state_vars(self) -> int:
-        return NS * self.mesh.t_nodes.size
+        return self.n_states * self.mesh.t_nodes.size
 
     @property
     def node_cols(self) -> np.ndarray:
@@ -59,7 +64,7 @@ class DropPart:
 
     def states(self, z: np.ndarray) -> np.ndarray:
         """Node states (K, 13), SI."""
-        return np.asarray(z)[self.node_cols].reshape(-1, NS) * STATE_SCALE
+        return np.asarray(z)[self.node_cols].reshape(-1, self.n_states) * self.state_scale
 
     def values(self, z: np.ndarray) -> np.ndarray:
         """The drop's parameter values (SI) in ``params`` order."""
@@ -113,7 +118,7 @@ class FitNlp:
 
     def dependent_columns(self) -> np.ndarray:
         """z indices fixed by the defects given the first node of each drop and the parameters."""
-        return np.concatenate([p.node_cols[NS:] for p in self.parts])
+        return np.concatenate([p.node_cols[p.n_states:] for p in self.parts])
 
     def unpack(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per-drop fit: node states (K, 13) and parameter values, SI."""
@@ -121,7 +126,8 @@ class FitNlp:
 
     def pack(self, states: np.ndarray, values: np.ndarray) -> np.ndarray:
         """Per-drop fit: scaled z from node states (K, 13) and parameter values (SI)."""
-        return np.concatenate([(states / STATE_SCALE).ravel(), np.asarray(values) / self.params.scales])
+        part = self.parts[0]
+        return np.concatenate([(states / part.state_scale).ravel(), np.asarray(values) / part.params.scales])
 
 
 @dataclass
@@ -133,6 +139,7 @@ class _BlockSet:
     cols: np.ndarray
     data: list
     g_rows: np.ndarray | None = None
+    group: str = ""
 
     def __post_init__(self) -> None:
         n = self.cols.shape[0]
@@ -308,17 +315,22 @@ def drop_block_sets(model: FlightModel, data: FitData, part: DropPart, cfg) -> l
                 ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T), ca.DM(1.0 / data.gps_sigma.T)]
     sets = [_BlockSet(_interval_kind(model, mesh, params, un), node_cols(np.arange(n_int)),
                       [ca.DM(part.imu_blocks.d), ca.DM(part.imu_blocks.R)],
-                      part.defect_offset + NS * np.arange(n_int)),
-            _BlockSet(_gps_kind(model, mesh, params, un), node_cols(kfix), gps_data)]
-    prior_kind, prior_groups = _prior_kind(params)
-    if prior_kind is not None:
-        sets.append(_BlockSet(prior_kind, part.theta_cols[None, :], []))
-        part.groups = prior_groups
-    return sets
+                      part.defect_offset + NS * np.arange(n_int), "imu"),
+            _BlockSet(_gps_kind(model, mesh, params, un), node_cols(kfix), gps_data, group="gps")]
+    return sets + prior_block_sets(part)
+
+
+def prior_block_sets(part: DropPart) -> list[_BlockSet]:
+    """The prior block of a drop's parameters (empty when no prior is on)."""
+    prior_kind, prior_groups = _prior_kind(part.params)
+    if prior_kind is None:
+        return []
+    part.groups = prior_groups
+    return [_BlockSet(prior_kind, part.theta_cols[None, :], [], group="prior")]
 
 
 def assemble_nlp(parts: list[DropPart], sets_per_part: list[list[_BlockSet]], n_z: int,
-                 hessian: str = "gauss-newton", prefix_groups: bool = False) -> FitNlp:
+                 hessian: str = "gauss-newton", prefix_groups: bool = False, quaternions: bool = True) -> FitNlp:
     """Residuals, constraints and derivatives of the NLP made of every drop's blocks.
 
     Constraint rows: every drop's defects (drop after drop), then one quaternion-norm row per drop.
@@ -329,7 +341,8 @@ def assemble_nlp(parts: list[DropPart], sets_per_part: list[list[_BlockSet]], n_
     for part, sets in zip(parts, sets_per_part):
         pre = f"{part.name}/" if prefix_groups else ""
         prior_groups, part.groups = part.groups, {}
-        for bs, name in zip(sets, ("imu", "gps", "prior")):
+        for bs in sets:
+            name = bs.group
             n_b = bs.cols.shape[0]
             local = ca.reshape(z[bs.cols.ravel().tolist()], bs.kind.n_local, n_b)
             fn = bs.kind.values.map(n_b, "thread", 2) if n_b > 1 else bs.kind.values
@@ -344,7 +357,8 @@ def assemble_nlp(parts: list[DropPart], sets_per_part: list[list[_BlockSet]], n_
             start += r.numel()
             if len(out) > 1:
                 defects.append(ca.vec(out[1]))
-    quat_cols = np.array([p.node_offset + np.arange(6, 10) for p in parts])
+    quat_cols = np.array([p.node_offset + np.arange(6, 10) for p in parts] if quaternions else [],
+                         np.int64).reshape(-1, 4)
     quats = [ca.dot(z[c.tolist()], z[c.tolist()]) - 1 for c in quat_cols]
     constraints = ca.vertcat(*defects, *quats)
     all_sets = [bs for sets in sets_per_part for bs in sets]
