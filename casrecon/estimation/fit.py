@@ -75,8 +75,9 @@ def _chi2(nlp: FitNlp, part: DropPart, r: np.ndarray) -> tuple[dict[str, float],
         key = g.split("/")[-1]
         chi2[key] = float(r[s] @ r[s])
         counts[key] = s.stop - s.start
-    chi2["imu"] += float(part.imu_blocks.const_chi2.sum())
-    counts["imu"] = int(part.imu_blocks.n_used.sum())
+    if part.imu_blocks is not None:
+        chi2["imu"] += float(part.imu_blocks.const_chi2.sum())
+        counts["imu"] = int(part.imu_blocks.n_used.sum())
     return chi2, counts
 
 
@@ -147,8 +148,9 @@ def check_converged(sol: SolveResult) -> None:
 
 def covariance_or_fail(nlp: FitNlp, z: np.ndarray, r: np.ndarray) -> Covariance:
     """KKT covariance; FitError when singular. chi2 includes the IMU compression constants."""
-    chi2 = float(r @ r) + sum(float(p.imu_blocks.const_chi2.sum()) for p in nlp.parts)
-    n_meas = r.size + sum(int(p.imu_blocks.n_used.sum()) - p.groups_size("imu") for p in nlp.parts)
+    imu = [p for p in nlp.parts if p.imu_blocks is not None]
+    chi2 = float(r @ r) + sum(float(p.imu_blocks.const_chi2.sum()) for p in imu)
+    n_meas = r.size + sum(int(p.imu_blocks.n_used.sum()) - p.groups_size("imu") for p in imu)
     dof = n_meas - (nlp.z.numel() - nlp.constraints.numel())
     try:
         return compute_covariance(nlp, z, chi2, dof)
