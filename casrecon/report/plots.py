@@ -230,11 +230,14 @@ def plot_pitching_moment(drop: DropFolder, out: Path) -> Path:
     fig, axes = _new_figure(1, 1, (9, 6.5))
     ax = axes[0, 0]
     pts = ax.scatter(pm["alpha_deg"][keep], pm["cm_recon"][keep], c=drop.flight_time(
-        pm["time_imu_s"][keep]), cmap="viridis", s=12, label=f"reconstructed ({keep.sum()} nodes)")
+        pm["time_imu_s"][keep]), cmap="viridis", s=12, zorder=2, label=f"reconstructed ({keep.sum()} nodes)")
     fig.colorbar(pts, ax=ax, label="flight time since release, s")
     if curves is not None:
-        ax.plot(curves["alpha_deg"], curves["cm_nominal"], "k--", lw=1.5, label="nominal database")
-        ax.plot(curves["alpha_deg"], curves["cm_fitted"], color="C3", lw=2, label="best-fit dispersed")
+        # fitted under the points, nominal dashed on top: both stay visible when they coincide
+        ax.plot(curves["alpha_deg"], curves["cm_fitted"], color="C3", lw=2.5, zorder=1.5,
+                label="best-fit dispersed")
+        ax.plot(curves["alpha_deg"], curves["cm_nominal"], "k--", lw=1.3, zorder=3,
+                label="nominal database")
     ax.axhline(0, color="0.5", lw=0.8)
     ax.axvline(0, color="0.5", lw=0.8)
     ax.set_xlabel("angle of attack alpha, deg")
@@ -264,34 +267,45 @@ def _reconciled_text(summary: dict) -> str:
 
 
 def plot_reconciled(drop: DropFolder, out: Path) -> Path:
-    """Reconstruction against the reconciled forward simulation: altitude AGL (m), speed (m/s) and
-    total angle of attack (deg) against flight time (s) (left), and simulation minus reconstruction
-    at the reconstruction's nodes (right, the curves overlay); a text box gives the differences."""
+    """Reconstruction against the reconciled forward simulation: altitude AGL (m), speed (m/s),
+    total angle of attack (deg) and, if reconciled.csv has it, roll rate (deg/s) against flight time
+    (s) (left; the nominal-database simulation of nominal.csv dotted if present), and fitted
+    simulation minus reconstruction at the nodes (right); a text box gives the differences."""
     sim = drop.csv("reconciled.csv")
+    try:
+        nominal = drop.csv("nominal.csv")
+    except MissingInput:
+        nominal = None
     tr = drop.traj
     t = tr["flight_time_s"]
-    recon = (tr["h_agl_m"], _speed(tr["vel_n_mps"], tr["vel_e_mps"], tr["vel_d_mps"]),
-             tr["alpha_t_deg"])
+    recon = {"h_agl_m": tr["h_agl_m"], "alpha_t_deg": tr["alpha_t_deg"], "p_dps": tr["p_dps"],
+             "speed_mps": _speed(tr["vel_n_mps"], tr["vel_e_mps"], tr["vel_d_mps"])}
     inside = (t >= sim["flight_time_s"].min()) & (t <= sim["flight_time_s"].max())
-    fig, axes = _new_figure(3, 2, (14, 9.5))
-    rows = (("h_agl_m", "altitude AGL", "m"), ("speed_mps", "speed (inertial)", "m/s"),
-            ("alpha_t_deg", "total angle of attack", "deg"))
-    for k, ((col, label, unit), y) in enumerate(zip(rows, recon, strict=True)):
+    rows = [("h_agl_m", "altitude AGL", "m"), ("speed_mps", "speed (inertial)", "m/s"),
+            ("alpha_t_deg", "total angle of attack", "deg")]
+    if "p_dps" in sim:
+        rows.append(("p_dps", "roll rate p", "deg/s"))
+    fig, axes = _new_figure(len(rows), 2, (14, 3.2 * len(rows)))
+    for k, (col, label, unit) in enumerate(rows):
         ax, ad = axes[k]
+        y = recon[col]
         ax.plot(t, y, color=RECON_COLOR, lw=1.5, label="reconstruction")
         ax.plot(sim["flight_time_s"], sim[col], color=SIM_COLOR, lw=1.0, ls="--",
-                label="reconciled simulation")
+                label="simulation, fitted dispersions")
+        if nominal is not None and col in nominal:
+            ax.plot(nominal["flight_time_s"], nominal[col], color="0.45", lw=1.0, ls=":",
+                    label="simulation, nominal database")
         ax.set_ylabel(f"{label}, {unit}")
-        ax.legend(fontsize=8, loc="upper right")
+        ax.legend(fontsize=8, loc="best")
         diff = np.interp(t[inside], sim["flight_time_s"], sim[col]) - y[inside]
-        ad.plot(t[inside], diff, color="C4", lw=1.0, label="simulation - reconstruction")
+        ad.plot(t[inside], diff, color="C4", lw=1.0, label="fitted simulation - reconstruction")
         ad.axhline(0, color="0.4", lw=0.8)
         ad.set_ylabel(f"{label} difference, {unit}")
-        ad.legend(fontsize=8, loc="upper left")
+        ad.legend(fontsize=8, loc="best")
     for ax in axes[-1]:
         ax.set_xlabel("flight time since release, s")
     axes[0, 0].set_title("reconstruction and simulation")
-    axes[0, 1].set_title("simulation minus reconstruction (interpolated to the nodes)")
+    axes[0, 1].set_title("fitted simulation minus reconstruction (at the nodes)")
     axes[0, 0].text(0.02, 0.05, _reconciled_text(drop.summary), transform=axes[0, 0].transAxes,
                     fontsize=8.5, va="bottom", bbox=dict(boxstyle="round", fc="white", ec="0.6"))
     fig.suptitle(f"{drop.name}: reconstruction vs forward simulation with the fitted dispersions")
@@ -315,12 +329,17 @@ def plot_residuals_imu(drop: DropFolder, out: Path) -> Path:
         scale, unit = (np.degrees(1.0), "deg/s") if gyro else (1.0, "m/s^2")
         r = res[f"{ch}_residual"] * scale
         used = res.get(f"{ch}_used", np.ones_like(r)) > 0.5
+        sig = float(sigma[ch]) * scale if ch in sigma else None
+        lim = _residual_limit(r[used], sig)
         ax.plot(t[used], r[used], ".", ms=1.5, color="C0", alpha=0.6,
                 label=f"used in the fit ({used.sum()})")
-        ax.plot(t[~used], r[~used], "x", ms=3, color=MASK_COLOR,
-                label=f"masked, not fitted ({(~used).sum()})")
-        if ch in sigma:
-            _sigma_lines(ax, t[[0, -1]] if t.size else t, float(sigma[ch]) * scale)
+        beyond = int((np.abs(r[~used]) > lim).sum())
+        ax.plot(t[~used], np.clip(r[~used], -lim, lim), "x", ms=3, color=MASK_COLOR,
+                label=f"masked, not fitted ({(~used).sum()}"
+                      + (f"; {beyond} beyond the axis, drawn at its edge)" if beyond else ")"))
+        if sig is not None:
+            _sigma_lines(ax, t[[0, -1]] if t.size else t, sig)
+        ax.set_ylim(-lim, lim)
         ax.set_ylabel(f"{ch} residual, {unit}")
         ax.legend(fontsize=7, loc="upper right", markerscale=3)
     for ax in axes[-1]:
@@ -329,6 +348,14 @@ def plot_residuals_imu(drop: DropFolder, out: Path) -> Path:
     axes[0, 1].set_title("angular rate (gyros)")
     fig.suptitle(f"{drop.name}: IMU residuals, measured minus model")
     return _save(fig, out / "residuals_imu.png")
+
+
+def _residual_limit(used: np.ndarray, sigma: float | None) -> float:
+    """Symmetric y-limit of a residual panel from the fitted samples only (so masked outliers such
+    as clipped gyro samples do not squash the scale): 10 % above max(|used|, 3.5 sigma)."""
+    big = float(np.max(np.abs(used))) if used.size else 0.0
+    big = max(big, 3.5 * sigma if sigma else 0.0)
+    return 1.1 * big if big > 0 else 1.0
 
 
 def plot_residuals_gps(drop: DropFolder, out: Path) -> Path:

@@ -74,9 +74,10 @@ def make_drop_folder(folder: Path, name: str = "synthetic-drop", n: int = 200) -
     _write_csv(folder / "cm_curves.csv", {"alpha_deg": a, "cm_nominal": -0.0025 * a,
                                           "cm_fitted": -0.002 * a})
     ts = np.linspace(ft[0], ft[-1] + 0.1, 3 * n)
-    _write_csv(folder / "reconciled.csv", {"flight_time_s": ts, "h_agl_m": 400 - 35 * ts,
-                                           "speed_mps": 35 + 0 * ts,
-                                           "alpha_t_deg": np.interp(ts, ft, np.abs(alpha))})
+    sim = {"flight_time_s": ts, "h_agl_m": 400 - 35 * ts, "speed_mps": 35 + 0 * ts,
+           "alpha_t_deg": np.interp(ts, ft, np.abs(alpha)), "p_dps": np.sin(ts)}
+    _write_csv(folder / "reconciled.csv", sim)
+    _write_csv(folder / "nominal.csv", {**sim, "speed_mps": 36 + 0 * ts})
     (folder / "summary.json").write_text(json.dumps({
         "problem": name, "release_imu_s": RELEASE_IMU_S,
         "reconciled": {"flight_time_difference_s": 0.1, "impact_speed_difference_mps": -0.2}}))
@@ -153,9 +154,10 @@ def _note_order(note: str) -> int:
 
 
 def test_missing_decorations_still_draw(tmp_path, no_render):
-    """Files that only decorate a figure (GPS dots, curves, sigma lines) do not skip it."""
+    """Files that only decorate a figure (GPS dots, C_m curves, sigma lines, nominal simulation)
+    do not skip it."""
     folder = make_drop_folder(tmp_path / "fit")
-    for name in ("gps_fixes.csv", "cm_curves.csv", "imu_sigma.json"):
+    for name in ("gps_fixes.csv", "cm_curves.csv", "imu_sigma.json", "nominal.csv"):
         (folder / name).unlink()
     notes: list[str] = []
     assert len(draw_figures(folder, notes)) == len(DROP_FIGURES) and notes == []
