@@ -492,4 +492,5 @@ def _joint_title(results_dir: Path, drops: list[Path]) -> str:
     except (MissingInput, ValueError):
         summary = {}
     name = summary.get("problem") or summary.get("name")
-    return str(name) if name else "joint fit (" + ", ".join(p.name for p in drops) + ")"
+    listed = "drops " + ", ".join(p.name for p in drops)
+    return f"joint fit {name!s} ({listed})" if name else f"joint fit ({listed})"
