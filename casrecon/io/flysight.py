@@ -145,7 +145,14 @@ def read_flysight(path: str | Path) -> GpsTrack:
         On any malformed content (see the module docstring for the rules: missing column,
         unknown unit, truncated row, unparseable / NaN / infinite number, time going
         backwards, duplicated timestamp), located by line and column. A FlySight 2
-        ``SENSOR.CSV`` is recognised and refused as not yet supported.
+        ``SENSOR.CSV`` is recognised and refused (it holds no track: read it with
+        :func:`casrecon.io.sensor.read_flysight2_sensor`).
+
+    Notes
+    -----
+    NaN, inf and blank values are errors (``numSV`` may be blank: -1); duplicated and
+    backwards timestamps are errors; gaps are kept as recorded (``casrecon inspect``
+    reports them); an unknown unit in the units row is an error.
     """
     lines = read_lines(path, require_final_newline=True)
     while lines and not lines[-1].strip():
@@ -188,8 +195,8 @@ def _read_fs2(path: str | Path, lines: list[str]) -> GpsTrack:
             break
     if header is None:
         if {"IMU", "BARO"} & set(kinds):
-            raise InputError(path, "FlySight 2 SENSOR.CSV: not yet supported (only the GNSS "
-                             "track TRACK.CSV is read)")
+            raise InputError(path, "FlySight 2 SENSOR.CSV holds no GNSS track; read it with "
+                             "casrecon.io.sensor.read_flysight2_sensor")
         raise InputError(path, "FlySight 2 file without a '$COL,GNSS,...' header line",
                          field="$COL,GNSS")
     if data_at is None:

@@ -21,9 +21,10 @@ from casrecon.io._csvtools import read_lines
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
 from casrecon.io.imu import ImuCsvSpec, ImuLog, read_imu_csv
+from casrecon.io.sensor import SensorLog, is_flysight2_sensor, read_flysight2_sensor
 from casrecon.io.sounding import Sounding, detect_sounding_format, igra2_launches, read_sounding
 
-SUPPORTED = ("FlySight 1 CSV, FlySight 2 TRACK.CSV, University of Wyoming TEXT:CSV or "
+SUPPORTED = ("FlySight 1 CSV, FlySight 2 TRACK.CSV and SENSOR.CSV, University of Wyoming TEXT:CSV or "
              "TEXT:LIST sounding, IGRA2 v2 sounding, plain sounding CSV "
              "(altitude_msl_m,pressure_pa,...), IMU CSV (time_s,ax,ay,az,wx,wy,wz or "
              "ts,...,Ax,Ay,Az,Gx,Gy,Gz)")
@@ -59,6 +60,8 @@ def inspect_file(path: str | Path) -> str:
     lines = read_lines(path)
     first = lines[0].strip() if lines else ""
     header = [h.strip() for h in first.split(",")]
+    if is_flysight2_sensor(lines):
+        return _report_sensor(read_flysight2_sensor(path))
     if first.startswith("$FLYS") or ("time" in header and "lat" in header):
         return _report_gps(read_flysight(path), lines)
     if detect_sounding_format(lines) is not None:
@@ -156,6 +159,32 @@ def _report_sounding(s: Sounding, lines: list[str]) -> str:
                 f"; TRUNCATED: {info.present_levels} of {info.declared_levels} levels present")
             out.append(f"launch {k}: {info.description}, line {info.line}, "
                        f"{info.declared_levels} levels{note}")
+    return "\n".join(out)
+
+
+def _report_sensor(s: SensorLog) -> str:
+    c = s.clock_fit
+    base = "UTC" if c.leap_seconds == 0 else f"GPS, minus {c.leap_seconds} leap seconds"
+    out = [f"{s.path}: FlySight 2 sensor log (SENSOR.CSV)",
+           "rows: " + ", ".join(f"{k} {n}" for k, n in s.row_counts.items())
+           + (f" (skipped: {', '.join(s.skipped_rows)})" if s.skipped_rows else ""),
+           f"clock fit ($TIME rows, time base {base}): {c.n_rows} rows, drift "
+           f"{c.drift_ppm:+.3f} ppm, residual RMS {c.residual_rms_s * 1e3:.3f} ms (max "
+           f"{c.max_residual_s * 1e3:.3f} ms)"]
+    for name, t in (("IMU", s.imu_time_unix_s), ("BARO", s.baro_time_unix_s)):
+        if t.size:
+            out.append(f"{name} time: {iso_utc(t[0])} to {iso_utc(t[-1])} UTC ({_span(t)})")
+            out.append(f"{name} " + _gaps(t, lambda x: f"at {iso_utc(x)}"))
+        else:
+            out.append(f"{name}: no rows")
+    if s.baro_pressure_pa.size:
+        out.append(f"pressure: {s.baro_pressure_pa.min():.0f} to {s.baro_pressure_pa.max():.0f} "
+                   f"Pa; sensor temperature {s.baro_temperature_k.min():.1f} to "
+                   f"{s.baro_temperature_k.max():.1f} K")
+    if s.imu_accel_mps2.size:
+        out.append(f"IMU |accel| max {np.linalg.norm(s.imu_accel_mps2, axis=1).max():.2f} m/s^2, "
+                   f"|gyro| max {np.degrees(np.linalg.norm(s.imu_gyro_radps, axis=1)).max():.1f} "
+                   "deg/s")
     return "\n".join(out)
 
 

@@ -81,8 +81,8 @@ def test_fs2_track_reads_crlf():
     assert g.vel_d_mps.max() == pytest.approx(132.08)
 
 
-def test_fs2_sensor_file_refused_as_not_supported():
-    with pytest.raises(InputError, match="SENSOR.CSV: not yet supported") as exc:
+def test_fs2_sensor_file_refused_as_not_a_track():
+    with pytest.raises(InputError, match="SENSOR.CSV holds no GNSS track") as exc:
         read_flysight(SENSOR)
     assert_located(exc.value, SENSOR)
 

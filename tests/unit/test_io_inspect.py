@@ -33,9 +33,14 @@ def test_fs2_report_gap_and_cold_start():
     assert "largest 623.3 s" in r  # logging paused for about ten minutes on the ride up
 
 
-def test_sensor_csv_recognised_but_refused():
-    with pytest.raises(InputError, match="FlySight 2 SENSOR.CSV: not yet supported"):
-        inspect_file(SENSOR)
+def test_sensor_csv_report():
+    r = inspect_file(SENSOR)
+    assert "FlySight 2 sensor log" in r
+    assert "IMU 29745" in r and "BARO 22937" in r and "TIME 1590" in r
+    assert "skipped: MAG, HUM, VBAT" in r
+    assert "1590 rows, drift +3.302 ppm, residual RMS 0.319 ms" in r
+    assert "IMU time: 2024-09-17T18:56:26.143Z to 2024-09-17T19:34:23.933Z UTC" in r
+    assert "12.99 Hz" in r and "10.1 Hz" in r
 
 
 @pytest.mark.parametrize("name,kind", [
