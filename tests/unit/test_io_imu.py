@@ -178,3 +178,90 @@ def test_garbage(tmp_path, content):
     with pytest.raises(InputError) as exc:
         read_imu_csv(f)
     assert_located(exc.value, f)
+
+
+# ---------------------------------------------------------------- axes, blocks, large files
+@pytest.mark.parametrize("axes,expected", [
+    ("x,-z,y", [[1, 0, 0], [0, 0, -1], [0, 1, 0]]),
+    ("-y,x,z", [[0, -1, 0], [1, 0, 0], [0, 0, 1]]),
+    (((0, 1, 0), (-1, 0, 0), (0, 0, 1)), [[0, 1, 0], [-1, 0, 0], [0, 0, 1]])])
+def test_axes_rotation_applied_on_read(tmp_path, axes, expected):
+    f = tmp_path / "imu.csv"
+    f.write_text(HEADER + "\n0,1,2,3,4,5,6\n0.1,1,2,3,4,5,6\n")
+    spec = ImuCsvSpec(axes=axes, accel_limits=((-2.5, 2.5), (-10, 10), (-10, 10)))
+    m = read_imu_csv(f, spec)
+    R = np.array(expected, dtype=float)
+    np.testing.assert_allclose(m.accel_mps2[0], R @ [1, 2, 3])
+    np.testing.assert_allclose(m.gyro_radps[0], R @ [4, 5, 6])
+    # file ay = 2 is within limits, file ax = 1 too: no flags; file column 'ay' saturated
+    # moves to the IMU axis the rotation puts it on
+    assert not m.accel_saturated.any()
+    m2 = read_imu_csv(f, ImuCsvSpec(axes=axes, accel_limits=((-5, 5), (-2, 2), (-5, 5))))
+    np.testing.assert_array_equal(m2.accel_saturated[0], np.abs(R[:, 1]) > 0)
+
+
+@pytest.mark.parametrize("axes,match", [("x,y", "three"), ("x,x,z", "once"), ("x,y,-z", "reflection"),
+                                        ("x,y,w", "three"), (((1, 0), (0, 1)), "3x3"),
+                                        (((1, 0.1, 0), (0, 1, 0), (0, 0, 1)), "orthonormal"),
+                                        (((-1, 0, 0), (0, 1, 0), (0, 0, 1)), "reflection")])
+def test_axes_validation(axes, match):
+    with pytest.raises(ValueError, match=match):
+        ImuCsvSpec(axes=axes)
+
+
+def test_rocket_log_with_axes_spec():
+    spec = ImuCsvSpec(time_column="ts", accel_columns=("Ax", "Ay", "Az"),
+                      gyro_columns=("Gx", "Gy", "Gz"), gyro_unit="deg/s", axes="-y,x,z")
+    m, ref = read_imu_csv(ROCKET, spec), read_imu_csv(ROCKET, ROCKET_SPEC)
+    np.testing.assert_allclose(m.accel_mps2[:, 0], -ref.accel_mps2[:, 1])
+    np.testing.assert_allclose(m.gyro_radps[:, 1], ref.gyro_radps[:, 0])
+
+
+@pytest.mark.parametrize("chunk", [17, 64, 1000])
+@pytest.mark.parametrize("case", sorted(BREAKS))
+def test_small_blocks_give_the_same_errors(tmp_path, case, chunk):
+    edit, line, field = BREAKS[case]
+    f = tmp_path / "bad_imu.csv"
+    f.write_text("\n".join(edit(list(GOOD))) + "\n")
+    with pytest.raises(InputError) as exc:
+        read_imu_csv(f, chunk_bytes=chunk)
+    assert_located(exc.value, f, line, field)
+
+
+def test_two_hundred_thousand_rows_blockwise(tmp_path):
+    n = 200_000
+    rng = np.random.default_rng(7)
+    t = np.arange(n) / 50_000.0
+    a, w = rng.normal(0, 20, (n, 3)), rng.normal(0, 3, (n, 3))
+    f = tmp_path / "raw.csv"
+    write_imu_csv(f, t, a, w)
+    text = f.read_text().splitlines()
+    text[12345] = text[12345].replace(",", ",+", 1)  # a '+' sign: still the fast path
+    f.write_text("\r\n".join(text) + "\r\n")          # CRLF
+    m = read_imu_csv(f, chunk_bytes=1 << 16)
+    assert m.n == n
+    np.testing.assert_array_equal(m.time_s, np.array([float(f"{x:.15g}") for x in t]))
+    np.testing.assert_allclose(m.accel_mps2, a, rtol=1e-8)
+    np.testing.assert_allclose(m.gyro_radps, w, rtol=1e-8)
+    text[150000] = text[150000].replace(",", ",nan", 1)
+    f.write_text("\n".join(text) + "\n")
+    with pytest.raises(InputError) as exc:
+        read_imu_csv(f, chunk_bytes=1 << 16)
+    assert_located(exc.value, f, 150001, "ax")
+
+
+def test_fast_parser_matches_python_float():
+    from casrecon.io._csvtools import parse_numeric_block
+
+    cells = ["1", "-2.5", "+3e2", "4.e-3", ".5", "-0", "123456789012345", "1E22", "9.99e-20",
+             "0.1", "6.02214076e+23", "1.7976931348623157e308"]
+    rows = [cells[k:k + 3] for k in range(0, len(cells), 3)]
+    block = "".join(",".join(r) + "\n" for r in rows).encode()
+    got = parse_numeric_block(block, 3)
+    assert got is None  # 17 significant digits / exponent beyond 22: slow path
+    block = "".join(",".join(r) + "\n" for r in rows[:3]).encode()
+    got = parse_numeric_block(block, 3)
+    np.testing.assert_array_equal(got, [[float(c) for c in r] for r in rows[:3]])
+    for bad in [b"1,2,1.2.3\n", b"1,2,e5\n", b"1,2,1e\n", b"1,2,1-2\n", b"1,2,-\n", b"1,2,.\n",
+                b"1,2,1e5.3\n", b"1,2,\n", b"1,2\n", b"1,2,--1\n", b"1,2,nan\n", b"1,2,0x1\n"]:
+        assert parse_numeric_block(bad, 3) is None, bad
