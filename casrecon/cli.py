@@ -82,6 +82,8 @@ def _fit(args: argparse.Namespace) -> int:
     with atomic_folder(args.out) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         write_fit_results(out, result, report, fit_tables(result))
+        if not args.no_figures:
+            _figures(out)
     if not args.quiet:
         print(report)
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
@@ -115,8 +117,31 @@ def _joint(args: argparse.Namespace) -> int:
     with atomic_folder(args.out) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         write_joint_results(out, result, single)
+        if not args.no_figures:
+            _figures(out)
         print((out / "tables.md").read_text())
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
+    return 0
+
+
+def _figures(folder: Path) -> list[Path]:
+    from casrecon.report.plots import draw_figures
+
+    notes: list[str] = []
+    paths = draw_figures(folder, notes)
+    for note in notes:
+        print(f"casrecon: figure skipped: {note}", file=sys.stderr)
+    return paths
+
+
+def _report(args: argparse.Namespace) -> int:
+    folder = Path(args.results)
+    try:
+        paths = _figures(folder)
+    except FileNotFoundError as err:
+        print(f"casrecon: {err}", file=sys.stderr)
+        return 2
+    print(f"{len(paths)} figures -> {folder}")
     return 0
 
 
@@ -143,6 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: [estimation] hessian)")
     p.add_argument("--quiet", action="store_true", help="do not print the fit report")
+    p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
     p.set_defaults(func=_fit)
     p = sub.add_parser("joint", help="joint aero fit of several drops sharing the dispersion factors")
@@ -153,10 +179,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--per-drop", nargs="*", default=[], help="dispersion factors each drop estimates for itself")
     p.add_argument("--fixed", nargs="*", default=[], help="dispersion factors held at 0")
     p.add_argument("--no-single", action="store_true", help="skip the single-drop fits of the sigma comparison")
+    p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
     p.add_argument("--linear-solver", choices=("mumps", "spral"), default="mumps")
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default="gauss-newton")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
     p.set_defaults(func=_joint)
+    p = sub.add_parser("report", help="(re)draw the figures of a fit or joint results folder")
+    p.add_argument("results", help="results folder written by casrecon fit or casrecon joint")
+    p.set_defaults(func=_report)
     return parser
 
 

@@ -29,12 +29,12 @@ class Scenario:
     model: FlightModel
 
     @classmethod
-    def load(cls, path: str | Path) -> "Scenario":
+    def load(cls, path: str | Path) -> Scenario:
         """Parse ``problem.toml`` (file or folder) and build the model."""
         return cls.from_config(load_problem(path))
 
     @classmethod
-    def from_config(cls, config: ProblemConfig) -> "Scenario":
+    def from_config(cls, config: ProblemConfig) -> Scenario:
         sounding = read_sounding(config.atmosphere.sounding, launch=config.atmosphere.launch)
         atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m)
         model = FlightModel(config.vehicle, config.aero, atmosphere, config.site, config.dynamics)

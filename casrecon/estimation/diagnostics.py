@@ -13,7 +13,7 @@ from scipy.signal import savgol_filter
 
 from casrecon.analysis.simulate import Simulator
 from casrecon.estimation.problem import _imu_sigma, _Unscale
-from casrecon.estimation.transcription import IMU_TAU, interval_function, lagrange_matrix
+from casrecon.estimation.transcription import D_OFFSETS, R_OFFSETS, channel_bases, interval_function
 from casrecon.physics.aero import DISPERSION_NAMES
 
 IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
@@ -35,10 +35,11 @@ def imu_residuals(result) -> dict[str, np.ndarray]:
     n, k = mesh.n_intervals, mesh.samples_per_interval
     f = interval_function(model, mesh.h).map(n, "thread", 2)
     x = result.states.T
-    zeros_d, zeros_r = np.zeros((24, n)), np.zeros((96, n))
-    m4 = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n), zeros_d, zeros_r)[2])
-    blocks = m4.reshape(6, n, len(IMU_TAU))  # channel, interval, point
-    pred = np.einsum("sj,cij->isc", lagrange_matrix(np.arange(k) / k), blocks).reshape(n * k, 6)
+    coefs = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n),
+                         np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)))[2])
+    pred = np.zeros((n * k, 6))
+    for c, basis in enumerate(channel_bases(k)):
+        pred[:, c] = (basis @ coefs[D_OFFSETS[c]:D_OFFSETS[c + 1]]).T.ravel()
     y = np.column_stack([data.accel_imu, data.gyro_imu])[:n * k]
     valid = np.column_stack([data.accel_valid, data.gyro_valid])[:n * k]
     return {"time_imu_s": data.imu_time_s[:n * k], "residual": y - pred, "valid": valid,

@@ -123,27 +123,126 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     t0 = time.perf_counter()
     data, mesh = prepare_drop(scenario)
     params = parameter_set(cfg)
-    nlp = build_nlp(scenario.model, data, mesh, params, cfg, hessian or est.hessian)
-    t1 = time.perf_counter()
     x0 = initial_guess(data, mesh, cfg.vehicle, scenario.atmosphere, cfg.site.ground_alt_msl_m)
-    z0 = nlp.pack(x0, np.zeros(params.n))
-    t2 = time.perf_counter()
-    sol = solve(nlp, z0, linear_solver or est.linear_solver, est.max_iter, est.tol, print_level)
-    check_converged(sol)
+    t1 = time.perf_counter()
+
+    def build(guesses: dict[str, float]) -> FitNlp:
+        return build_nlp(scenario.model, data, mesh, params, cfg, hessian or est.hessian, guesses[cfg.name])
+
+    def start(nlp: FitNlp) -> np.ndarray:
+        return nlp.pack(x0, np.zeros(params.n))
+
+    nlp, sol, build_s = solve_fit(build, start, {cfg.name: est.clock_offset_guess_s},
+                                  dict(linear_solver=linear_solver or est.linear_solver, max_iter=est.max_iter,
+                                       tol=est.tol, print_level=print_level))
     t3 = time.perf_counter()
     r = residual_vector(nlp, sol.z)
     cov = covariance_or_fail(nlp, sol.z, r)
-    timings = {"build_s": (t1 - t0) + sol.build_s, "initial_guess_s": t2 - t1, "solve_s": sol.solve_s}
+    timings = {"build_s": build_s, "initial_guess_s": t1 - t0, "solve_s": sol.solve_s}
     result = drop_result(scenario, data, nlp.parts[0], nlp, sol, cov, r, timings)
     t4 = time.perf_counter()
     timings.update(covariance_s=t4 - t3, total_s=t4 - t0)
     return result
 
 
-def check_converged(sol: SolveResult) -> None:
-    if not sol.converged:
-        raise FitError(f"Ipopt did not converge: {sol.status} after {sol.iterations} iterations "
-                       f"(objective {sol.objective:.6g}); no result written")
+#: How many times the clock-offset guess may be moved to the bound it reached and the fit redone.
+MAX_CLOCK_SHIFTS = 4
+
+
+def solve_fit(build, start, guesses: dict[str, float], solve_kw: dict):
+    """Build and solve, keeping every GPS fix on its collocation interval.
+
+    Each drop's clock offset is bounded to one mesh interval around its guess. When a solution ends
+    on such a bound, the guess moves there, the fixes are reassigned to intervals and the fit is
+    redone from that solution (at most MAX_CLOCK_SHIFTS times).
+
+    Returns (nlp, SolveResult, build seconds).
+    """
+    z, build_s = None, 0.0
+    for attempt in range(MAX_CLOCK_SHIFTS + 1):
+        t = time.perf_counter()
+        nlp = build(guesses)
+        build_s += time.perf_counter() - t
+        z0 = start(nlp) if z is None else z.copy()
+        for part in nlp.parts:
+            if "clock_offset_s" in part.params.names:
+                i = part.params.index("clock_offset_s")
+                z0[part.theta_cols[i]] = part.guess_clock_s / part.params.scales[i]
+        if attempt == 0:
+            check_determined(nlp, z0)
+        bounds = clock_bounds(nlp)
+        sol = solve(nlp, z0, bounds=bounds, **solve_kw)
+        build_s += sol.build_s
+        check_converged(sol, nlp)
+        moved = clocks_at_bound(sol, nlp, bounds)
+        if not moved:
+            return nlp, sol, build_s
+        guesses.update(moved)
+        z = sol.z
+    raise FitError(f"the IMU-to-GPS clock offset kept reaching its bound after {MAX_CLOCK_SHIFTS} shifts "
+                   f"({', '.join(f'{k} {v:+.3f} s' for k, v in moved.items())}); give [estimation] "
+                   "clock_offset_guess_s")
+
+
+def check_determined(nlp: FitNlp, z: np.ndarray) -> None:
+    """FitError before solving when a parameter has no effect on any residual and no prior (its
+    column of the KKT matrix is zero, so the matrix is singular whatever the data)."""
+    jtj = nlp.derivatives.gauss_newton(z)
+    diag = np.zeros(nlp.z.numel())
+    sp = jtj.sparsity()
+    rows, cols = sp.get_triplet()
+    values = np.asarray(jtj.nonzeros())
+    on_diag = np.asarray(rows) == np.asarray(cols)
+    diag[np.asarray(rows)[on_diag]] = values[on_diag]
+    names = nlp.parameter_columns()
+    dead = [name for col, name in names.items() if diag[col] == 0.0]
+    if dead:
+        raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual and carry no prior, so "
+                       "nothing determines them; fix them or switch their prior on")
+
+
+def clock_bounds(nlp: FitNlp) -> tuple[np.ndarray, np.ndarray]:
+    """Scaled bounds: each drop's clock offset within one mesh interval of its guess (so every GPS
+    fix stays on its collocation interval); everything else free."""
+    n = nlp.z.numel()
+    lbx, ubx = np.full(n, -np.inf), np.full(n, np.inf)
+    for part in nlp.parts:
+        if "clock_offset_s" in part.params.names:
+            i = part.params.index("clock_offset_s")
+            guess = part.guess_clock_s
+            col, scale = part.theta_cols[i], part.params.scales[i]
+            lbx[col], ubx[col] = (guess - part.mesh.h) / scale, (guess + part.mesh.h) / scale
+    return lbx, ubx
+
+
+def clocks_at_bound(sol: SolveResult, nlp: FitNlp, bounds) -> dict[str, float]:
+    """{drop: clock offset (s)} of the drops whose clock offset ended on its bound."""
+    moved = {}
+    for part in nlp.parts:
+        if "clock_offset_s" not in part.params.names:
+            continue
+        i = part.params.index("clock_offset_s")
+        col = part.theta_cols[i]
+        width = bounds[1][col] - bounds[0][col]
+        if min(sol.z[col] - bounds[0][col], bounds[1][col] - sol.z[col]) < 1e-4 * width:
+            moved[part.name] = float(sol.z[col] * part.params.scales[i])
+    return moved
+
+
+def check_converged(sol: SolveResult, nlp: FitNlp | None = None) -> None:
+    """FitError when Ipopt failed; says whether the KKT matrix at its last iterate is singular."""
+    if sol.converged:
+        return
+    why = ""
+    if nlp is not None:
+        try:
+            compute_covariance(nlp, sol.z, 1.0, 1)
+        except SingularCovariance as err:
+            why = f"; at the last iterate the {err}"
+        except Exception:  # noqa: BLE001 - a diagnosis attempt must not hide the real failure
+            pass
+    raise FitError(f"Ipopt did not converge: {sol.status} after {sol.iterations} iterations "
+                   f"(objective {sol.objective:.6g}){why}; no result written")
 
 
 def covariance_or_fail(nlp: FitNlp, z: np.ndarray, r: np.ndarray) -> Covariance:

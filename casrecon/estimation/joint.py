@@ -17,12 +17,18 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.estimation.fit import (FitError, FitResult, check_converged, covariance_or_fail, drop_result,
-                                     prepare_drop, residual_vector)
+from casrecon.estimation.fit import (
+    FitError,
+    FitResult,
+    covariance_or_fail,
+    drop_result,
+    prepare_drop,
+    residual_vector,
+    solve_fit,
+)
 from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.parameters import ParameterSet, parameter_set
 from casrecon.estimation.problem import NS, DropPart, assemble_nlp, drop_block_sets
-from casrecon.estimation.solve import solve
 from casrecon.estimation.transcription import STATE_SCALE
 from casrecon.io.toml_fields import load_toml
 from casrecon.physics.aero import DISPERSION_NAMES
@@ -138,7 +144,8 @@ def _layout(scenarios, meshes, psets, shared):
             else:
                 cols.append(next_col)
                 next_col += 1
-        parts.append(DropPart(sc.config.name, mesh, ps, int(off), np.array(cols), defect_offset))
+        parts.append(DropPart(sc.config.name, mesh, ps, int(off), np.array(cols), defect_offset,
+                              guess_clock_s=sc.config.estimation.clock_offset_guess_s))
         defect_offset += NS * mesh.n_intervals
     return parts, next_col
 
@@ -152,21 +159,32 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str = "ga
     t0 = time.perf_counter()
     prepared = [prepare_drop(sc) for sc in scenarios]
     psets, shared = _parameter_sets(scenarios, cfg)
-    parts, n_z = _layout(scenarios, [m for _, m in prepared], psets, shared)
-    sets = [drop_block_sets(sc.model, data, part, sc.config)
-            for sc, (data, _), part in zip(scenarios, prepared, parts)]
-    nlp = assemble_nlp(parts, sets, n_z, hessian, prefix_groups=True)
-    t1 = time.perf_counter()
-    z0 = np.zeros(n_z)
-    for sc, (data, mesh), part in zip(scenarios, prepared, parts):
-        x0 = initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
-        z0[part.node_cols] = (x0 / STATE_SCALE).ravel()
-    sol = solve(nlp, z0, linear_solver, max_iter, tol, print_level)
-    check_converged(sol)
+    guesses0 = [sc.config.estimation.clock_offset_guess_s for sc in scenarios]
+    x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
+           for sc, (data, mesh) in zip(scenarios, prepared)]
+
+    def build(guesses: dict[str, float]):
+        parts, n_z = _layout(scenarios, [m for _, m in prepared], psets, shared)
+        for part in parts:
+            part.guess_clock_s = guesses[part.name]
+        sets = [drop_block_sets(sc.model, data, part, sc.config)
+                for sc, (data, _), part in zip(scenarios, prepared, parts)]
+        return assemble_nlp(parts, sets, n_z, hessian, prefix_groups=True)
+
+    def start(nlp) -> np.ndarray:
+        z0 = np.zeros(nlp.z.numel())
+        for part, x0 in zip(nlp.parts, x0s):
+            z0[part.node_cols] = (x0 / STATE_SCALE).ravel()
+        return z0
+
+    nlp, sol, build_s = solve_fit(build, start, {sc.config.name: g for sc, g in zip(scenarios, guesses0)},
+                                  dict(linear_solver=linear_solver, max_iter=max_iter, tol=tol,
+                                       print_level=print_level))
+    parts, n_z = nlp.parts, nlp.z.numel()
     t2 = time.perf_counter()
     r = residual_vector(nlp, sol.z)
     cov = covariance_or_fail(nlp, sol.z, r)
-    timings = {"build_s": (t1 - t0) + sol.build_s, "solve_s": sol.solve_s}
+    timings = {"build_s": build_s, "solve_s": sol.solve_s}
     drops = [drop_result(sc, data, part, nlp, sol, cov, r, timings)
              for sc, (data, _), part in zip(scenarios, prepared, parts)]
     columns = nlp.parameter_columns()

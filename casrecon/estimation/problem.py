@@ -21,8 +21,16 @@ import numpy as np
 from casrecon.estimation.assembly import BlockKind, SparseTarget
 from casrecon.estimation.fitdata import FitData
 from casrecon.estimation.parameters import SENSOR_NAMES, ParameterSet
-from casrecon.estimation.transcription import (STATE_SCALE, ImuBlocks, Mesh, compress_imu, gps_function,
-                                               interval_function)
+from casrecon.estimation.transcription import (
+    D_OFFSETS,
+    R_OFFSETS,
+    STATE_SCALE,
+    ImuBlocks,
+    Mesh,
+    compress_imu,
+    gps_function,
+    interval_function,
+)
 from casrecon.physics.dynamics import FlightModel
 
 NS = 13
@@ -45,6 +53,7 @@ class DropPart:
     imu_blocks: ImuBlocks | None = None
     groups: dict = field(default_factory=dict)
     state_scale: np.ndarray = field(default_factory=lambda: STATE_SCALE)
+    guess_clock_s: float = 0.0
 
     @property
     def n_states(self) -> int:
@@ -84,7 +93,7 @@ class FitNlp:
     residuals: ca.MX
     constraints: ca.MX
     groups: dict[str, slice]
-    derivatives: "BlockDerivatives"
+    derivatives: BlockDerivatives
 
     @property
     def mesh(self) -> Mesh:
@@ -197,7 +206,7 @@ class BlockDerivatives:
         for bs in self.sets:
             out = [np.asarray(o) for o in bs.derivs(bs.local(z), *bs.data)]
             grad += np.bincount(bs.cols.ravel(), weights=out[0].T.ravel(), minlength=self.n_z)
-            jtj.append(out[1].T.ravel())
+            jtj.append(bs.kind.jtj_values(out[1].T).ravel())
             if len(out) > 2:
                 jg.append(out[2].T.ravel())
         jg.append(2 * z[self.quat_cols.ravel()])
@@ -268,7 +277,7 @@ class _Unscale:
 
 def _interval_kind(model, mesh, params, un: _Unscale) -> BlockKind:
     v = ca.SX.sym("v", 2 * NS + params.n)
-    d, rr = ca.SX.sym("d", 24), ca.SX.sym("R", 96)
+    d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
     xk, xk1, theta = un.split(v)
     defect, r_imu, _ = interval_function(model, mesh.h)(xk, xk1, un.model_params(theta), un.biases(theta), d, rr)
     return BlockKind("interval", v, [d, rr], r_imu, defect)
@@ -310,7 +319,7 @@ def drop_block_sets(model: FlightModel, data: FitData, part: DropPart, cfg) -> l
         return np.column_stack([first, np.tile(part.theta_cols, (kk.size, 1))])
 
     t_fix = data.gps_time_s
-    kfix = np.clip(((t_fix - mesh.t_nodes[0]) // mesh.h).astype(int), 0, n_int - 1)
+    kfix = np.clip(((t_fix - part.guess_clock_s - mesh.t_nodes[0]) // mesh.h).astype(int), 0, n_int - 1)
     gps_data = [ca.DM((t_fix - mesh.t_nodes[kfix]) / mesh.h).T,
                 ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T), ca.DM(1.0 / data.gps_sigma.T)]
     sets = [_BlockSet(_interval_kind(model, mesh, params, un), node_cols(np.arange(n_int)),
@@ -367,9 +376,11 @@ def assemble_nlp(parts: list[DropPart], sets_per_part: list[list[_BlockSet]], n_
 
 
 def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg,
-              hessian: str = "gauss-newton") -> FitNlp:
-    """Assemble the NLP of one drop (see the module docstring)."""
+              hessian: str = "gauss-newton", guess_clock_s: float | None = None) -> FitNlp:
+    """Assemble the NLP of one drop (see the module docstring). GPS fixes are put on collocation
+    intervals for the clock offset ``guess_clock_s`` (default: the configured guess)."""
     n_sv = NS * mesh.t_nodes.size
-    part = DropPart(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), 0)
+    guess = cfg.estimation.clock_offset_guess_s if guess_clock_s is None else guess_clock_s
+    part = DropPart(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), 0, guess_clock_s=guess)
     sets = drop_block_sets(model, data, part, cfg)
     return assemble_nlp([part], [sets], n_sv + params.n, hessian)

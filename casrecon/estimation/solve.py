@@ -105,13 +105,14 @@ def make_solver(nlp: FitNlp, linear_solver: str = "mumps", max_iter: int = 200, 
 
 
 def solve(nlp: FitNlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-8,
-          print_level: int = 0) -> SolveResult:
-    """Build the solver and run Ipopt from ``z0`` (scaled)."""
+          print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> SolveResult:
+    """Build the solver and run Ipopt from ``z0`` (scaled); ``bounds`` = (lbx, ubx), scaled."""
     t0 = time.perf_counter()
     solver, _callbacks = make_solver(nlp, linear_solver, max_iter, tol, print_level)
     t1 = time.perf_counter()
     n_g = nlp.constraints.numel()
-    sol = solver(x0=z0, lbg=np.zeros(n_g), ubg=np.zeros(n_g))
+    lbx, ubx = bounds if bounds is not None else (-np.inf, np.inf)
+    sol = solver(x0=z0, lbg=np.zeros(n_g), ubg=np.zeros(n_g), lbx=lbx, ubx=ubx)
     t2 = time.perf_counter()
     stats = solver.stats()
     return SolveResult(z=np.asarray(sol["x"]).ravel(), lam_g=np.asarray(sol["lam_g"]).ravel(),

@@ -26,8 +26,14 @@ import numpy as np
 from casrecon.io.errors import InputError
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.toml_fields import Fields, load_toml
-from casrecon.physics.aero import (DISPERSION_NAMES, AeroDatabase, AnalyticCoefficients,
-                                   DispersionSizes, SpinVanes, TableCoefficients)
+from casrecon.physics.aero import (
+    DISPERSION_NAMES,
+    AeroDatabase,
+    AnalyticCoefficients,
+    DispersionSizes,
+    SpinVanes,
+    TableCoefficients,
+)
 from casrecon.physics.dynamics import DynamicsOptions, Site
 from casrecon.physics.vehicle import Vehicle
 
@@ -145,6 +151,9 @@ class EstimationConfig:
         Switch each prior group on or off.
     clock_sigma_s : float
         1-sigma prior of the IMU-to-GPS clock offset.
+    clock_offset_guess_s : float
+        Starting value of the clock offset; the fit keeps the offset within one collocation
+        interval of it (so each GPS fix stays on its interval) and says so if it ends on that bound.
     max_h_acc_m, max_v_acc_m, max_s_acc_mps : float
         GPS fixes reporting worse accuracy are dropped.
     min_num_sv : int
@@ -167,6 +176,7 @@ class EstimationConfig:
     imu_bias_prior: bool = True
     clock_prior: bool = True
     clock_sigma_s: float = 0.05
+    clock_offset_guess_s: float = 0.0
     max_h_acc_m: float = 10.0
     max_v_acc_m: float = 10.0
     max_s_acc_mps: float = 1.0
@@ -240,7 +250,7 @@ def _utc(t: Fields, key: str) -> dt.datetime:
         raise t.error(key, f"expected an ISO-8601 UTC time, got {value!r}")
     if parsed.tzinfo is None:
         raise t.error(key, "the time must say its zone (end it with Z for UTC)")
-    return parsed.astimezone(dt.timezone.utc)
+    return parsed.astimezone(dt.UTC)
 
 
 def _site(t: Fields) -> Site:
@@ -300,7 +310,8 @@ def _imu(t: Fields) -> ImuConfig:
             gyro_columns=tuple(cols.raw("gyro", ["wx", "wy", "wz"])),
             time_unit=t.string("time_unit", "s"), accel_unit=t.string("accel_unit", "m/s^2"),
             gyro_unit=t.string("gyro_unit", "rad/s"),
-            accel_limits=_limits(t, "accel_limits"), gyro_limits=_limits(t, "gyro_limits"))
+            accel_limits=_limits(t, "accel_limits"), gyro_limits=_limits(t, "gyro_limits"),
+            axes=t.raw("axes", None))
     except (ValueError, TypeError) as err:
         raise InputError(t.path, str(err), field=t.name("columns/units/limits")) from None
     cols.reject_unknown()
@@ -369,6 +380,7 @@ def _estimation(t: Fields) -> EstimationConfig:
         dispersion_prior=t.boolean("dispersion_prior", True), atmosphere_prior=t.boolean("atmosphere_prior", True),
         imu_bias_prior=t.boolean("imu_bias_prior", True), clock_prior=t.boolean("clock_prior", True),
         clock_sigma_s=t.number("clock_sigma_s", d.clock_sigma_s, positive=True),
+        clock_offset_guess_s=t.number("clock_offset_guess_s", d.clock_offset_guess_s),
         max_h_acc_m=t.number("max_h_acc_m", d.max_h_acc_m, positive=True),
         max_v_acc_m=t.number("max_v_acc_m", d.max_v_acc_m, positive=True),
         max_s_acc_mps=t.number("max_s_acc_mps", d.max_s_acc_mps, positive=True),

@@ -11,7 +11,7 @@ from typing import Any
 from casrecon.io.errors import InputError
 
 
-def load_toml(path: str | Path) -> "Fields":
+def load_toml(path: str | Path) -> Fields:
     """Parse a TOML file into :class:`Fields`, turning syntax errors into located InputErrors."""
     path = Path(path)
     try:
@@ -57,7 +57,7 @@ class Fields:
             return default
         return self.data[key]
 
-    def table(self, key: str, required: bool = False) -> "Fields | None":
+    def table(self, key: str, required: bool = False) -> Fields | None:
         value = self.raw(key, required=required)
         if value is None:
             return None

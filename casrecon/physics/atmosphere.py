@@ -77,11 +77,21 @@ class Atmosphere:
         self._table = ca.interpolant("atmosphere", "bspline", [grid], data.T.ravel().tolist())
 
     @classmethod
-    def from_sounding(cls, sounding, gradient_ref_alt_msl_m: float = 0.0) -> "Atmosphere":
+    def from_sounding(cls, sounding, gradient_ref_alt_msl_m: float = 0.0) -> Atmosphere:
         """Build from a :class:`casrecon.io.sounding.Sounding` (or anything with its fields)."""
         return cls(sounding.altitude_msl_m, sounding.pressure_pa, sounding.temperature_k,
                    sounding.wind_north_mps, sounding.wind_east_mps, sounding.density_kgm3,
                    gradient_ref_alt_msl_m)
+
+    @classmethod
+    def standard(cls, bottom_msl_m: float = -500.0, top_msl_m: float = 11000.0) -> Atmosphere:
+        """The ICAO/US-1976 standard atmosphere (troposphere: 288.15 K and 101325 Pa at sea level,
+        -6.5 K/km) with no wind, for tracks with no sounding nearby."""
+        h = np.arange(bottom_msl_m, top_msl_m + 1.0, 50.0)
+        t = 288.15 - 0.0065 * h
+        p = 101325.0 * (t / 288.15) ** (9.80665 / (R_AIR * 0.0065))
+        zero = np.zeros_like(h)
+        return cls(h, p, t, zero, zero)
 
     @property
     def levels(self) -> dict[str, np.ndarray]:

@@ -69,6 +69,14 @@ class DynamicsOptions:
             raise ValueError(f"gravity must be 'wgs84', 'constant' or 'off', not {self.gravity!r}")
 
 
+def gravity_vector(site: Site, options: DynamicsOptions, alt_msl_m):
+    """Gravity in NED (m/s^2) at altitude ``alt_msl_m`` per :class:`DynamicsOptions`."""
+    if options.gravity == "off":
+        return ca.DM.zeros(3)
+    h = site.ground_alt_msl_m if options.gravity == "constant" else alt_msl_m
+    return ca.vertcat(0, 0, normal_gravity(math.radians(site.lat_deg), h))
+
+
 def default_parameters(**values: float) -> np.ndarray:
     """Parameter vector with every entry zero except the named ones."""
     p = np.zeros(len(PARAMETER_NAMES))
@@ -116,11 +124,7 @@ class FlightModel:
 
     def gravity_ned(self, x):
         """Gravity vector in NED, m/s^2, per :class:`DynamicsOptions`."""
-        lat = math.radians(self.site.lat_deg)
-        if self.options.gravity == "off":
-            return ca.DM.zeros(3)
-        h = self.site.ground_alt_msl_m if self.options.gravity == "constant" else self.altitude_msl(x)
-        return ca.vertcat(0, 0, normal_gravity(lat, h))
+        return gravity_vector(self.site, self.options, self.altitude_msl(x))
 
     def terms(self, x, p) -> dict:
         """Every intermediate of the equations of motion, for ``x`` and ``p`` (CasADi)."""

@@ -83,7 +83,7 @@ class Vehicle:
 
     @classmethod
     def from_native(cls, native_to_body, *, inertia_kgm2, cm_m, mrp_m, imu_position_m,
-                    imu_to_native, gps_position_m, **kw) -> "Vehicle":
+                    imu_to_native, gps_position_m, **kw) -> Vehicle:
         """Build from quantities given in the vehicle's native axes.
 
         ``native_to_body`` rotates native-axis vectors into body axes (v_b = R v_native); the

@@ -16,7 +16,9 @@ from casrecon.estimation.fitdata import load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.parameters import parameter_set
 from casrecon.estimation.problem import build_nlp
-from casrecon.estimation.transcription import IMU_TAU, Mesh, compress_imu, hermite, lagrange_matrix, make_mesh
+from casrecon.estimation.transcription import (ACCEL_TAU, CHANNEL_BASIS, D_OFFSETS, R_OFFSETS, Mesh,
+                                               channel_bases, compress_imu, hermite, hermite_basis,
+                                               lagrange_matrix, make_mesh)
 from casrecon.scenario import Scenario
 
 coef = st.floats(-10, 10, allow_nan=False)
@@ -24,14 +26,26 @@ coef = st.floats(-10, 10, allow_nan=False)
 
 @settings(max_examples=50, deadline=None)
 @given(st.tuples(coef, coef, coef, coef))
-def test_lagrange_matrix_reproduces_cubics(c):
-    p = np.polynomial.Polynomial(c)
+def test_lagrange_matrix_reproduces_polynomials(c):
+    """With 4 nodes it reproduces cubics; with the accelerometer's 3 (ACCEL_TAU) quadratics."""
     tau = np.linspace(-0.2, 1.2, 37)
-    lag = lagrange_matrix(tau)
-    assert lag.shape == (tau.size, len(IMU_TAU))
-    assert lag @ p(np.array(IMU_TAU)) == pytest.approx(p(tau), abs=1e-9 * (1 + np.abs(c).sum()))
-    assert lag.sum(axis=1) == pytest.approx(np.ones(tau.size))
-    assert lagrange_matrix(np.array(IMU_TAU)) == pytest.approx(np.eye(4), abs=1e-14)
+    nodes = np.array([0.0, 1 / 3, 2 / 3, 1.0])
+    p = np.polynomial.Polynomial(c)
+    lag = lagrange_matrix(tau, nodes)
+    assert lag.shape == (tau.size, 4)
+    assert lag @ p(nodes) == pytest.approx(p(tau), abs=1e-9 * (1 + np.abs(c).sum()))
+    q = np.polynomial.Polynomial(c[:3])
+    lag3 = lagrange_matrix(tau)
+    assert lag3 @ q(np.array(ACCEL_TAU)) == pytest.approx(q(tau), abs=1e-9 * (1 + np.abs(c).sum()))
+    assert lag3.sum(axis=1) == pytest.approx(np.ones(tau.size))
+    assert lagrange_matrix(np.array(ACCEL_TAU)) == pytest.approx(np.eye(3), abs=1e-14)
+
+
+def test_hermite_basis_matches_hermite():
+    tau = np.linspace(0, 1, 9)
+    values = np.array([1.3, -0.7, 2.1, 0.4])  # x_k, h f_k, x_k+1, h f_k+1 with h = 1
+    direct = np.array([hermite(t, 1.0, values[0], values[1], values[2], values[3]) for t in tau])
+    assert hermite_basis(tau) @ values == pytest.approx(direct, abs=1e-14)
 
 
 @settings(max_examples=50, deadline=None)
@@ -48,8 +62,8 @@ def test_hermite_reproduces_a_cubic(c, h, t0):
 @settings(max_examples=30, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_compress_imu_is_an_exact_rewriting(seed):
-    """sum_i w_i (y_i - L_i m4)^2 == sum_intervals |d - R m4|^2 + const, per channel, for random data,
-    masks (including intervals with fewer than 4 usable samples) and model values m4."""
+    """sum_i w_i (y_i - B_i c)^2 == sum_intervals |d - R c|^2 + const, per channel, for random data,
+    masks (including intervals with fewer usable samples than basis functions) and coefficients c."""
     rng = np.random.default_rng(seed)
     k, n_int = 25, 4
     dt = 0.002
@@ -61,17 +75,18 @@ def test_compress_imu_is_an_exact_rewriting(seed):
     valid[2 * k + 5:2 * k + 7, 4] = True          # an interval with only 2 samples
     sigma = rng.uniform(0.01, 0.2, 6)
     blocks = compress_imu(mesh, y, valid, sigma)
-    m4 = rng.normal(size=(n_int, 6, 4)) * 3
-    lag = lagrange_matrix(np.arange(k) / k)
+    bases = channel_bases(k)
     for c in range(6):
+        nb = CHANNEL_BASIS[c]
         direct = compressed = 0.0
         for i in range(n_int):
+            coef_c = rng.normal(size=nb) * 3
             rows = slice(i * k, (i + 1) * k)
             w = valid[rows, c] / sigma[c] ** 2
-            direct += np.sum(w * (y[rows, c] - lag @ m4[i, c]) ** 2)
-            d = blocks.d[4 * c:4 * c + 4, i]
-            r = blocks.R[16 * c:16 * c + 16, i].reshape(4, 4, order="F")
-            compressed += np.sum((d - r @ m4[i, c]) ** 2)
+            direct += np.sum(w * (y[rows, c] - bases[c] @ coef_c) ** 2)
+            d = blocks.d[D_OFFSETS[c]:D_OFFSETS[c + 1], i]
+            r = blocks.R[R_OFFSETS[c]:R_OFFSETS[c + 1], i].reshape(nb, nb, order="F")
+            compressed += np.sum((d - r @ coef_c) ** 2)
         assert compressed + blocks.const_chi2[c] == pytest.approx(direct, rel=1e-10)
         assert blocks.n_used[c] == valid[:, c].sum()
     assert blocks.const_chi2.min() >= 0
