@@ -430,27 +430,47 @@ def _attempt(label: str, draw: Callable[[], Path], notes: list[str]) -> list[Pat
         return [draw()]
     except (MissingInput, KeyError, ValueError, OSError) as exc:
         what = f"missing column {exc}" if isinstance(exc, KeyError) else str(exc)
-        note = f"skipped {label}: {what}"
-        log.warning(note)
-        notes.append(note)
+        notes.append(f"skipped {label}: {what}")  # logged by the caller (a worker's log would be lost)
         return []
 
 
+def _draw_one(folder: Path, index: int, correlation: bool) -> tuple[list[Path], list[str]]:
+    """Figure number ``index`` of DROP_FIGURES (or the correlation matrix) of one drop folder."""
+    notes: list[str] = []
+    drop = DropFolder(folder)
+    out = drop.folder / "figures"
+    if index < len(DROP_FIGURES):
+        label, draw = DROP_FIGURES[index]
+        return _attempt(f"{drop.name} {label}", lambda: draw(drop, out), notes), notes
+    return _attempt(f"{drop.name} correlation", lambda: plot_correlation(
+        drop.json("parameters.json"), drop.name, out), notes), notes
+
+
 def draw_drop_figures(folder: Path, notes: list[str] | None = None,
-                      correlation: bool = True) -> list[Path]:
+                      correlation: bool = True, workers: int = 2) -> list[Path]:
     """All figures of one drop's results folder into ``folder / "figures"``; returns the paths.
 
+    Figures are drawn by ``workers`` forked processes (matplotlib spends its time in layout and
+    rasterisation, one core per figure); ``workers=1`` draws them in this process.
     Raises FileNotFoundError if summary.json or trajectory.csv is missing.
     """
     notes = [] if notes is None else notes
-    drop = DropFolder(folder)
-    out = drop.folder / "figures"
+    DropFolder(folder)  # validates the folder before any worker starts
+    indices = list(range(len(DROP_FIGURES) + (1 if correlation else 0)))
+    if workers > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+            done = list(pool.map(_draw_one, [folder] * len(indices), indices, [correlation] * len(indices)))
+    else:
+        done = [_draw_one(folder, i, correlation) for i in indices]
     paths: list[Path] = []
-    for label, draw in DROP_FIGURES:
-        paths += _attempt(f"{drop.name} {label}", lambda d=draw: d(drop, out), notes)
-    if correlation:
-        paths += _attempt(f"{drop.name} correlation", lambda: plot_correlation(
-            drop.json("parameters.json"), drop.name, out), notes)
+    for p, n in done:
+        paths += p
+        notes += n
+        for note in n:
+            log.warning(note)
     return paths
 
 
@@ -480,8 +500,12 @@ def draw_figures(results_dir: Path, notes: list[str] | None = None) -> list[Path
     for folder in drops:
         paths += draw_drop_figures(folder, notes, correlation=False)
     title = _joint_title(results_dir, drops)
+    joint_notes: list[str] = []
     paths += _attempt("joint correlation", lambda: plot_correlation(
-        read_json(results_dir / "parameters.json"), title, results_dir / "figures"), notes)
+        read_json(results_dir / "parameters.json"), title, results_dir / "figures"), joint_notes)
+    for note in joint_notes:
+        log.warning(note)
+    notes += joint_notes
     return paths
 
 
