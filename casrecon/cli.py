@@ -70,7 +70,11 @@ def _fit(args: argparse.Namespace) -> int:
     from casrecon.report.tables import fit_tables
     from casrecon.scenario import Scenario
 
+    from casrecon.io.pointmass_problem import problem_kind
+
     t0 = time.perf_counter()
+    if problem_kind(args.problem) == "point-mass":
+        return _fit_point_mass(args)
     scenario = Scenario.load(args.problem)
     try:
         result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
@@ -121,6 +125,31 @@ def _joint(args: argparse.Namespace) -> int:
             _figures(out)
         print((out / "tables.md").read_text())
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
+    return 0
+
+
+def _fit_point_mass(args: argparse.Namespace) -> int:
+    from casrecon.estimation.fit import FitError
+    from casrecon.estimation.pointmass_fit import fit_point_mass
+    from casrecon.io.pointmass_problem import load_point_mass
+    from casrecon.io.pointmass_results import pointmass_report, write_pointmass_results
+    from casrecon.io.results import atomic_folder
+    from casrecon.report.pointmass_plots import plot_track_fit
+
+    cfg = load_point_mass(args.problem)
+    try:
+        main = fit_point_mass(cfg, print_level=5 if args.verbose else 0)
+        constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
+    except FitError as err:
+        print(f"casrecon: fit of {cfg.name} failed: {err}", file=sys.stderr)
+        return 3
+    with atomic_folder(args.out) as out:
+        write_pointmass_results(out, main, constant)
+        if not args.no_figures:
+            plot_track_fit(out)
+    if not args.quiet:
+        print(pointmass_report(main, constant))
+    print(f"results -> {args.out}")
     return 0
 
 

@@ -185,8 +185,12 @@ def solve_fit(build, start, guesses: dict[str, float], solve_kw: dict):
 
 
 def check_determined(nlp: FitNlp, z: np.ndarray) -> None:
-    """FitError before solving when a parameter has no effect on any residual and no prior (its
-    column of the KKT matrix is zero, so the matrix is singular whatever the data)."""
+    """FitError before solving when a parameter has no effect on any residual or constraint and no
+    prior (its column of the KKT matrix is zero, so the matrix is singular whatever the data)."""
+    jg = nlp.derivatives.jacobian_g(z)
+    in_g = np.zeros(nlp.z.numel(), bool)
+    g_cols = np.asarray(jg.sparsity().get_triplet()[1])
+    in_g[g_cols[np.asarray(jg.nonzeros()) != 0.0]] = True
     jtj = nlp.derivatives.gauss_newton(z)
     diag = np.zeros(nlp.z.numel())
     sp = jtj.sparsity()
@@ -195,9 +199,9 @@ def check_determined(nlp: FitNlp, z: np.ndarray) -> None:
     on_diag = np.asarray(rows) == np.asarray(cols)
     diag[np.asarray(rows)[on_diag]] = values[on_diag]
     names = nlp.parameter_columns()
-    dead = [name for col, name in names.items() if diag[col] == 0.0]
+    dead = [name for col, name in names.items() if diag[col] == 0.0 and not in_g[col]]
     if dead:
-        raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual and carry no prior, so "
+        raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual or constraint and carry no prior, so "
                        "nothing determines them; fix them or switch their prior on")
 
 

@@ -215,6 +215,8 @@ def load_problem(path: str | Path) -> ProblemConfig:
         path = path / "problem.toml"
     f = load_toml(path)
     head = f.table("problem", required=True)
+    if head.string("kind", "six-dof", choices=("six-dof", "point-mass")) != "six-dof":
+        raise head.error("kind", "this is a point-mass problem: load it with casrecon.io.pointmass_problem")
     vehicle_path = head.path_of("vehicle", required=True)
     aero_path = head.path_of("aero", required=True)
     sensors = f.table("sensors", required=True)

@@ -1,0 +1,266 @@
+"""GPS-only fit of a point mass (3-DOF): the same collocation, Ipopt and KKT covariance as the
+6-DOF fit, for a body that carried only a GPS (a skydiver, a capsule without IMU).
+
+Unknowns: node states (antenna NED position and velocity); the drag area CdA (m^2), constant or a
+cubic B-spline in time (coefficients c >= 0, so CdA(t) >= 0, CdA(t) = B(t) c) with a smoothness
+prior on the second differences of c; optionally horizontal lift areas (same spline); the wind
+bias (north, east) against the atmosphere used. Mass is given
+(``[vehicle] mass_kg``): only CdA / m is observable, so CdA scales with the mass assumed.
+
+Mesh: one node per GPS epoch (uniform, the receiver's period) through the segment; each good fix
+is compared with the node state at its own epoch, whitened by the receiver's reported accuracies
+(north and east by hAcc, down by vAcc, each velocity component by sAcc).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import pymap3d
+from scipy.interpolate import BSpline
+
+from casrecon.estimation.assembly import BlockKind
+from casrecon.estimation.covariance import Covariance
+from casrecon.estimation.fit import FitError, check_converged, check_determined, covariance_or_fail, residual_vector
+from casrecon.estimation.parameters import ParameterSet, ParameterSpec
+from casrecon.estimation.problem import DropPart, _BlockSet, assemble_nlp
+from casrecon.estimation.segment import SegmentError, find_segment
+from casrecon.estimation.solve import SolveResult, solve
+from casrecon.estimation.transcription import Mesh
+from casrecon.io.flysight import GpsTrack, read_flysight
+from casrecon.io.pointmass_problem import PointMassConfig
+from casrecon.io.sounding import read_sounding
+from casrecon.physics.atmosphere import Atmosphere
+from casrecon.physics.pointmass import PointMassModel
+
+SCALE = np.array([100.0, 100.0, 100.0, 10.0, 10.0, 10.0])
+CDA_SCALE = 0.1
+
+
+@dataclass
+class PointMassData:
+    """The segment's fixes on the node grid: y (K, 6) NED antenna position/velocity, inverse sigma
+    (K, 6; 0 where the node has no good fix), node UTC times and the notes."""
+
+    t_unix: np.ndarray
+    y: np.ndarray
+    inv_sigma: np.ndarray
+    notes: tuple[str, ...]
+    track: GpsTrack
+
+
+@dataclass
+class PointMassResult:
+    """A GPS-only fit (SI units)."""
+
+    config: PointMassConfig
+    model_name: str                   # "constant" or "spline"
+    t_unix: np.ndarray
+    states: np.ndarray                # (K, 6)
+    state_sigma: np.ndarray           # (K, 6) absolute 1-sigma
+    cda: np.ndarray                   # (K,) m^2
+    cda_sigma: np.ndarray
+    params: ParameterSet
+    values: np.ndarray
+    sigma: np.ndarray
+    normalized_residuals: np.ndarray  # (K, 6), NaN where no fix
+    chi2: dict[str, float]
+    n_measurements: dict[str, int]
+    reduced_chi2: float
+    solver: SolveResult
+    timings: dict[str, float]
+    notes: tuple[str, ...] = ()
+    extra: dict = field(default_factory=dict)
+
+    def residual_stats(self) -> dict[str, dict[str, float]]:
+        """Per component: RMS of the normalised residuals and their lag-1 autocorrelation (near 0
+        for white residuals; near 1 when the model leaves structure)."""
+        names = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
+        out = {}
+        for i, n in enumerate(names):
+            r = self.normalized_residuals[:, i]
+            r = r[np.isfinite(r)]
+            ac = float(np.corrcoef(r[:-1], r[1:])[0, 1]) if r.size > 3 else float("nan")
+            out[n] = {"rms": float(np.sqrt(np.mean(r * r))), "lag1_autocorrelation": ac}
+        return out
+
+
+def atmosphere_of(cfg: PointMassConfig) -> Atmosphere:
+    """The configured sounding, or the ICAO standard atmosphere (no wind) for ``"standard"``."""
+    if cfg.sounding is None:
+        return Atmosphere.standard()
+    return Atmosphere.from_sounding(read_sounding(cfg.sounding), gradient_ref_alt_msl_m=cfg.site.ground_alt_msl_m)
+
+
+def prepare_data(cfg: PointMassConfig) -> PointMassData:
+    """Read the track, find the segment and put the good fixes on a uniform node grid."""
+    track = read_flysight(cfg.gps_file)
+    try:
+        seg = find_segment(track, cfg.quality, cfg.segment)
+    except SegmentError as err:
+        raise FitError(str(err)) from None
+    t = track.time_unix_s
+    period = float(np.median(np.diff(t)))
+    nodes = seg.start_unix_s + period * np.arange(int(np.floor((seg.end_unix_s - seg.start_unix_s) / period)) + 1)
+    idx = np.clip(np.searchsorted(t, nodes - period / 2), 0, t.size - 1)
+    on_node = (np.abs(t[idx] - nodes) < period / 4) & seg.good[idx]
+    site = cfg.site
+    n, e, d = pymap3d.geodetic2ned(track.lat_deg[idx], track.lon_deg[idx], track.h_msl_m[idx],
+                                   site.lat_deg, site.lon_deg, site.ground_alt_msl_m)
+    y = np.column_stack([n, e, d, track.vel_n_mps[idx], track.vel_e_mps[idx], track.vel_d_mps[idx]])
+    sig = np.column_stack([track.h_acc_m[idx], track.h_acc_m[idx], track.v_acc_m[idx],
+                           track.s_acc_mps[idx], track.s_acc_mps[idx], track.s_acc_mps[idx]])
+    inv = np.where(on_node[:, None], 1.0 / sig, 0.0)
+    notes = seg.notes + (f"{int(on_node.sum())} fixes on {nodes.size} nodes every {period:.3f} s",)
+    return PointMassData(nodes, np.where(on_node[:, None], y, 0.0), inv, notes, track)
+
+
+def drag_basis(cfg: PointMassConfig, model: str, t: np.ndarray) -> np.ndarray:
+    """(len(t), n_coef) basis of CdA(t): a column of ones, or a clamped cubic B-spline basis."""
+    if model == "constant":
+        return np.ones((t.size, 1))
+    span = t[-1] - t[0]
+    n_inner = max(int(np.floor(span / cfg.drag.knot_spacing_s)), 1)
+    inner = np.linspace(t[0], t[-1], n_inner + 1)
+    knots = np.r_[[t[0]] * 3, inner, [t[-1]] * 3]
+    return BSpline.design_matrix(np.clip(t, t[0], t[-1]), knots, 3).toarray()
+
+
+AREA_NAMES = ("CdA", "AN", "AE")
+
+
+def _parameters(n_coef: int, n_areas: int, cfg: PointMassConfig) -> ParameterSet:
+    wind = cfg.wind_3sigma_mps / 3
+    specs = [ParameterSpec(f"{a}_{i:02d}" if n_coef > 1 else a, "drag", CDA_SCALE, None, "m^2")
+             for a in AREA_NAMES[:n_areas] for i in range(n_coef)]
+    specs += [ParameterSpec("wind_bias_n", "atmosphere", wind, wind, "m/s"),
+              ParameterSpec("wind_bias_e", "atmosphere", wind, wind, "m/s")]
+    return ParameterSet(tuple(specs))
+
+
+def _interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: int, wind_scale: float) -> BlockKind:
+    n_c = n_coef * n_areas
+    v = ca.SX.sym("v", 12 + n_c + 2)
+    xk, xk1 = v[:6] * ca.DM(SCALE), v[6:12] * ca.DM(SCALE)
+    coef, wind = ca.reshape(v[12:12 + n_c] * CDA_SCALE, n_coef, n_areas), v[12 + n_c:] * wind_scale
+    bk, bm, bk1 = (ca.SX.sym(n, n_coef) for n in ("bk", "bm", "bk1"))
+    yk, wk, yk1, wk1 = ca.SX.sym("yk", 6), ca.SX.sym("wk", 6), ca.SX.sym("yk1", 6), ca.SX.sym("wk1", 6)
+
+    def area(b):
+        a = coef.T @ b
+        return ca.vertcat(a, ca.DM.zeros(3 - n_areas)) if n_areas < 3 else a
+
+    fk, fk1 = model.rhs(xk, area(bk), wind), model.rhs(xk1, area(bk1), wind)
+    xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
+    defect = (xk1 - xk - h / 6 * (fk + 4 * model.rhs(xm, area(bm), wind) + fk1)) / ca.DM(SCALE)
+    residual = ca.vertcat((yk - xk) * wk, (yk1 - xk1) * wk1)
+    return BlockKind("pm_interval", v, [bk, bm, bk1, yk, wk, yk1, wk1], residual, defect)
+
+
+def _prior_kind(params: ParameterSet, n_coef: int, n_areas: int, cfg: PointMassConfig) -> tuple[BlockKind, dict]:
+    v = ca.SX.sym("v", params.n)
+    rows, groups = [], {}
+    if n_coef > 2:
+        for a in range(n_areas):
+            c = v[a * n_coef:(a + 1) * n_coef] * CDA_SCALE
+            rows += [(c[i] - 2 * c[i + 1] + c[i + 2]) / cfg.drag.smoothness_sigma_m2 for i in range(n_coef - 2)]
+        groups["prior_smoothness"] = slice(0, len(rows))
+    if n_areas > 1:
+        start = len(rows)
+        rows += [v[i] * CDA_SCALE / cfg.drag.lift_sigma_m2 for i in range(n_coef, n_coef * n_areas)]
+        groups["prior_lift"] = slice(start, len(rows))
+    start, n_c = len(rows), n_coef * n_areas
+    rows += [v[n_c + i] * params.scales[n_c + i] / params.specs[n_c + i].prior_sigma for i in range(2)]
+    groups["prior_atmosphere"] = slice(start, start + 2)
+    return BlockKind("pm_prior", v, [], ca.vertcat(*rows), None), groups
+
+
+def _initial_cda(data: PointMassData, cfg: PointMassConfig, atm: Atmosphere) -> float:
+    """CdA from the drag needed to explain the vertical acceleration at each good fix (median)."""
+    ok = data.inv_sigma[:, 0] > 0
+    t, vd = data.t_unix[ok], data.y[ok, 5]
+    accel = np.gradient(vd, t)
+    alt = cfg.site.ground_alt_msl_m - data.y[ok, 2]
+    rho = np.interp(alt, atm.levels["altitude_msl_m"], atm.levels["density_kgm3"])
+    speed2 = np.sum(data.y[ok, 3:6] ** 2, axis=1)
+    cda = 2 * cfg.mass_kg * (9.80665 - accel) / (rho * np.maximum(speed2, 25.0))
+    return float(np.clip(np.median(cda[speed2 > 400]) if np.any(speed2 > 400) else np.median(cda), 0.01, 5.0))
+
+
+def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_level: int = 0) -> PointMassResult:
+    """Fit the track of a point-mass problem with the constant or the spline drag model."""
+    model_name = model_name or cfg.drag.model
+    t0 = time.perf_counter()
+    data = prepare_data(cfg)
+    atm = atmosphere_of(cfg)
+    model = PointMassModel(atm, cfg.site, cfg.mass_kg, cfg.dynamics)
+    t_rel = data.t_unix - data.t_unix[0]
+    h = float(t_rel[1] - t_rel[0])
+    basis = drag_basis(cfg, model_name, t_rel)
+    n_coef, n_areas = basis.shape[1], 3 if (cfg.drag.lift and model_name == "spline") else 1
+    params = _parameters(n_coef, n_areas, cfg)
+    k = t_rel.size
+    mesh = Mesh(t_rel, h, 1)
+    part = DropPart(cfg.name, mesh, params, 0, 6 * k + np.arange(params.n), 0, state_scale=SCALE)
+    n_int = k - 1
+    cols = np.column_stack([6 * np.arange(n_int)[:, None] + np.arange(12)[None, :],
+                            np.tile(part.theta_cols, (n_int, 1))])
+    b_mid = drag_basis(cfg, model_name, t_rel[:-1] + h / 2)
+    last = np.zeros((n_int, 6))
+    last[-1] = 1.0
+    block_data = [ca.DM(basis[:-1].T), ca.DM(b_mid.T), ca.DM(basis[1:].T), ca.DM(data.y[:-1].T),
+                  ca.DM(data.inv_sigma[:-1].T), ca.DM(data.y[1:].T), ca.DM((data.inv_sigma[1:] * last).T)]
+    kind = _interval_kind(model, h, n_coef, n_areas, params.scales[-1])
+    sets = [_BlockSet(kind, cols, block_data, 6 * np.arange(n_int), "gps")]
+    prior, part.groups = _prior_kind(params, n_coef, n_areas, cfg)
+    sets.append(_BlockSet(prior, part.theta_cols[None, :], [], group="prior"))
+    nlp = assemble_nlp([part], [sets], 6 * k + params.n, quaternions=False)
+    cda0 = _initial_cda(data, cfg, atm)
+    pos_vel = np.column_stack([np.interp(t_rel, t_rel[data.inv_sigma[:, i] > 0], data.y[data.inv_sigma[:, i] > 0, i])
+                               for i in range(6)])
+    z0 = np.concatenate([(pos_vel / SCALE).ravel(), np.full(n_coef, cda0 / CDA_SCALE),
+                         np.zeros(n_coef * (n_areas - 1) + 2)])
+    t1 = time.perf_counter()
+    check_determined(nlp, z0)
+    lbx = np.full(z0.size, -np.inf)
+    lbx[part.theta_cols[:n_coef]] = 0.0  # B-spline coefficients >= 0 keep CdA(t) >= 0 everywhere
+    sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
+    check_converged(sol, nlp)
+    t2 = time.perf_counter()
+    r = residual_vector(nlp, sol.z)
+    cov = covariance_or_fail(nlp, sol.z, r)
+    result = _result(cfg, model_name, data, part, nlp, sol, cov, r, basis)
+    result.timings.update(build_s=t1 - t0 + sol.build_s, solve_s=sol.solve_s, covariance_s=time.perf_counter() - t2,
+                          total_s=time.perf_counter() - t0)
+    return result
+
+
+def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) -> PointMassResult:
+    states = part.states(sol.z)
+    values = part.values(sol.z)
+    n_coef = basis.shape[1]
+    k = states.shape[0]
+    state_sigma = np.sqrt(np.array([np.diag(cov.covariance_of(6 * i + np.arange(6), SCALE)) for i in range(k)]))
+    cov_p = cov.covariance_of(part.theta_cols, part.params.scales)
+    sigma = np.sqrt(np.diag(cov_p))
+    n_areas = (len(values) - 2) // n_coef
+    areas, area_sigma = [], []
+    for a in range(n_areas):
+        sl = slice(a * n_coef, (a + 1) * n_coef)
+        areas.append(basis @ values[sl])
+        area_sigma.append(np.sqrt(np.einsum("ij,jk,ik->i", basis, cov_p[sl, sl], basis)))
+    cda, cda_sigma = areas[0], area_sigma[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        norm = np.where(data.inv_sigma > 0, (data.y - states) * data.inv_sigma, np.nan)
+    chi2 = {g: float(r[s] @ r[s]) for g, s in part.groups.items()}
+    counts = {g: s.stop - s.start for g, s in part.groups.items()}
+    counts["gps"] = int((data.inv_sigma > 0).sum())
+    dof = sum(counts.values()) - (nlp.z.numel() - nlp.constraints.numel())
+    return PointMassResult(cfg, model_name, data.t_unix, states, state_sigma, cda, cda_sigma, part.params, values, sigma,
+                           norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, data.notes,
+                           {"nlp": nlp, "z": sol.z, "covariance": cov, "track": data.track, "y": data.y,
+                            "inv_sigma": data.inv_sigma, "areas": np.column_stack(areas),
+                            "area_sigma": np.column_stack(area_sigma)})

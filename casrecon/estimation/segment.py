@@ -1,0 +1,72 @@
+"""Which GPS fixes a GPS-only fit uses: quality rules, and the descent segment found in the data.
+
+Rules (also in the results' notes):
+- a fix is *good* when hAcc <= max_h_acc_m, vAcc <= max_v_acc_m, sAcc <= max_s_acc_mps and numSV >=
+  min_num_sv (numSV absent: not tested); other fixes are dropped, never down-weighted twice (their
+  own accuracies already weight the good ones);
+- without explicit times, the segment is the longest run of consecutive good fixes whose vertical
+  speed exceeds ``min_speed_mps``, extended backwards over good fixes while the vertical speed is
+  above 2 m/s (exit or release: the descent starts from near zero), and cut ``end_margin_s``
+  before its last fix (the vertical speed then falls: canopy opening or impact).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from casrecon.io.flysight import GpsTrack
+from casrecon.io.pointmass_problem import GpsQuality, SegmentConfig
+
+
+class SegmentError(ValueError):
+    """No usable descent segment in the track."""
+
+
+@dataclass(frozen=True)
+class Segment:
+    """Start and end (UTC, s since 1970), the good-fix mask of the whole track, and notes."""
+
+    start_unix_s: float
+    end_unix_s: float
+    good: np.ndarray
+    notes: tuple[str, ...]
+
+
+def good_fixes(track: GpsTrack, q: GpsQuality) -> np.ndarray:
+    """Boolean mask of the fixes that pass the quality rules."""
+    sv_ok = (track.num_sv < 0) | (track.num_sv >= q.min_num_sv)
+    return (track.h_acc_m <= q.max_h_acc_m) & (track.v_acc_m <= q.max_v_acc_m) & (
+        track.s_acc_mps <= q.max_s_acc_mps) & sv_ok
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
+    """The descent segment of ``track`` per the module's rules (or the configured times)."""
+    good = good_fixes(track, q)
+    notes = [f"{int((~good).sum())} of {track.n} fixes fail the quality rules (hAcc > {q.max_h_acc_m} m, vAcc > "
+             f"{q.max_v_acc_m} m, sAcc > {q.max_s_acc_mps} m/s or numSV < {q.min_num_sv}) and are dropped"]
+    t = track.time_unix_s
+    if cfg.start_unix_s is not None and cfg.end_unix_s is not None:
+        notes.append("segment from [segment] start_utc / end_utc")
+        return Segment(cfg.start_unix_s, cfg.end_unix_s, good, tuple(notes))
+    fast = good & (track.vel_d_mps > cfg.min_speed_mps)
+    runs = _runs(fast)
+    if not runs:
+        raise SegmentError(f"{track.path}: no good fix descends faster than {cfg.min_speed_mps} m/s")
+    i0, i1 = max(runs, key=lambda r: t[r[1] - 1] - t[r[0]])
+    while i0 > 0 and good[i0 - 1] and track.vel_d_mps[i0 - 1] > 2.0:
+        i0 -= 1
+    start = cfg.start_unix_s if cfg.start_unix_s is not None else float(t[i0])
+    end = cfg.end_unix_s if cfg.end_unix_s is not None else float(t[i1 - 1]) - cfg.end_margin_s
+    if end - start < 5.0:
+        raise SegmentError(f"{track.path}: the descent segment found is only {end - start:.1f} s long")
+    notes.append(f"segment found from the data: {end - start:.1f} s, vertical speed up to "
+                 f"{track.vel_d_mps[i0:i1].max():.1f} m/s (rule: longest run faster than {cfg.min_speed_mps} m/s, "
+                 f"back to 2 m/s, minus {cfg.end_margin_s} s at the end)")
+    return Segment(start, end, good, tuple(notes))

@@ -1,0 +1,136 @@
+"""``problem.toml`` of a GPS-only (point-mass) problem, ``[problem] kind = "point-mass"``:
+parsed once into frozen dataclasses and validated like the 6-DOF problems (same field helpers).
+
+    [problem]     kind = "point-mass", name, description
+    [site]        lat_deg, lon_deg, ground_alt_msl_m
+    [atmosphere]  sounding = "standard" (ICAO, no wind) or a sounding file; wind_3sigma_mps
+    [vehicle]     mass_kg
+    [drag]        model = "constant" | "spline", knot_spacing_s, smoothness_sigma_m2, lift
+    [gps]         file, max_h_acc_m, max_v_acc_m, max_s_acc_mps, min_num_sv
+    [segment]     start_utc, end_utc (optional: found from the data), min_speed_mps, end_margin_s
+    [estimation]  linear_solver, max_iter, tol
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from casrecon.io.problem import _dynamics, _site, _utc
+from casrecon.io.toml_fields import Fields, load_toml
+from casrecon.physics.dynamics import DynamicsOptions, Site
+
+
+@dataclass(frozen=True)
+class DragConfig:
+    """Drag-area model: one constant CdA (m^2), or a cubic B-spline in time with knots every
+    ``knot_spacing_s`` and a smoothness prior N(0, smoothness_sigma_m2^2) on its second differences.
+    ``lift``: also estimate horizontal lift areas along north and east (same spline and smoothness
+    prior, plus a N(0, lift_sigma_m2^2) prior on each coefficient: with GPS only, a horizontal lift
+    and a wind bias push the body alike, and the priors share the horizontal force between them)."""
+
+    model: str = "spline"
+    knot_spacing_s: float = 2.0
+    smoothness_sigma_m2: float = 0.02
+    lift: bool = False
+    lift_sigma_m2: float = 0.1
+
+
+@dataclass(frozen=True)
+class GpsQuality:
+    """Fixes reporting worse accuracy than these (1-sigma) or fewer satellites are dropped."""
+
+    max_h_acc_m: float = 10.0
+    max_v_acc_m: float = 10.0
+    max_s_acc_mps: float = 1.0
+    min_num_sv: int = 6
+
+
+@dataclass(frozen=True)
+class SegmentConfig:
+    """The fitted segment. Without start/end (UTC, ISO), it is found from the data: the longest run
+    of good fixes descending faster than ``min_speed_mps``, extended back to where the descent
+    began (vertical speed below 2 m/s), ending ``end_margin_s`` before the vertical speed drops
+    below ``min_speed_mps`` again (deployment or impact)."""
+
+    start_unix_s: float | None = None
+    end_unix_s: float | None = None
+    min_speed_mps: float = 20.0
+    end_margin_s: float = 0.5
+
+
+@dataclass(frozen=True)
+class PointMassConfig:
+    """A validated GPS-only problem."""
+
+    path: Path
+    name: str
+    description: str
+    site: Site
+    sounding: Path | None            # None: the standard atmosphere
+    wind_3sigma_mps: float
+    mass_kg: float
+    drag: DragConfig
+    gps_file: Path
+    quality: GpsQuality
+    segment: SegmentConfig
+    dynamics: DynamicsOptions
+    linear_solver: str = "mumps"
+    max_iter: int = 200
+    tol: float = 1e-8
+
+
+def problem_kind(path: str | Path) -> str:
+    """``"six-dof"`` or ``"point-mass"`` from ``[problem] kind`` (default six-dof)."""
+    path = Path(path)
+    f = load_toml(path / "problem.toml" if path.is_dir() else path)
+    head = f.table("problem", required=True)
+    return head.string("kind", "six-dof", choices=("six-dof", "point-mass"))
+
+
+def _segment(t: Fields) -> SegmentConfig:
+    d = SegmentConfig()
+    start = _utc(t, "start_utc").timestamp() if t.has("start_utc") else None
+    end = _utc(t, "end_utc").timestamp() if t.has("end_utc") else None
+    if start is not None and end is not None and end <= start:
+        raise t.error("end_utc", "must be after start_utc")
+    cfg = SegmentConfig(start, end, t.number("min_speed_mps", d.min_speed_mps, positive=True),
+                        t.number("end_margin_s", d.end_margin_s, minimum=0.0))
+    t.reject_unknown()
+    return cfg
+
+
+def load_point_mass(path: str | Path) -> PointMassConfig:
+    """Parse and validate a point-mass ``problem.toml`` (file or folder)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "problem.toml"
+    f = load_toml(path)
+    empty = {k: Fields({}, path, f"{k}.") for k in ("drag", "segment", "estimation", "dynamics")}
+    head, atm, veh = f.table("problem", required=True), f.table("atmosphere", required=True), f.table(
+        "vehicle", required=True)
+    gps = f.table("gps", required=True)
+    drag = f.table("drag") or empty["drag"]
+    seg = f.table("segment") or empty["segment"]
+    est = f.table("estimation") or empty["estimation"]
+    sounding = atm.string("sounding", required=True)
+    cfg = PointMassConfig(
+        path=path.resolve(), name=head.string("name", required=True), description=head.string("description", ""),
+        site=_site(f.table("site", required=True)),
+        sounding=None if sounding == "standard" else atm.path_of("sounding"),
+        wind_3sigma_mps=atm.number("wind_3sigma_mps", 3.0, positive=True),
+        mass_kg=veh.number("mass_kg", required=True, positive=True),
+        drag=DragConfig(drag.string("model", "spline", choices=("constant", "spline")),
+                        drag.number("knot_spacing_s", 2.0, positive=True),
+                        drag.number("smoothness_sigma_m2", 0.02, positive=True), drag.boolean("lift", False),
+                        drag.number("lift_sigma_m2", 0.1, positive=True)),
+        gps_file=gps.path_of("file", required=True),
+        quality=GpsQuality(gps.number("max_h_acc_m", 10.0, positive=True), gps.number("max_v_acc_m", 10.0, positive=True),
+                           gps.number("max_s_acc_mps", 1.0, positive=True), gps.integer("min_num_sv", 6, 0)),
+        segment=_segment(seg), dynamics=_dynamics(f.table("dynamics") or empty["dynamics"]),
+        linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
+        max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True))
+    head.string("kind", "six-dof", choices=("six-dof", "point-mass"))
+    for t in (head, atm, veh, gps, drag, est, f):
+        t.reject_unknown()
+    return cfg

@@ -1,0 +1,82 @@
+"""The results folder of a GPS-only (point-mass) fit: the fitted model (usually the drag-area
+spline) next to the constant-drag model, so the residuals show what the constant model misses.
+
+Files: ``trajectory.csv`` (antenna NED position/velocity, MSL height, drag area, each with 3-sigma),
+``parameters.json``, ``summary.json`` (convergence, chi-square per group, normalised-residual RMS
+and lag-1 autocorrelation per component for both models, timings, segment notes),
+``residuals_gps.csv`` (normalised residuals of both models), ``report.txt``, ``figures/``.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.io.results import write_columns, write_json
+
+NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
+
+
+def _model_summary(r) -> dict:
+    return {"model": r.model_name, "lift": r.extra["areas"].shape[1] > 1, "converged": r.solver.converged,
+            "status": r.solver.status, "iterations": r.solver.iterations, "chi2": r.chi2,
+            "n_measurements": r.n_measurements, "reduced_chi2": r.reduced_chi2, "residuals": r.residual_stats(),
+            "timings": r.timings}
+
+
+def pointmass_report(main, constant) -> str:
+    """Text report: both models' fit quality and the main model's parameters."""
+    cfg = main.config
+    lines = [f"[[GPS-only fit: {cfg.name}]] point mass {cfg.mass_kg:g} kg, atmosphere "
+             f"{'ICAO standard (no wind)' if cfg.sounding is None else cfg.sounding.name}"]
+    for r in (main, constant):
+        stats = r.residual_stats()
+        worst = max(stats, key=lambda k: stats[k]["rms"])
+        lines.append(f"    {r.model_name:8s} drag: {r.solver.status} in {r.solver.iterations} iterations, reduced chi2 "
+                     f"{r.reduced_chi2:.3f}; normalised residual RMS " + ", ".join(
+                         f"{k} {v['rms']:.2f}" for k, v in stats.items())
+                     + f" (worst {worst}, lag-1 autocorrelation {stats[worst]['lag1_autocorrelation']:.2f})")
+    lines.append("[[Parameters]] (fitted model; 3-sigma absolute; spline coefficients in parameters.json)")
+    for spec, v, s in zip(main.params.specs, main.values, main.sigma):
+        if spec.group != "drag" or spec.name == "CdA":
+            lines.append(f"    {spec.name:12s} = {v: .5g} +/- {3 * s:.3g} [{spec.unit}]")
+    lines.append(f"    drag area CdA(t): {main.cda.min():.3f} to {main.cda.max():.3f} m^2 "
+                 f"(median 3-sigma {3 * np.median(main.cda_sigma):.3g} m^2)")
+    lines += ["[[Data notes]]", *[f"    {n}" for n in main.notes]]
+    return "\n".join(lines)
+
+
+def write_pointmass_results(out: Path, main, constant) -> None:
+    """Write the folder into ``out`` (an atomic temporary folder)."""
+    out = Path(out)
+    t0 = main.t_unix[0]
+    cols, data = ["time_utc_unix_s", "time_s"], [main.t_unix, main.t_unix - t0]
+    for i, n in enumerate(NAMES):
+        unit = "m" if i < 3 else "mps"
+        cols += [f"{n}_{unit}", f"{n}_{unit}_3sigma"]
+        data += [main.states[:, i], 3 * main.state_sigma[:, i]]
+    cols += ["h_msl_m"]
+    data += [main.config.site.ground_alt_msl_m - main.states[:, 2]]
+    for j, name in enumerate(("cda_m2", "lift_n_m2", "lift_e_m2")[:main.extra["areas"].shape[1]]):
+        cols += [name, f"{name}_3sigma"]
+        data += [main.extra["areas"][:, j], 3 * main.extra["area_sigma"][:, j]]
+    write_columns(out / "trajectory.csv", cols, np.column_stack(data))
+    rcols = ["time_s"] + [f"{n}_{m}" for m in ("fit", "constant") for n in NAMES]
+    write_columns(out / "residuals_gps.csv", rcols, np.column_stack(
+        [main.t_unix - t0, main.normalized_residuals, constant.normalized_residuals]))
+    write_columns(out / "gps_fixes.csv", ["time_s"] + [f"{n}_measured" for n in NAMES] + ["used"],
+                  np.column_stack([main.t_unix - t0, main.extra["y"], main.extra["inv_sigma"][:, 0] > 0]))
+    params = {s.name: {"value": float(v), "sigma": float(sg), "three_sigma": 3 * float(sg), "unit": s.unit}
+              for s, v, sg in zip(main.params.specs, main.values, main.sigma)}
+    write_json(out / "parameters.json", {"parameters": params})
+    write_json(out / "summary.json", {
+        "problem": main.config.name, "kind": "point-mass", "converged": main.solver.converged,
+        "fit": _model_summary(main), "constant_drag": _model_summary(constant),
+        "segment_utc_unix_s": [float(main.t_unix[0]), float(main.t_unix[-1])], "notes": list(main.notes),
+        "mass_kg": main.config.mass_kg, "total_s": main.timings["total_s"] + constant.timings["total_s"]})
+    (out / "report.txt").write_text(pointmass_report(main, constant) + "\n")
+    config_dir = out / "config"
+    config_dir.mkdir()
+    shutil.copy2(main.config.path, config_dir / "problem.toml")
