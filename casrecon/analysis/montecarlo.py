@@ -1,0 +1,445 @@
+"""Dispersed Monte Carlo of a drop (DESIGN 3.4; the DAVINCI team ran 8000 such cases).
+
+Each case perturbs the problem's release state and its truth parameters (the nominal ones,
+zeros, when the problem has no ``[truth]``, or with ``center="nominal"``) by Gaussian draws
+whose sizes a :class:`Dispersions` states, and is flown to ground impact by the
+:class:`~casrecon.analysis.batch.BatchSimulator`.
+
+Reproducibility: case ``i`` of seed ``s`` draws its inputs from ``numpy.random.default_rng([s, i])``
+only, always the same :data:`N_DRAWS` standard normals in the same order (scaled afterwards, so a
+zero size leaves the other inputs unchanged). A case is thus the same whether it is run alone,
+in any chunk, on any number of local processes or on a Dask cluster.
+
+Runners: chunks of cases are the unit of work. ``workers == 1`` runs them in this process,
+``workers > 1`` in a spawn-context :class:`~concurrent.futures.ProcessPoolExecutor`, and a
+``scheduler`` address (``"tcp://host:8786"``) sends them to a Dask distributed cluster; the
+workers load the problem from its path, so they must see the same file system.
+
+Typical use::
+
+    from casrecon.analysis.montecarlo import run_montecarlo
+    mc = run_montecarlo("problems/ees-drop-1", n_cases=8000, seed=1, workers=2)
+    mc.statistics()["impact_speed_mps"]["p99"]
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import sys
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.analysis.batch import DEFAULT_DT_S, BatchSimulator, euler_deg_from_quats, quats_from_euler_deg
+from casrecon.physics.aero import DISPERSION_NAMES
+from casrecon.physics.dynamics import PARAMETER_NAMES
+
+#: Standard normals drawn per case: h_agl, vel NED (3), Euler (3), rates (3), wind bias N/E,
+#: density factor, then the aero factors (last, so that a new factor changes no other draw).
+N_DRAWS = 1 + 3 + 3 + 3 + len(DISPERSION_NAMES) + 3
+
+#: Drawn inputs written per case (SI, angles in deg).
+INPUT_NAMES = (("h_agl_m", "vel_n_mps", "vel_e_mps", "vel_d_mps", "roll_deg", "pitch_deg", "yaw_deg",
+                "p_dps", "q_dps", "r_dps") + DISPERSION_NAMES + ("wind_bias_n_mps", "wind_bias_e_mps",
+                                                                 "density_factor"))
+#: Outputs per case.
+OUTPUT_COLUMNS = ("impacted", "flight_time_s", "impact_speed_mps", "impact_vel_n_mps", "impact_vel_e_mps",
+                  "impact_vel_d_mps", "impact_roll_deg", "impact_pitch_deg", "impact_yaw_deg", "max_alpha_t_deg")
+#: Outputs with statistics in :meth:`MonteCarloResult.statistics`.
+STATISTIC_NAMES = ("flight_time_s", "impact_speed_mps", "max_alpha_t_deg")
+
+
+@dataclass(frozen=True)
+class Dispersions:
+    """1-sigma sizes of the Gaussian dispersions of one Monte Carlo case.
+
+    Every draw is independent and zero-mean about the centre (the problem's release state and its
+    truth or nominal parameters).
+
+    Attributes
+    ----------
+    h_agl_m : float
+        Release altitude above ground, m (default 5).
+    velocity_mps : float
+        Each NED component of the release velocity, m/s (default 1).
+    euler_deg : float
+        Each release Euler angle (roll, pitch, yaw), deg (default 5).
+    rate_dps : float
+        Each body rate at release, deg/s (default 3).
+    aero_factor : float
+        Each normalised aero dispersion factor (:data:`DISPERSION_NAMES`); the factors are
+        normalised so that the database 3-sigma is 1, hence the default 1/3.
+    aero_factors : tuple of str
+        Which factors are dispersed (default all); the others stay at the centre.
+    wind_bias_mps : float or None
+        Wind bias north and east, m/s; None takes the problem's ``atmosphere.wind_3sigma_mps / 3``
+        (the balloon's stated 3-sigma; 1/3 m/s for the EES drops).
+    density_factor : float or None
+        Relative density error; None takes ``atmosphere.density_3sigma / 3`` (0.01/3 for EES).
+    center : {"truth", "nominal"}
+        Parameters the dispersions are about: the problem's ``[truth]`` (nominal zeros where it has
+        none) or the nominal database and sounding (all zeros).
+    """
+
+    h_agl_m: float = 5.0
+    velocity_mps: float = 1.0
+    euler_deg: float = 5.0
+    rate_dps: float = 3.0
+    aero_factor: float = 1.0 / 3.0
+    aero_factors: tuple[str, ...] = DISPERSION_NAMES
+    wind_bias_mps: float | None = None
+    density_factor: float | None = None
+    center: str = "truth"
+
+    def __post_init__(self) -> None:
+        for name in ("h_agl_m", "velocity_mps", "euler_deg", "rate_dps", "aero_factor", "wind_bias_mps",
+                     "density_factor"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"Dispersions.{name} must be a finite 1-sigma >= 0, got {v}")
+        unknown = set(self.aero_factors) - set(DISPERSION_NAMES)
+        if unknown:
+            raise ValueError(f"Dispersions.aero_factors: unknown factor(s) {sorted(unknown)}; "
+                             f"known: {', '.join(DISPERSION_NAMES)}")
+        if self.center not in ("truth", "nominal"):
+            raise ValueError(f"Dispersions.center must be 'truth' or 'nominal', not {self.center!r}")
+
+    @classmethod
+    def none(cls, center: str = "truth") -> Dispersions:
+        """Zero dispersions: every case is the centre (nominal) flight."""
+        return cls(0.0, 0.0, 0.0, 0.0, 0.0, (), 0.0, 0.0, center)
+
+    def resolved(self, wind_3sigma_mps: float, density_3sigma: float) -> Dispersions:
+        """Copy with the atmosphere sizes taken from the problem where they are None."""
+        return replace(self,
+                       wind_bias_mps=wind_3sigma_mps / 3.0 if self.wind_bias_mps is None else self.wind_bias_mps,
+                       density_factor=density_3sigma / 3.0 if self.density_factor is None else self.density_factor)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["aero_factors"] = list(self.aero_factors)
+        return d
+
+
+def draw_case(seed: int, index: int, x0: np.ndarray, p0: np.ndarray, disp: Dispersions) -> tuple[np.ndarray,
+                                                                                                  np.ndarray]:
+    """Release state (13,) and parameters (np,) of case ``index`` of ``seed`` (resolved ``disp``)."""
+    z = np.random.default_rng([int(seed), int(index)]).standard_normal(N_DRAWS)
+    x = np.array(x0, float)
+    p = np.array(p0, float)
+    x[2] -= disp.h_agl_m * z[0]
+    x[3:6] += disp.velocity_mps * z[1:4]
+    if disp.euler_deg > 0:
+        euler = euler_deg_from_quats(x[6:10, None]).ravel() + disp.euler_deg * z[4:7]
+        x[6:10] = quats_from_euler_deg(euler[:, None]).ravel()
+    x[10:13] += np.radians(disp.rate_dps * z[7:10])
+    p[PARAMETER_NAMES.index("wind_bias_n")] += disp.wind_bias_mps * z[10]
+    p[PARAMETER_NAMES.index("wind_bias_e")] += disp.wind_bias_mps * z[11]
+    p[PARAMETER_NAMES.index("density_factor")] += disp.density_factor * z[12]
+    for i, name in enumerate(DISPERSION_NAMES):
+        if name in disp.aero_factors:
+            p[PARAMETER_NAMES.index(name)] += disp.aero_factor * z[13 + i]
+    return x, p
+
+
+@dataclass(frozen=True)
+class ChunkTask:
+    """One unit of work: cases ``indices`` of ``seed`` for the problem at ``problem``."""
+
+    problem: str
+    seed: int
+    indices: tuple[int, ...]
+    dispersions: Dispersions
+    dt_s: float = DEFAULT_DT_S
+    t_max_s: float = 300.0
+    batch: int = 250
+    backend: str = "auto"
+
+
+_CACHE: dict = {}
+_CACHE_LOCK = threading.Lock()
+
+
+def _scenario_and_simulator(problem: str, dt_s: float, batch: int, backend: str):
+    from casrecon.scenario import Scenario
+
+    key = (problem, dt_s, batch, backend)
+    with _CACHE_LOCK:
+        if key not in _CACHE:
+            sc = Scenario.load(problem)
+            _CACHE[key] = (sc, BatchSimulator(sc.model, dt_s=dt_s, batch=batch, backend=backend))
+        return _CACHE[key]
+
+
+def simulate_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
+    """Run one chunk; returns ``case`` and every :data:`INPUT_NAMES` and :data:`OUTPUT_COLUMNS` column.
+
+    Top-level and picklable, so process pools and Dask workers can call it.
+    """
+    sc, sim = _scenario_and_simulator(task.problem, task.dt_s, task.batch, task.backend)
+    x0, p0 = _centre(sc, task.dispersions)
+    disp = task.dispersions.resolved(sc.config.atmosphere.wind_3sigma_mps, sc.config.atmosphere.density_3sigma)
+    n = len(task.indices)
+    xs, ps = np.empty((13, n)), np.empty((len(p0), n))
+    for j, i in enumerate(task.indices):
+        xs[:, j], ps[:, j] = draw_case(task.seed, i, x0, p0, disp)
+    res = sim.run(xs, ps, task.t_max_s)
+    cols = {"case": np.asarray(task.indices, int)}
+    euler = euler_deg_from_quats(xs[6:10])
+    inputs = [-xs[2], xs[3], xs[4], xs[5], *euler, *np.degrees(xs[10:13])]
+    inputs += [ps[PARAMETER_NAMES.index(nm)] for nm in DISPERSION_NAMES]
+    inputs += [ps[PARAMETER_NAMES.index(nm)] for nm in ("wind_bias_n", "wind_bias_e", "density_factor")]
+    cols.update(zip(INPUT_NAMES, inputs))
+    outputs = [res.impacted.astype(float), res.flight_time_s, res.impact_speed_mps, *res.impact_state[3:6],
+               *res.impact_euler_deg, res.max_alpha_t_deg]
+    cols.update(zip(OUTPUT_COLUMNS, outputs))
+    return cols
+
+
+def _centre(sc, disp: Dispersions) -> tuple[np.ndarray, np.ndarray]:
+    from casrecon.physics.dynamics import default_parameters
+
+    p0 = sc.truth_parameters() if disp.center == "truth" else default_parameters()
+    return sc.release_state(), p0
+
+
+@dataclass(frozen=True)
+class MonteCarloResult:
+    """Every case of a Monte Carlo run, in case order.
+
+    Attributes
+    ----------
+    columns : dict of str to (n,) array
+        ``case`` (index i of ``default_rng([seed, i])``), :data:`INPUT_NAMES`, :data:`OUTPUT_COLUMNS`.
+    seed : int
+    dispersions : Dispersions
+        As resolved for the problem (atmosphere sizes filled in).
+    dt_s, backend, wall_s : run settings and wall time (s).
+    nominal : dict
+        The centre flight (zero dispersions): flight time, impact speed, etc.
+    """
+
+    columns: dict[str, np.ndarray]
+    seed: int
+    dispersions: Dispersions
+    dt_s: float
+    wall_s: float = 0.0
+    nominal: dict = field(default_factory=dict)
+    problem: str = ""
+
+    @property
+    def n_cases(self) -> int:
+        return len(self.columns["case"])
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def table(self) -> tuple[list[str], np.ndarray]:
+        """CSV header and (n, k) array."""
+        names = list(self.columns)
+        return names, np.column_stack([self.columns[n] for n in names])
+
+    def statistics(self) -> dict:
+        """Mean, sd, 3-sigma, percentiles (1, 50, 99), min and max of :data:`STATISTIC_NAMES` over
+        impacted cases, plus counts and the run settings."""
+        ok = self.columns["impacted"] > 0.5
+        out: dict = {"problem": self.problem, "n_cases": self.n_cases, "n_impacted": int(ok.sum()),
+                     "seed": self.seed, "dt_s": self.dt_s, "dispersions_1sigma": self.dispersions.to_dict(),
+                     "nominal": self.nominal}
+        for name in STATISTIC_NAMES:
+            v = self.columns[name][ok]
+            if v.size == 0:
+                out[name] = None
+                continue
+            mean, sd = float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0
+            p1, p50, p99 = (float(x) for x in np.percentile(v, [1, 50, 99]))
+            out[name] = {"mean": mean, "sd": sd, "three_sigma": 3 * sd, "mean_minus_3sigma": mean - 3 * sd,
+                         "mean_plus_3sigma": mean + 3 * sd, "p1": p1, "p50": p50, "p99": p99,
+                         "min": float(v.min()), "max": float(v.max())}
+        return out
+
+
+class _Progress:
+    """A one-line stderr progress bar, rewritten as chunks finish."""
+
+    def __init__(self, total: int, enabled: bool, label: str = "montecarlo") -> None:
+        self.total, self.done, self.enabled, self.label = total, 0, enabled, label
+        self.t0 = time.perf_counter()
+
+    def update(self, n: int) -> None:
+        self.done += n
+        if not self.enabled:
+            return
+        el = time.perf_counter() - self.t0
+        frac = self.done / max(self.total, 1)
+        eta = el * (1 - frac) / frac if frac > 0 else float("nan")
+        bar = "#" * int(30 * frac)
+        sys.stderr.write(f"\r{self.label} [{bar:<30s}] {self.done}/{self.total} cases  {el:6.1f} s  "
+                         f"ETA {eta:5.1f} s")
+        if self.done >= self.total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _chunks(indices: list[int], chunk_size: int) -> list[tuple[int, ...]]:
+    return [tuple(indices[s:s + chunk_size]) for s in range(0, len(indices), chunk_size)]
+
+
+def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions = Dispersions(), *,
+              workers: int = 1, scheduler: str | None = None, chunk_size: int = 250, dt_s: float = DEFAULT_DT_S,
+              t_max_s: float = 300.0, backend: str = "auto", progress: bool = False) -> dict[str, np.ndarray]:
+    """Simulate cases ``indices`` of ``seed``; columns in the order of ``indices``.
+
+    ``scheduler`` (a Dask distributed address) takes precedence over ``workers``.
+    """
+    problem = str(Path(problem).resolve())
+    indices = [int(i) for i in indices]
+    if any(i < 0 for i in indices):
+        raise ValueError("case indices must be >= 0")
+    if chunk_size < 1 or workers < 1:
+        raise ValueError(f"chunk_size and workers must be >= 1, got {chunk_size}, {workers}")
+    batch = min(chunk_size, 250)
+    tasks = [ChunkTask(problem, int(seed), c, dispersions, float(dt_s), float(t_max_s), batch, backend)
+             for c in _chunks(indices, chunk_size)]
+    bar = _Progress(len(indices), progress)
+    results: dict[int, dict] = {}
+    if scheduler is not None:
+        Client, dask_as_completed = _import_distributed()
+        with Client(scheduler) as client:
+            futures = client.map(simulate_chunk, tasks, pure=False)
+            where = {f.key: k for k, f in enumerate(futures)}
+            for fut in dask_as_completed(futures):
+                results[where[fut.key]] = fut.result()
+                bar.update(len(tasks[where[fut.key]].indices))
+    elif workers == 1 or len(tasks) == 1:
+        for k, t in enumerate(tasks):
+            results[k] = simulate_chunk(t)
+            bar.update(len(t.indices))
+    else:
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx) as pool:
+            futs = {pool.submit(simulate_chunk, t): k for k, t in enumerate(tasks)}
+            for fut in as_completed(futs):
+                results[futs[fut]] = fut.result()
+                bar.update(len(tasks[futs[fut]].indices))
+    parts = [results[k] for k in range(len(tasks))]
+    if not parts:
+        return {}
+    return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
+
+
+def _import_distributed():
+    try:
+        from distributed import Client, as_completed
+    except ImportError as err:
+        raise ImportError("a Dask scheduler was given but dask.distributed is not installed: "
+                          "pip install 'casrecon[dask]' (or 'dask[distributed]')") from err
+    return Client, as_completed
+
+
+def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions: Dispersions = Dispersions(), *,
+                   workers: int = 1, scheduler: str | None = None, chunk_size: int | None = None,
+                   dt_s: float = DEFAULT_DT_S, t_max_s: float = 300.0, backend: str = "auto",
+                   progress: bool = False) -> MonteCarloResult:
+    """Cases 0 .. ``n_cases`` - 1 of ``seed``, plus the nominal (undispersed) flight.
+
+    ``chunk_size`` defaults to 250 cases, fewer when that would leave workers idle.
+    """
+    if n_cases < 1:
+        raise ValueError(f"n_cases must be >= 1, got {n_cases}")
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
+    from casrecon.scenario import Scenario
+
+    sc = Scenario.load(problem)
+    resolved = dispersions.resolved(sc.config.atmosphere.wind_3sigma_mps, sc.config.atmosphere.density_3sigma)
+    if chunk_size is None:
+        par = max(workers, 1) if scheduler is None else 8
+        chunk_size = max(1, min(250, math.ceil(n_cases / par)))
+    t0 = time.perf_counter()
+    cols = run_cases(problem, range(n_cases), seed, resolved, workers=workers, scheduler=scheduler,
+                     chunk_size=chunk_size, dt_s=dt_s, t_max_s=t_max_s, backend=backend, progress=progress)
+    wall = time.perf_counter() - t0
+    nom = simulate_chunk(ChunkTask(str(Path(problem).resolve()), 0, (0,), Dispersions.none(dispersions.center),
+                                   float(dt_s), float(t_max_s), 1, backend))
+    nominal = {k: float(nom[k][0]) for k in OUTPUT_COLUMNS}
+    return MonteCarloResult(cols, int(seed), resolved, float(dt_s), wall, nominal, sc.config.name)
+
+
+def write_cases_csv(path: str | Path, result: MonteCarloResult) -> None:
+    """``cases.csv``: one row per case, ``case`` first, then drawn inputs and outputs."""
+    names, data = result.table()
+    fmt = ["%d"] + ["%.10g"] * (len(names) - 1)
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
+
+
+def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
+                           *, dt_s: float = DEFAULT_DT_S, chunk_size: int | None = None, center: str = "truth",
+                           figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
+    """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
+    ``figures/*.png``). Returns 0, or 2 after printing one located line on bad input."""
+    from casrecon.io.errors import InputError
+    from casrecon.io.results import atomic_folder, write_json
+
+    def bad(msg: str) -> int:
+        print(f"casrecon montecarlo: {msg}", file=sys.stderr)
+        return 2
+
+    if not isinstance(cases, int) or cases < 1:
+        return bad(f"--cases: must be a positive integer, got {cases!r}")
+    if not isinstance(seed, int) or seed < 0:
+        return bad(f"--seed: must be an integer >= 0, got {seed!r}")
+    if not isinstance(workers, int) or workers < 1:
+        return bad(f"--workers: must be a positive integer, got {workers!r}")
+    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
+        return bad(f"--dt: must lie in (0, 0.05] s, got {dt_s!r}")
+    if chunk_size is not None and chunk_size < 1:
+        return bad(f"--chunk-size: must be a positive integer, got {chunk_size!r}")
+    try:
+        disp = Dispersions(center=center)
+    except ValueError as err:
+        return bad(str(err))
+    if scheduler is not None:
+        try:
+            _import_distributed()
+        except ImportError as err:
+            return bad(f"--scheduler {scheduler}: {err}")
+    try:
+        from casrecon.scenario import Scenario
+
+        sc = Scenario.load(problem)
+    except InputError as err:
+        print(str(err), file=sys.stderr)
+        return 2
+    except FileNotFoundError as err:
+        return bad(f"{problem}: {err.strerror or err}")
+    if sc.config.release.h_agl_m <= 0:
+        return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
+    try:
+        result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
+                                chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
+    except OSError as err:
+        if scheduler is not None:
+            return bad(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})")
+        raise
+    stats = result.statistics()
+    stats.update(workers=workers, scheduler=scheduler, wall_s=result.wall_s,
+                 cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
+    with atomic_folder(out) as tmp:
+        write_cases_csv(tmp / "cases.csv", result)
+        write_json(tmp / "statistics.json", stats)
+        if figures:
+            from casrecon.report.montecarlo_plots import plot_montecarlo
+
+            plot_montecarlo(result, tmp / "figures")
+    ft, sp = stats["flight_time_s"], stats["impact_speed_mps"]
+    print(f"{result.n_cases} cases ({stats['n_impacted']} impacted) in {result.wall_s:.1f} s -> {out}")
+    if ft is not None:
+        print(f"flight time   {ft['mean']:.3f} s    sd {ft['sd']:.3f}   p1 {ft['p1']:.3f}   p99 {ft['p99']:.3f}")
+        print(f"impact speed  {sp['mean']:.3f} m/s  sd {sp['sd']:.3f}   p1 {sp['p1']:.3f}   p99 {sp['p99']:.3f}")
+    return 0
