@@ -30,7 +30,7 @@ from casrecon.estimation.problem import DropPart, _BlockSet, assemble_nlp
 from casrecon.estimation.segment import SegmentError, find_segment
 from casrecon.estimation.solve import SolveResult, solve
 from casrecon.estimation.transcription import Mesh
-from casrecon.io.flysight import GpsTrack, read_flysight
+from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
@@ -104,7 +104,10 @@ def prepare_data(cfg: PointMassConfig) -> PointMassData:
         raise FitError(str(err)) from None
     t = track.time_unix_s
     period = float(np.median(np.diff(t)))
-    nodes = seg.start_unix_s + period * np.arange(int(np.floor((seg.end_unix_s - seg.start_unix_s) / period)) + 1)
+    # nodes on the fix epochs: an explicit start_utc between two fixes starts at the next fix, and a
+    # fix at the end itself is kept (the division can fall a hair short of a whole number)
+    start = float(t[min(int(np.searchsorted(t, seg.start_unix_s - 1e-3)), t.size - 1)])
+    nodes = start + period * np.arange(max(int(np.floor((seg.end_unix_s - start) / period + 1e-3)), 0) + 1)
     idx = np.clip(np.searchsorted(t, nodes - period / 2), 0, t.size - 1)
     on_node = (np.abs(t[idx] - nodes) < period / 4) & seg.good[idx]
     site = cfg.site
@@ -114,6 +117,9 @@ def prepare_data(cfg: PointMassConfig) -> PointMassData:
     sig = np.column_stack([track.h_acc_m[idx], track.h_acc_m[idx], track.v_acc_m[idx],
                            track.s_acc_mps[idx], track.s_acc_mps[idx], track.s_acc_mps[idx]])
     inv = np.where(on_node[:, None], 1.0 / sig, 0.0)
+    if on_node.sum() < 3:
+        raise FitError(f"{track.path}: only {int(on_node.sum())} good fixes in the segment "
+                       f"{iso_utc(seg.start_unix_s)} to {iso_utc(seg.end_unix_s)}")
     notes = seg.notes + (f"{int(on_node.sum())} fixes on {nodes.size} nodes every {period:.3f} s",)
     return PointMassData(nodes, np.where(on_node[:, None], y, 0.0), inv, notes, track)
 
