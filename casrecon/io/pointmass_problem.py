@@ -107,8 +107,11 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
         path = path / "problem.toml"
     f = load_toml(path)
     empty = {k: Fields({}, path, f"{k}.") for k in ("drag", "segment", "estimation", "dynamics")}
-    head, atm, veh = f.table("problem", required=True), f.table("atmosphere", required=True), f.table(
-        "vehicle", required=True)
+    head = f.table("problem", required=True)
+    if head.string("kind", "six-dof", choices=("six-dof", "point-mass")) != "point-mass":
+        raise head.error("kind", 'this is a six-dof problem (no kind = "point-mass"): load it with '
+                                 "casrecon.io.problem.load_problem")
+    atm, veh = f.table("atmosphere", required=True), f.table("vehicle", required=True)
     gps = f.table("gps", required=True)
     drag = f.table("drag") or empty["drag"]
     seg = f.table("segment") or empty["segment"]
@@ -130,7 +133,6 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
         segment=_segment(seg), dynamics=_dynamics(f.table("dynamics") or empty["dynamics"]),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
         max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True))
-    head.string("kind", "six-dof", choices=("six-dof", "point-mass"))
     for t in (head, atm, veh, gps, drag, est, f):
         t.reject_unknown()
     return cfg
