@@ -62,7 +62,8 @@ def write_pointmass_results(out: Path, main, constant) -> None:
     for j, name in enumerate(("cda_m2", "lift_n_m2", "lift_e_m2")[:main.extra["areas"].shape[1]]):
         cols += [name, f"{name}_3sigma"]
         data += [main.extra["areas"][:, j], 3 * main.extra["area_sigma"][:, j]]
-    write_columns(out / "trajectory.csv", cols, np.column_stack(data))
+    # UTC seconds need ms resolution: the default 9 significant digits round 1.5e9 s to 10 s
+    write_columns(out / "trajectory.csv", cols, np.column_stack(data), fmt=["%.3f"] + ["%.9g"] * (len(cols) - 1))
     rcols = ["time_s"] + [f"{n}_{m}" for m in ("fit", "constant") for n in NAMES]
     write_columns(out / "residuals_gps.csv", rcols, np.column_stack(
         [main.t_unix - t0, main.normalized_residuals, constant.normalized_residuals]))
