@@ -1,0 +1,135 @@
+"""Acceptance on REAL data: ``casrecon fit`` of the three shipped speed-skydive tracks (GPS only,
+point mass, drag-area spline with horizontal lift areas, plus the constant-drag comparison).
+
+Each fit runs once per module (module-scoped, parametrised fixture). Run times on this machine,
+``casrecon fit`` with figures, in-process: FS1 Byron ~8 s (default suite), skyderby 411 ~10 s and
+FS2 Chicago ~14 s (both ``slow``: the three together exceed the ~40 s the default suite can spend
+here).
+
+Values measured when the test was written (summary.json; reduced chi2 fitted / constant, ratio;
+constant model vertical-speed residual RMS and lag-1 autocorrelation):
+
+    FS1 Byron      4.66 / 1039  (x223)   vel_d RMS 42.1, lag-1 0.994
+    skyderby 411   6.65 /  443  (x67)    vel_d RMS 38.2, lag-1 0.99
+    FS2 Chicago    5.78 / 2962  (x512)   vel_d RMS 89.7, lag-1 1.00
+
+The fitted model's reduced chi2 is 4.7-6.7, not 1: the residuals it leaves are mostly velocity
+(normalised RMS 1.4-4.9, lag-1 autocorrelation ~0.9), i.e. receiver errors correlated over
+seconds and manoeuvres faster than 2 s knots, which the reported sAcc does not describe. The test
+therefore bounds the fitted model only relative to the constant one (factor > 20) and by a loose
+absolute ceiling (< 15), and does not claim chi2 ~ 1 on real data.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from casrecon.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+PROBLEMS = REPO / "problems"
+
+FITS = [
+    pytest.param("realdata-fs1-byron", id="fs1-byron"),
+    pytest.param("realdata-skyderby-411", id="skyderby-411", marks=pytest.mark.slow),
+    pytest.param("realdata-fs2-chicago", id="fs2-chicago", marks=pytest.mark.slow),
+]
+
+
+@pytest.fixture(scope="module", params=FITS)
+def fitted(request, tmp_path_factory):
+    """(name, results folder, exit status, stdout) of ``casrecon fit`` on one real track."""
+    name = request.param
+    out = tmp_path_factory.mktemp(name) / "results"
+    buf = io.StringIO()                      # capsys is function-scoped: capture by hand
+    with contextlib.redirect_stdout(buf):
+        status = main(["fit", str(PROBLEMS / name), "--out", str(out)])
+    return name, out, status, buf.getvalue()
+
+
+def _summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_fit_converges_and_writes_the_folder(fitted):
+    name, out, status, stdout = fitted
+    assert status == 0, stdout
+    assert f"results -> {out}" in stdout
+    for f in ("trajectory.csv", "parameters.json", "summary.json", "residuals_gps.csv", "gps_fixes.csv",
+              "report.txt", "config/problem.toml", "figures/track_fit.png"):
+        assert (out / f).is_file(), f
+    png = (out / "figures" / "track_fit.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 50_000
+    s = _summary(out)
+    assert s["problem"] == name and s["kind"] == "point-mass" and s["converged"] is True
+    assert s["fit"]["model"] == "spline" and s["fit"]["lift"] is True and s["fit"]["converged"] is True
+    assert s["constant_drag"]["model"] == "constant" and s["constant_drag"]["converged"] is True
+    assert s["fit"]["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    assert "[[GPS-only fit" in stdout and "[[Data notes]]" in stdout
+
+
+def test_trajectory_has_drag_area_with_three_sigma(fitted):
+    name, out, _, _ = fitted
+    with open(out / "trajectory.csv") as fh:
+        header = next(csv.reader(fh))
+    data = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
+    col = {c: data[:, i] for i, c in enumerate(header)}
+    for c in ("cda_m2", "cda_m2_3sigma", "lift_n_m2", "lift_n_m2_3sigma", "lift_e_m2", "lift_e_m2_3sigma",
+              "pos_d_m", "pos_d_m_3sigma", "vel_d_mps", "h_msl_m"):
+        assert c in col, c
+    assert np.all(np.isfinite(data))
+    assert np.all(col["cda_m2_3sigma"] > 0) and np.all(col["pos_d_m_3sigma"] > 0)
+    assert col["cda_m2"].min() > -1e-6                     # B-spline coefficients >= 0
+    # UTC times tie each row to its fix: one receiver period apart, spanning the summary's segment
+    s = _summary(out)
+    t = col["time_utc_unix_s"]
+    assert t[0] == pytest.approx(s["segment_utc_unix_s"][0], abs=1e-3)
+    assert t[-1] == pytest.approx(s["segment_utc_unix_s"][1], abs=1e-3)
+    period = np.median(np.diff(t))
+    assert period in (pytest.approx(0.2, abs=2e-3), pytest.approx(0.1, abs=2e-3))
+    assert np.allclose(np.diff(t), period, atol=2e-3)
+    assert np.allclose(col["time_s"], t - t[0], atol=2e-3)
+    # at top speed a head-down speed skydiver's drag area (for the assumed 80 kg) is small and known
+    # to a few per cent; over the whole segment it spans belly (large) to head-down (small)
+    top = np.argmax(col["vel_d_mps"])
+    assert 0.03 < col["cda_m2"][top] < 0.3, col["cda_m2"][top]
+    assert col["cda_m2_3sigma"][top] < 0.1 * col["cda_m2"][top]
+    assert col["vel_d_mps"][top] > 90.0
+
+
+def test_parameters_json(fitted):
+    _, out, _, _ = fitted
+    p = json.loads((out / "parameters.json").read_text())["parameters"]
+    for k in ("wind_bias_n", "wind_bias_e", "CdA_00", "AN_00", "AE_00"):
+        assert k in p, k
+        assert p[k]["three_sigma"] == pytest.approx(3 * p[k]["sigma"]) and p[k]["sigma"] > 0
+    assert p["wind_bias_n"]["unit"] == "m/s" and p["CdA_00"]["unit"] == "m^2"
+    assert all(v["value"] >= -1e-6 for k, v in p.items() if k.startswith("CdA_"))
+
+
+def test_constant_drag_model_leaves_structure(fitted):
+    name, out, _, _ = fitted
+    s = _summary(out)
+    fit, const = s["fit"], s["constant_drag"]
+    ratio = const["reduced_chi2"] / fit["reduced_chi2"]
+    vd = const["residuals"]["vel_d"]
+    print(f"{name}: reduced chi2 fitted {fit['reduced_chi2']:.2f}, constant {const['reduced_chi2']:.1f} "
+          f"(x{ratio:.0f}); constant vel_d RMS {vd['rms']:.1f}, lag-1 {vd['lag1_autocorrelation']:.3f}; "
+          f"fitted vel_d RMS {fit['residuals']['vel_d']['rms']:.2f}")
+    assert ratio > 20
+    assert fit["reduced_chi2"] < 15
+    for comp in ("pos_d", "vel_d"):
+        r = const["residuals"][comp]
+        assert r["rms"] > 5 and r["lag1_autocorrelation"] > 0.9, (comp, r)
+    # the fitted model removes most of it in every component
+    for comp, r in fit["residuals"].items():
+        assert r["rms"] < const["residuals"][comp]["rms"] / 4, comp
+    # same segment and fixes for both models
+    assert fit["n_measurements"]["gps"] == const["n_measurements"]["gps"]

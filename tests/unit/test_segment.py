@@ -1,0 +1,178 @@
+"""Segment rules of the GPS-only fit (casrecon.estimation.segment) on hand-made tracks.
+
+Every track below is a 5 Hz sequence of fixes built from a vertical-speed profile: level flight,
+an exit (vertical speed growing ~9.5 m/s per second), a fast run, and a deployment (vertical speed
+falling to canopy speed). The expected start and end are computed from the rules by hand:
+start = the first fix of the descent whose vertical speed exceeds 2 m/s (the run of good fixes
+faster than min_speed_mps, extended back while above 2 m/s), end = the last fix faster than
+min_speed_mps minus end_margin_s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from casrecon.estimation.segment import SegmentError, find_segment, good_fixes
+from casrecon.io.flysight import GpsTrack
+from casrecon.io.pointmass_problem import GpsQuality, SegmentConfig
+
+T0 = 1_600_000_000.0
+DT = 0.2
+
+
+def track_from(vel_d: np.ndarray, h_acc=None, v_acc=None, s_acc=None, num_sv=None) -> GpsTrack:
+    n = vel_d.size
+    t = T0 + DT * np.arange(n)
+    h = 4000.0 - np.cumsum(vel_d) * DT
+
+    def full(v, default):
+        return np.full(n, default, dtype=np.int64 if isinstance(default, int) else float) if v is None else \
+            np.asarray(v, dtype=np.int64 if isinstance(default, int) else float)
+
+    return GpsTrack("hand-made.csv", "flysight1", t, np.full(n, 40.0), np.full(n, -105.0), h, np.full(n, 30.0),
+                    np.zeros(n), np.asarray(vel_d, float), full(h_acc, 1.5), full(v_acc, 2.5), full(s_acc, 0.3),
+                    full(num_sv, 12))
+
+
+def jump_profile(level_s=4.0, fast_s=40.0, canopy_s=6.0) -> np.ndarray:
+    """Level (0 m/s) -> exit ramp 9.5 m/s^2 up to 55 m/s -> fast -> deployment ramp to 5 m/s."""
+    level = np.zeros(int(level_s / DT))
+    ramp = np.minimum(9.5 * DT * np.arange(1, 40), 55.0)      # 1.9, 3.8, ... 55
+    fast = np.full(int(fast_s / DT), 55.0)
+    deploy = np.linspace(55.0, 5.0, 8)[1:]                       # 47.9, 40.7, ..., 5
+    canopy = np.full(int(canopy_s / DT), 5.0)
+    return np.r_[level, ramp, fast, deploy, canopy]
+
+
+Q = GpsQuality()
+CFG = SegmentConfig()
+
+
+def test_exit_and_deployment_found_from_the_data():
+    vd = jump_profile()
+    tr = track_from(vd)
+    seg = find_segment(tr, Q, CFG)
+    i_start = int(np.flatnonzero(vd > 2.0)[0])                 # second ramp fix (3.8 m/s): 1.9 is below 2
+    assert vd[i_start - 1] <= 2.0 < vd[i_start]
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[i_start])
+    i_last_fast = int(np.flatnonzero(vd > CFG.min_speed_mps)[-1])
+    assert vd[i_last_fast + 1] < CFG.min_speed_mps
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last_fast] - CFG.end_margin_s)
+    assert seg.good.all() and seg.good.shape == (tr.n,)
+    assert any("segment found from the data" in n for n in seg.notes)
+    assert "0 of" in seg.notes[0]
+
+
+def test_min_speed_and_end_margin_are_used():
+    vd = jump_profile()
+    tr = track_from(vd)
+    cfg = SegmentConfig(min_speed_mps=45.0, end_margin_s=1.0)
+    seg = find_segment(tr, Q, cfg)
+    i_last = int(np.flatnonzero(vd > 45.0)[-1])               # the deployment ramp's 47.9 m/s fix
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last] - 1.0)
+    # the start is still where the descent began (back over the ramp to 2 m/s), not at 45 m/s
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[np.flatnonzero(vd > 2.0)[0]])
+
+
+def test_cold_start_fixes_dropped_and_counted():
+    vd = jump_profile(level_s=10.0)
+    h_acc = np.full(vd.size, 1.5)
+    h_acc[:20] = 100.0                                          # cold start: the first 4 s
+    tr = track_from(vd, h_acc=h_acc)
+    seg = find_segment(tr, Q, CFG)
+    assert not seg.good[:20].any() and seg.good[20:].all()
+    assert seg.notes[0].startswith(f"20 of {tr.n} fixes fail the quality rules")
+    assert "dropped" in seg.notes[0]
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[np.flatnonzero(vd > 2.0)[0]])
+
+
+@pytest.mark.parametrize("field, bad", [("h_acc", 10.01), ("v_acc", 10.01), ("s_acc", 1.01), ("num_sv", 5)])
+def test_each_quality_rule_drops_a_fix(field, bad):
+    vd = jump_profile()
+    values = {"h_acc": 1.5, "v_acc": 2.5, "s_acc": 0.3, "num_sv": 12}
+    arr = np.full(vd.size, values[field], dtype=np.int64 if field == "num_sv" else float)
+    arr[100] = bad
+    good = good_fixes(track_from(vd, **{field: arr}), Q)
+    assert np.flatnonzero(~good).tolist() == [100]
+    # at the limit itself the fix is kept
+    arr[100] = {"h_acc": 10.0, "v_acc": 10.0, "s_acc": 1.0, "num_sv": 6}[field]
+    assert good_fixes(track_from(vd, **{field: arr}), Q).all()
+
+
+def test_num_sv_absent_is_not_tested():
+    vd = jump_profile()
+    tr = track_from(vd, num_sv=np.full(vd.size, -1))
+    assert good_fixes(tr, Q).all()
+    assert good_fixes(tr, GpsQuality(min_num_sv=30)).all()
+    assert not good_fixes(track_from(vd, num_sv=np.full(vd.size, 12)), GpsQuality(min_num_sv=30)).any()
+
+
+def test_bad_fix_on_the_exit_ramp_stops_the_back_extension():
+    vd = jump_profile()
+    i_ramp = np.flatnonzero(vd > 2.0)[0]
+    s_acc = np.full(vd.size, 0.3)
+    s_acc[i_ramp + 2] = 5.0                                     # a bad fix at ~7.6 m/s
+    tr = track_from(vd, s_acc=s_acc)
+    seg = find_segment(tr, Q, CFG)
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[i_ramp + 3])
+
+
+def test_longest_fast_run_wins():
+    # a short fast burst (2 s) before the real descent, separated by slow fixes
+    vd = np.r_[np.zeros(10), np.full(10, 30.0), np.zeros(10), jump_profile(level_s=2.0)]
+    tr = track_from(vd)
+    seg = find_segment(tr, Q, CFG)
+    assert seg.start_unix_s > tr.time_unix_s[20]
+    assert seg.end_unix_s - seg.start_unix_s > 40.0
+
+
+def test_fast_run_split_by_a_bad_fix_keeps_the_longer_part():
+    vd = jump_profile(fast_s=40.0)
+    i_fast = np.flatnonzero(vd >= 55.0)
+    h_acc = np.full(vd.size, 1.5)
+    cut = i_fast[0] + 50                                        # 10 s into the fast run
+    h_acc[cut] = 50.0
+    tr = track_from(vd, h_acc=h_acc)
+    seg = find_segment(tr, Q, CFG)
+    # the part after the bad fix is longer; the back extension stops at the bad fix
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[cut + 1])
+
+
+def test_no_fast_run_raises():
+    with pytest.raises(SegmentError, match="no good fix descends faster than 20"):
+        find_segment(track_from(np.full(200, 5.0)), Q, CFG)
+    # fast fixes that are all bad do not count either
+    with pytest.raises(SegmentError, match="no good fix"):
+        find_segment(track_from(jump_profile(), h_acc=np.full(jump_profile().size, 50.0)), Q, CFG)
+
+
+def test_too_short_descent_raises():
+    vd = np.r_[np.zeros(10), np.full(15, 30.0), np.zeros(10)]  # 3 s fast
+    with pytest.raises(SegmentError, match="only"):
+        find_segment(track_from(vd), Q, CFG)
+
+
+def test_explicit_start_and_end_override():
+    vd = jump_profile()
+    tr = track_from(vd)
+    start, end = T0 + 10.0, T0 + 30.0
+    seg = find_segment(tr, Q, SegmentConfig(start_unix_s=start, end_unix_s=end))
+    assert (seg.start_unix_s, seg.end_unix_s) == (start, end)
+    assert any("start_utc / end_utc" in n for n in seg.notes)
+    # both given: no fast run needed at all
+    seg = find_segment(track_from(np.full(200, 5.0)), Q, SegmentConfig(start_unix_s=start, end_unix_s=end))
+    assert (seg.start_unix_s, seg.end_unix_s) == (start, end)
+
+
+def test_explicit_start_only_or_end_only():
+    vd = jump_profile()
+    tr = track_from(vd)
+    auto = find_segment(tr, Q, CFG)
+    seg = find_segment(tr, Q, SegmentConfig(start_unix_s=T0 + 12.0))
+    assert seg.start_unix_s == T0 + 12.0 and seg.end_unix_s == pytest.approx(auto.end_unix_s)
+    seg = find_segment(tr, Q, SegmentConfig(end_unix_s=T0 + 30.0))
+    assert seg.start_unix_s == pytest.approx(auto.start_unix_s) and seg.end_unix_s == T0 + 30.0
+    # an explicit start 2 s before the end found: too short
+    with pytest.raises(SegmentError, match="only 2.0 s long"):
+        find_segment(tr, Q, SegmentConfig(start_unix_s=auto.end_unix_s - 2.0))
