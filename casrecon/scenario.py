@@ -37,7 +37,8 @@ class Scenario:
     def from_config(cls, config: ProblemConfig) -> Scenario:
         sounding = read_sounding(config.atmosphere.sounding, launch=config.atmosphere.launch)
         atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m)
-        model = FlightModel(config.vehicle, config.aero, atmosphere, config.site, config.dynamics)
+        release_msl = config.site.ground_alt_msl_m + config.release.h_agl_m
+        model = FlightModel(config.vehicle, config.aero, atmosphere, config.site, config.dynamics, release_msl)
         return cls(config, atmosphere, model)
 
     def release_state(self) -> np.ndarray:
@@ -53,5 +54,5 @@ class Scenario:
             return default_parameters()
         values = {n: t.dispersions[n] for n in DISPERSION_NAMES}
         values.update(wind_bias_n=t.wind_bias_mps[0], wind_bias_e=t.wind_bias_mps[1],
-                      density_factor=t.density_factor)
+                      density_factor=t.density_factor, downwash_mps=t.downwash_mps)
         return default_parameters(**values)

@@ -172,7 +172,8 @@ def truth_parameters_by_name(scenario: Scenario) -> dict[str, float]:
     truth = scenario.config.truth
     out = {n: float(truth.dispersions[n]) for n in DISPERSION_NAMES}
     out.update(wind_bias_n=truth.wind_bias_mps[0], wind_bias_e=truth.wind_bias_mps[1],
-               density_factor=truth.density_factor, clock_offset_s=truth.clock_offset_s)
+               density_factor=truth.density_factor, clock_offset_s=truth.clock_offset_s,
+               downwash_mps=truth.downwash_mps)
     for axis, a, g in zip("xyz", truth.accel_bias_mps2, truth.gyro_bias_radps):
         out[f"accel_bias_{axis}"] = float(a)
         out[f"gyro_bias_{axis}"] = float(g)

@@ -52,7 +52,7 @@ def gps_residuals(result) -> dict[str, np.ndarray]:
     r = np.asarray(ca.Function("r", [nlp.z], [nlp.residuals])(result.extra["z"])).ravel()
     gps = next(s for g, s in part.groups.items() if g.split("/")[-1] == "gps")
     whitened = r[gps].reshape(-1, 6)
-    clock = result.parameter("clock_offset_s")[0] if "clock_offset_s" in result.params.names else 0.0
+    clock = result.parameter("clock_offset_s")[0] if "clock_offset_s" in result.params.names else part.guess_clock_s
     return {"time_imu_s": data.gps_time_s - clock, "residual": whitened * data.gps_sigma, "sigma": data.gps_sigma}
 
 

@@ -177,6 +177,7 @@ def solve_fit(build, start, guesses: dict[str, float], solve_kw: dict):
         moved = clocks_at_bound(sol, nlp, bounds)
         if not moved:
             return nlp, sol, build_s
+        _check_clock_plausible(nlp, moved)
         guesses.update(moved)
         z = sol.z
     raise FitError(f"the IMU-to-GPS clock offset kept reaching its bound after {MAX_CLOCK_SHIFTS} shifts "
@@ -217,6 +218,19 @@ def clock_bounds(nlp: FitNlp) -> tuple[np.ndarray, np.ndarray]:
             col, scale = part.theta_cols[i], part.params.scales[i]
             lbx[col], ubx[col] = (guess - part.mesh.h) / scale, (guess + part.mesh.h) / scale
     return lbx, ubx
+
+
+def _check_clock_plausible(nlp: FitNlp, moved: dict[str, float]) -> None:
+    """FitError when a clock offset runs beyond 3 sigma of its prior: the data are then being bent
+    to a model that does not fit them (or the clock guess is far off)."""
+    for part in nlp.parts:
+        if part.name in moved and "clock_offset_s" in part.params.names:
+            spec = part.params.specs[part.params.index("clock_offset_s")]
+            limit = 3 * (spec.prior_sigma or spec.scale)
+            if abs(moved[part.name]) > limit:
+                raise FitError(f"{part.name}: the IMU-to-GPS clock offset runs to {moved[part.name]:+.3f} s, beyond 3 "
+                               f"sigma of its prior ({limit:.3f} s); the model probably does not fit the data (or "
+                               "give [estimation] clock_offset_guess_s, or hold the clock with estimate_clock = false)")
 
 
 def clocks_at_bound(sol: SolveResult, nlp: FitNlp, bounds) -> dict[str, float]:

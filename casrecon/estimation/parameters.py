@@ -85,10 +85,14 @@ def parameter_set(cfg: ProblemConfig) -> ParameterSet:
     specs += [ParameterSpec("wind_bias_n", "atmosphere", wind_sigma, wind_sigma if on else None, "m/s"),
               ParameterSpec("wind_bias_e", "atmosphere", wind_sigma, wind_sigma if on else None, "m/s"),
               ParameterSpec("density_factor", "atmosphere", rho_sigma, rho_sigma if on else None, "-")]
+    if est.estimate_downwash:
+        specs.append(ParameterSpec("downwash_mps", "atmosphere", est.downwash_sigma_mps,
+                                   est.downwash_sigma_mps if on else None, "m/s"))
     for name in SENSOR_NAMES:
         sigma = cfg.imu.accel_bias_sigma_mps2 if name.startswith("accel") else cfg.imu.gyro_bias_sigma_radps
         unit = "m/s^2" if name.startswith("accel") else "rad/s"
         specs.append(ParameterSpec(name, "imu", sigma, sigma if est.imu_bias_prior else None, unit))
-    specs.append(ParameterSpec("clock_offset_s", "clock", est.clock_sigma_s,
-                               est.clock_sigma_s if est.clock_prior else None, "s"))
+    if est.estimate_clock:
+        specs.append(ParameterSpec("clock_offset_s", "clock", est.clock_sigma_s,
+                                   est.clock_sigma_s if est.clock_prior else None, "s"))
     return ParameterSet(tuple(specs))

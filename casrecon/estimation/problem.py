@@ -283,11 +283,11 @@ def _interval_kind(model, mesh, params, un: _Unscale) -> BlockKind:
     return BlockKind("interval", v, [d, rr], r_imu, defect)
 
 
-def _gps_kind(model, mesh, params, un: _Unscale) -> BlockKind:
+def _gps_kind(model, mesh, params, un: _Unscale, guess: float = 0.0) -> BlockKind:
     v = ca.SX.sym("v", 2 * NS + params.n)
     tau0, y, w = ca.SX.sym("tau0"), ca.SX.sym("y", 6), ca.SX.sym("w", 6)
     xk, xk1, theta = un.split(v)
-    tau = tau0 - (theta[un.clock] / mesh.h if un.clock is not None else 0)
+    tau = tau0 - (theta[un.clock] if un.clock is not None else guess) / mesh.h
     r = gps_function(model, mesh.h)(xk, xk1, un.model_params(theta), tau, y, w)
     return BlockKind("gps", v, [tau0, y, w], r, None)
 
@@ -325,7 +325,8 @@ def drop_block_sets(model: FlightModel, data: FitData, part: DropPart, cfg) -> l
     sets = [_BlockSet(_interval_kind(model, mesh, params, un), node_cols(np.arange(n_int)),
                       [ca.DM(part.imu_blocks.d), ca.DM(part.imu_blocks.R)],
                       part.defect_offset + NS * np.arange(n_int), "imu"),
-            _BlockSet(_gps_kind(model, mesh, params, un), node_cols(kfix), gps_data, group="gps")]
+            _BlockSet(_gps_kind(model, mesh, params, un, part.guess_clock_s), node_cols(kfix), gps_data,
+                      group="gps")]
     return sets + prior_block_sets(part)
 
 

@@ -107,6 +107,7 @@ class TruthConfig:
     accel_bias_mps2: tuple[float, float, float]
     gyro_bias_radps: tuple[float, float, float]
     clock_offset_s: float
+    downwash_mps: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -151,6 +152,13 @@ class EstimationConfig:
         Switch each prior group on or off.
     clock_sigma_s : float
         1-sigma prior of the IMU-to-GPS clock offset.
+    estimate_clock : bool
+        Estimate the IMU-to-GPS clock offset (else it is held at clock_offset_guess_s).
+    estimate_downwash : bool
+        Estimate the rotor-downwash magnitude (m/s, the hypothesis of DESIGN / the EES paper),
+        with a N(0, downwash_sigma_mps^2) prior.
+    downwash_sigma_mps : float
+        1-sigma prior of the downwash magnitude.
     clock_offset_guess_s : float
         Starting value of the clock offset; the fit keeps the offset within one collocation
         interval of it (so each GPS fix stays on its interval) and says so if it ends on that bound.
@@ -177,6 +185,9 @@ class EstimationConfig:
     clock_prior: bool = True
     clock_sigma_s: float = 0.05
     clock_offset_guess_s: float = 0.0
+    estimate_downwash: bool = False
+    downwash_sigma_mps: float = 2.0
+    estimate_clock: bool = True
     max_h_acc_m: float = 10.0
     max_v_acc_m: float = 10.0
     max_s_acc_mps: float = 1.0
@@ -275,7 +286,8 @@ def _atmosphere(t: Fields) -> AtmosphereConfig:
 def _dynamics(t: Fields) -> DynamicsOptions:
     opts = DynamicsOptions(gravity=t.string("gravity", "wgs84", choices=("wgs84", "constant", "off")),
                            earth_rotation=t.boolean("earth_rotation", True),
-                           aerodynamics=t.boolean("aerodynamics", True))
+                           aerodynamics=t.boolean("aerodynamics", True),
+                           downwash_length_m=t.number("downwash_length_m", 30.0, positive=True))
     t.reject_unknown()
     return opts
 
@@ -349,7 +361,7 @@ def _truth(t: Fields | None) -> TruthConfig | None:
         wind_bias_mps=t.vector("wind_bias_mps", 2, (0.0, 0.0)), density_factor=t.number("density_factor", 0.0),
         accel_bias_mps2=t.vector("accel_bias_mps2", 3, (0.0, 0.0, 0.0)),
         gyro_bias_radps=tuple(np.radians(t.vector("gyro_bias_dps", 3, (0.0, 0.0, 0.0)))),
-        clock_offset_s=t.number("clock_offset_s", 0.0))
+        clock_offset_s=t.number("clock_offset_s", 0.0), downwash_mps=t.number("downwash_mps", 0.0))
     t.reject_unknown()
     return cfg
 
@@ -383,6 +395,8 @@ def _estimation(t: Fields) -> EstimationConfig:
         imu_bias_prior=t.boolean("imu_bias_prior", True), clock_prior=t.boolean("clock_prior", True),
         clock_sigma_s=t.number("clock_sigma_s", d.clock_sigma_s, positive=True),
         clock_offset_guess_s=t.number("clock_offset_guess_s", d.clock_offset_guess_s),
+        estimate_downwash=t.boolean("estimate_downwash", False), estimate_clock=t.boolean("estimate_clock", True),
+        downwash_sigma_mps=t.number("downwash_sigma_mps", d.downwash_sigma_mps, positive=True),
         max_h_acc_m=t.number("max_h_acc_m", d.max_h_acc_m, positive=True),
         max_v_acc_m=t.number("max_v_acc_m", d.max_v_acc_m, positive=True),
         max_s_acc_mps=t.number("max_s_acc_mps", d.max_s_acc_mps, positive=True),

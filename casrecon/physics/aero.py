@@ -22,9 +22,11 @@ import casadi as ca
 import numpy as np
 
 #: Dispersion factor names, in the order of the dispersion vector (DESIGN 3.4). Each is normalised:
-#: nominal 0, database 3-sigma = 1. ``CLa_mult`` multiplies the spin-vane lift-curve slope.
+#: nominal 0, database 3-sigma = 1. ``CLa_mult`` multiplies the spin-vane lift-curve slope;
+#: ``Cmq_add`` adds a constant to C_mq and ``Cmq_a2_add`` adds a term in sin^2(alpha_T), the two
+#: pieces of an amplitude-dependent (nonlinear) pitch damping that can sustain a limit cycle.
 DISPERSION_NAMES = ("CA_mult", "CN_add", "CNY_mult", "CY_add", "Cm_add", "Cmn_mult", "Cn_add",
-                    "Cmq_mult", "Cl_add", "CLa_mult")
+                    "Cmq_mult", "Cl_add", "CLa_mult", "Cmq_add", "Cmq_a2_add")
 
 #: Crossflow-speed guard, m/s: keeps e_c and alpha_T smooth at alpha_T = 0.
 CROSSFLOW_GUARD_MPS = 1e-6
@@ -45,6 +47,8 @@ class DispersionSizes:
     Cmq_mult: float = 0.0
     Cl_add: float = 0.0
     CLa_mult: float = 0.0
+    Cmq_add: float = 0.0
+    Cmq_a2_add: float = 0.0
 
     def as_array(self) -> np.ndarray:
         """Sizes in :data:`DISPERSION_NAMES` order."""
@@ -222,7 +226,8 @@ def aero_force_moment(db: AeroDatabase, v_air_body, omega_body, rho, sound_speed
     cy_b = -cn * ec[1] * (1 + u.CNY_mult * d["CNY_mult"]) + u.CY_add * d["CY_add"]
     cm_b = cm * ec[2] * (1 + u.Cmn_mult * d["Cmn_mult"]) + u.Cm_add * d["Cm_add"]
     cn_yaw = -cm * ec[1] * (1 + u.Cmn_mult * d["Cmn_mult"]) + u.Cn_add * d["Cn_add"]
-    cmq = cmq * (1 + u.Cmq_mult * d["Cmq_mult"])
+    cmq = cmq * (1 + u.Cmq_mult * d["Cmq_mult"]) + u.Cmq_add * d["Cmq_add"] \
+        + u.Cmq_a2_add * d["Cmq_a2_add"] * fl.sin_at ** 2
     cl = cl + u.Cl_add * d["Cl_add"]
     qs = qbar * ref_area_m2
     force = qs * ca.vertcat(-ca_, cy_b, -cn_b)

@@ -4,7 +4,8 @@ State x (13): NED position of the centre of mass relative to the site's ground r
 NED velocity (m/s), quaternion body to NED (scalar first), body angular rate (rad/s).
 
 Model parameters p (:data:`PARAMETER_NAMES`): the aero dispersion factors, then the atmosphere
-corrections (wind bias north/east m/s, density factor, wind gradient north/east 1/s).
+corrections (wind bias north/east m/s, density factor, wind gradient north/east 1/s) and the rotor
+downwash below the helicopter (m/s, downwards, decaying as exp(-distance fallen / length)).
 
     m dv/dt = C_nb F_b + m g - 2 m Omega x v
     I dw/dt = M_cm - w x (I w)
@@ -14,7 +15,7 @@ corrections (wind bias north/east m/s, density factor, wind gradient north/east 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -29,7 +30,7 @@ from casrecon.physics.vehicle import Vehicle
 STATE_NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d", "q0", "q1", "q2", "q3",
                "omega_x", "omega_y", "omega_z")
 ATMOSPHERE_PARAMETER_NAMES = ("wind_bias_n", "wind_bias_e", "density_factor",
-                              "wind_gradient_n", "wind_gradient_e")
+                              "wind_gradient_n", "wind_gradient_e", "downwash_mps")
 PARAMETER_NAMES = DISPERSION_NAMES + ATMOSPHERE_PARAMETER_NAMES
 #: Names of the rows of :meth:`FlightModel.outputs`.
 OUTPUT_NAMES = ("h_agl", "roll", "pitch", "yaw", "alpha", "beta", "alpha_t", "qbar", "mach",
@@ -58,11 +59,15 @@ class DynamicsOptions:
         Coriolis acceleration from the Earth's rate at the site latitude.
     aerodynamics : bool
         Aerodynamic force and moment.
+    downwash_length_m : float
+        e-folding distance, fallen below the release altitude, of the rotor-downwash hypothesis:
+        vertical wind downwash_mps * exp(-(h_release - h) / downwash_length_m).
     """
 
     gravity: str = "wgs84"
     earth_rotation: bool = True
     aerodynamics: bool = True
+    downwash_length_m: float = 30.0
 
     def __post_init__(self) -> None:
         if self.gravity not in ("wgs84", "constant", "off"):
@@ -99,9 +104,10 @@ class FlightModel:
     """
 
     def __init__(self, vehicle: Vehicle, aero: AeroDatabase, atmosphere: Atmosphere, site: Site,
-                 options: DynamicsOptions = DynamicsOptions()) -> None:
+                 options: DynamicsOptions = DynamicsOptions(), release_alt_msl_m: float | None = None) -> None:
         self.vehicle, self.aero, self.atmosphere = vehicle, aero, atmosphere
         self.site, self.options = site, options
+        self.release_alt_msl_m = release_alt_msl_m
         self._inertia = ca.DM(np.asarray(vehicle.inertia_kgm2))
         self._inertia_inv = ca.DM(np.linalg.inv(np.asarray(vehicle.inertia_kgm2)))
         x = ca.SX.sym("x", len(STATE_NAMES))
@@ -122,6 +128,13 @@ class FlightModel:
         """Altitude above mean sea level (m) of state ``x``."""
         return self.site.ground_alt_msl_m - x[2]
 
+    def downwash(self, x, magnitude):
+        """Vertical (down) wind of the rotor-downwash hypothesis at state ``x``, m/s."""
+        if self.release_alt_msl_m is None:
+            return 0
+        fallen = ca.fmax(self.release_alt_msl_m - self.altitude_msl(x), 0)
+        return magnitude * ca.exp(-fallen / self.options.downwash_length_m)
+
     def gravity_ned(self, x):
         """Gravity vector in NED, m/s^2, per :class:`DynamicsOptions`."""
         return gravity_vector(self.site, self.options, self.altitude_msl(x))
@@ -131,6 +144,7 @@ class FlightModel:
         v_ned, q, w = x[3:6], x[6:10], x[10:13]
         corr = AtmosphereCorrections(*[p[len(DISPERSION_NAMES) + i] for i in range(5)])
         air = self.atmosphere.at(self.altitude_msl(x), corr)
+        air = replace(air, wind_ned=air.wind_ned + ca.vertcat(0, 0, self.downwash(x, p[PARAMETER_NAMES.index("downwash_mps")])))
         c_nb = dcm_body_to_ned(q)
         v_air_body = c_nb.T @ (v_ned - air.wind_ned)
         veh = self.vehicle
