@@ -116,7 +116,9 @@ def _parameter_sets(scenarios: list[Scenario], cfg: JointConfig) -> tuple[list[P
     sets = []
     for sc in scenarios:
         est = sc.config.estimation
-        wanted = tuple(n for n in (est.estimate or DISPERSION_NAMES) if n not in cfg.fixed)
+        sizes = sc.config.aero.sizes
+        default = tuple(n for n in DISPERSION_NAMES if getattr(sizes, n) > 0)
+        wanted = tuple(n for n in (est.estimate or default) if n not in cfg.fixed)
         sc_cfg = dataclasses.replace(sc.config, estimation=dataclasses.replace(est, estimate=wanted))
         sets.append(parameter_set(sc_cfg))
     aero_sets = [set(n for n, s in zip(p.names, p.specs) if s.group == "aero") for p in sets]

@@ -95,7 +95,7 @@ def test_gyro_clipped_at_declared_limits(drop1):
 def test_truth_parameter_names(drop1):
     sc, data = drop1
     p = data.truth["parameters"]
-    expected = {*DISPERSION_NAMES, "wind_bias_n", "wind_bias_e", "density_factor", "clock_offset_s",
+    expected = {*DISPERSION_NAMES, "wind_bias_n", "wind_bias_e", "density_factor", "clock_offset_s", "downwash_mps",
                 *(f"{s}_bias_{a}" for s in ("accel", "gyro") for a in "xyz")}
     assert set(p) == expected
     t = sc.config.truth
