@@ -153,6 +153,13 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     return 0
 
 
+def _montecarlo(args: argparse.Namespace) -> int:
+    from casrecon.analysis.montecarlo import run_montecarlo_command
+
+    return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
+                                  args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures)
+
+
 def _figures(folder: Path) -> list[Path]:
     from casrecon.report.plots import draw_figures
 
@@ -213,6 +220,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default="gauss-newton")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
     p.set_defaults(func=_joint)
+    p = sub.add_parser("montecarlo", help="dispersed forward simulations: touchdown time and impact speed")
+    p.add_argument("problem", help="problem folder or problem.toml")
+    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--cases", type=int, default=1000, help="number of dispersed cases")
+    p.add_argument("--seed", type=int, default=0, help="case i uses the random stream (seed, i)")
+    p.add_argument("--workers", type=int, default=2, help="local processes (ignored with --scheduler)")
+    p.add_argument("--scheduler", default=None, help="Dask distributed scheduler address, e.g. tcp://host:8786")
+    p.add_argument("--dt", type=float, default=0.02, help="RK4 step, s")
+    p.add_argument("--center", choices=("truth", "nominal"), default="truth",
+                   help="disperse around the problem's [truth] or the nominal database")
+    p.add_argument("--no-figures", action="store_true", help="do not draw the histograms")
+    p.set_defaults(func=_montecarlo)
     p = sub.add_parser("report", help="(re)draw the figures of a fit or joint results folder")
     p.add_argument("results", help="results folder written by casrecon fit or casrecon joint")
     p.set_defaults(func=_report)
