@@ -160,6 +160,45 @@ def _montecarlo(args: argparse.Namespace) -> int:
                                   args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures)
 
 
+def _sensitivity(args: argparse.Namespace) -> int:
+    from casrecon.analysis import observability as obs
+    from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.io.results import atomic_folder, write_json
+    from casrecon.report import sensitivity_plots
+    from casrecon.scenario import Scenario
+
+    scenario = Scenario.load(args.problem)
+    with atomic_folder(args.out) as out:
+        if args.study == "design":
+            design = obs.design_study(scenario, args.parameter)
+            write_json(out / "design.json", design)
+            sensitivity_plots.plot_design(design, out)
+            print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
+                            for k, v in design.items() if k != "parameter"))
+            return 0
+        try:
+            result = fit_drop(scenario)
+        except FitError as err:
+            print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
+            return 3
+        directions = obs.fisher_directions(result)
+        write_json(out / "fisher.json", [{"eigenvalue": d.eigenvalue, "sigma": d.sigma, "weights": d.weights}
+                                         for d in directions])
+        print("weakest parameter combinations (parameters in units of their scale):")
+        for d in directions[:5]:
+            print("   " + d.describe())
+        if args.study == "profile":
+            prof = obs.profile_likelihood(result, args.parameter, args.points)
+            write_json(out / f"profile_{prof.name}.json", {
+                "values": prof.values, "delta_chi2": prof.delta_chi2, "estimate": prof.estimate,
+                "interval_delta_chi2_9": prof.interval, "fisher_three_sigma": prof.fisher_three_sigma,
+                "half_width_over_fisher": prof.agreement})
+            sensitivity_plots.plot_profile(prof, out)
+            print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
+                  f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")
+    return 0
+
+
 def _figures(folder: Path) -> list[Path]:
     from casrecon.report.plots import draw_figures
 
@@ -232,6 +271,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="disperse around the problem's [truth] or the nominal database")
     p.add_argument("--no-figures", action="store_true", help="do not draw the histograms")
     p.set_defaults(func=_montecarlo)
+    p = sub.add_parser("sensitivity", help="observability: Fisher directions, profile likelihood, drop design")
+    p.add_argument("study", choices=("fisher", "profile", "design"))
+    p.add_argument("problem", help="problem folder or problem.toml")
+    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--parameter", default="Cmq_mult", help="parameter to profile or to design for")
+    p.add_argument("--points", type=int, default=9, help="profile grid points (over +-4 Fisher sigma)")
+    p.set_defaults(func=_sensitivity)
     p = sub.add_parser("report", help="(re)draw the figures of a fit or joint results folder")
     p.add_argument("results", help="results folder written by casrecon fit or casrecon joint")
     p.set_defaults(func=_report)

@@ -2,6 +2,8 @@
 
 import json
 
+from conftest import PROBLEMS
+
 from casrecon.cli import main
 
 
@@ -52,3 +54,13 @@ def test_bad_estimation_setting_is_a_located_error(problem_copy, tmp_path, capsy
     err = capsys.readouterr().err
     assert "problem.toml" in err and "estimation.hessian" in err
     assert not (tmp_path / "fit").exists()
+
+
+def test_sensitivity_fisher_names_the_weakest_combination(tmp_path, capsys):
+    out = tmp_path / "fisher"
+    assert main(["sensitivity", "fisher", str(PROBLEMS / "ees-drop-2"), "--out", str(out)]) == 0
+    directions = json.loads((out / "fisher.json").read_text())
+    weakest = directions[0]["weights"]
+    # the balloon's density uncertainty scales every aero force alike: the least determined direction
+    assert max(weakest, key=lambda n: abs(weakest[n])) == "density_factor"
+    assert directions[0]["sigma"] > 10 * directions[-1]["sigma"]
