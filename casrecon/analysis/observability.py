@@ -141,9 +141,11 @@ def multi_drop_sigma(names: tuple[str, ...], cov: np.ndarray, shared: tuple[str,
     drop's information on the shared parameters (its own parameters marginalised: a Schur
     complement) is summed, the shared priors counted once."""
     info = np.linalg.inv(cov)
-    s = np.array([names.index(n) for n in shared])
-    o = np.array([i for i in range(len(names)) if i not in s])
-    marg = info[np.ix_(s, s)] - info[np.ix_(s, o)] @ np.linalg.solve(info[np.ix_(o, o)], info[np.ix_(o, s)])
+    s = np.array([names.index(n) for n in shared], dtype=int)
+    o = np.array([i for i in range(len(names)) if i not in s], dtype=int)
+    marg = info[np.ix_(s, s)]
+    if o.size:
+        marg = marg - info[np.ix_(s, o)] @ np.linalg.solve(info[np.ix_(o, o)], info[np.ix_(o, s)])
     prior = np.diag([1 / prior_sigma[n] ** 2 if prior_sigma.get(n) else 0.0 for n in shared])
     joint = n_drops * (marg - prior) + prior
     return dict(zip(shared, np.sqrt(np.diag(np.linalg.inv(joint)))))
