@@ -20,6 +20,9 @@ from casrecon.scenario import Scenario
 
 REPO = Path(__file__).resolve().parents[1]
 PROBLEMS = REPO / "problems"
+#: Copies of ../shared/realdata (real measured files, licences and provenance README inside),
+#: kept in the repository so the tests run on a fresh clone.
+REALDATA_DIR = Path(__file__).resolve().parent / "data" / "realdata"
 EES_DROPS = ("ees-drop-1", "ees-drop-2", "ees-drop-3", "ees-drop-4")
 ALL_PROBLEMS = (*EES_DROPS, "davinci-ztu")
 

@@ -1,4 +1,4 @@
-"""``casrecon inspect`` on the real data in /work/shared/realdata (read only), and on malformed
+"""``casrecon inspect`` on the real data in tests/data/realdata (copies of ../shared/realdata) (read only), and on malformed
 copies of it: exit status 2 with exactly one located stderr line, never a traceback."""
 
 from __future__ import annotations
@@ -10,10 +10,11 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import REALDATA_DIR
 
 from casrecon.cli import main
 
-REAL = Path("/work/shared/realdata")
+REAL = REALDATA_DIR
 SOUNDINGS = sorted(p for p in (REAL / "soundings").iterdir() if p.name != "LICENSE")
 FS1 = REAL / "flysight-speed-ssscoring/fs1-byron-2019-05-25.CSV"
 FS2 = REAL / "flysight-speed-ssscoring/fs2-chicago-2024-09-17/TRACK.CSV"

@@ -1,6 +1,6 @@
 """Property-based fuzzing of every reader: mutated real files and random text never raise
 anything but InputError, and every InputError is one line naming the file (and its line
-when it has one). Sources: /work/shared/realdata (licences there)."""
+when it has one). Sources: tests/data/realdata (copies of ../shared/realdata) (licences there)."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
+from conftest import REALDATA_DIR
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -17,7 +18,7 @@ from casrecon.io.imu import ImuCsvSpec, read_imu_csv
 from casrecon.io.sensor import read_flysight2_sensor
 from casrecon.io.sounding import read_sounding
 
-REAL = Path("/work/shared/realdata")
+REAL = REALDATA_DIR
 SS = REAL / "flysight-speed-ssscoring"
 
 

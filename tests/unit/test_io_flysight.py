@@ -1,7 +1,7 @@
 """FlySight reader and writer: real tracks, round trip, malformed copies (never the originals).
 
 Real tracks: pr3d4t0r/SSScoring (BSD-3) and skyderby/skyderby (O'Saasy), see
-/work/shared/realdata/README.md.
+tests/data/realdata (copies of ../shared/realdata)/README.md.
 """
 
 from __future__ import annotations
@@ -11,11 +11,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REALDATA_DIR
 
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import read_flysight, write_flysight1
 
-REAL = Path("/work/shared/realdata")
+REAL = REALDATA_DIR
 FS1 = REAL / "flysight-speed-ssscoring/fs1-byron-2019-05-25.CSV"
 FS1B = REAL / "flysight-speed-skyderby/speed_skydiving_411.csv"
 FS2 = REAL / "flysight-speed-ssscoring/fs2-chicago-2024-09-17/TRACK.CSV"

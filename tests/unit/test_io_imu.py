@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REALDATA_DIR
 
 from casrecon.io.errors import InputError
 from casrecon.io.imu import STANDARD_GRAVITY, ImuCsvSpec, read_imu_csv, write_imu_csv
 
-ROCKET = Path("/work/shared/realdata/rocket-drogue-descent-hedy/imu.csv")
+ROCKET = (REALDATA_DIR / "rocket-drogue-descent-hedy/imu.csv")
 ROCKET_SPEC = ImuCsvSpec(time_column="ts", accel_columns=("Ax", "Ay", "Az"),
                          gyro_columns=("Gx", "Gy", "Gz"), gyro_unit="deg/s")
 HEADER = "time_s,ax,ay,az,wx,wy,wz"

@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import REALDATA_DIR
 
 from casrecon.io.errors import InputError
 from casrecon.io.imu import write_imu_csv
 from casrecon.io.inspect import inspect_file
 
-REAL = Path("/work/shared/realdata")
+REAL = REALDATA_DIR
 FS1 = REAL / "flysight-speed-ssscoring/fs1-byron-2019-05-25.CSV"
 FS2 = REAL / "flysight-speed-ssscoring/fs2-chicago-2024-09-17/TRACK.CSV"
 SENSOR = REAL / "flysight-speed-ssscoring/fs2-chicago-2024-09-17/SENSOR.CSV"

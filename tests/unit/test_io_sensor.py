@@ -5,16 +5,16 @@ checked against the same jump's TRACK.CSV, plus malformed copies written in tmp_
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REALDATA_DIR
 
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import read_flysight
 from casrecon.io.sensor import GPS_UTC_LEAP_SECONDS, gps_to_unix, read_flysight2_sensor
 
-FOLDER = Path("/work/shared/realdata/flysight-speed-ssscoring/fs2-chicago-2024-09-17")
+FOLDER = (REALDATA_DIR / "flysight-speed-ssscoring/fs2-chicago-2024-09-17")
 SENSOR = FOLDER / "SENSOR.CSV"
 TRACK = FOLDER / "TRACK.CSV"
 R_AIR = 287.05287

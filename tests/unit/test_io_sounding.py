@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import REALDATA_DIR
 
 from casrecon.io.errors import InputError
 from casrecon.io.sounding import (
@@ -18,7 +19,7 @@ from casrecon.io.sounding import (
     write_sounding_csv,
 )
 
-SND = Path("/work/shared/realdata/soundings")
+SND = (REALDATA_DIR / "soundings")
 LIST = SND / "20110522_OUN_12Z.txt"
 MAY4 = SND / "may4_sounding.txt"
 BOI = SND / "BOI_72681_2010-12-09_12Z_wyoming.csv"

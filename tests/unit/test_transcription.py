@@ -16,9 +16,19 @@ from casrecon.estimation.fitdata import load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.parameters import parameter_set
 from casrecon.estimation.problem import build_nlp
-from casrecon.estimation.transcription import (ACCEL_TAU, CHANNEL_BASIS, D_OFFSETS, R_OFFSETS, Mesh,
-                                               channel_bases, compress_imu, hermite, hermite_basis,
-                                               lagrange_matrix, make_mesh)
+from casrecon.estimation.transcription import (
+    ACCEL_TAU,
+    CHANNEL_BASIS,
+    D_OFFSETS,
+    R_OFFSETS,
+    Mesh,
+    channel_bases,
+    compress_imu,
+    hermite,
+    hermite_basis,
+    lagrange_matrix,
+    make_mesh,
+)
 from casrecon.scenario import Scenario
 
 coef = st.floats(-10, 10, allow_nan=False)
