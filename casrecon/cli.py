@@ -65,12 +65,11 @@ def _simulate(args: argparse.Namespace) -> int:
 def _fit(args: argparse.Namespace) -> int:
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.io.fit_results import write_fit_results
+    from casrecon.io.pointmass_problem import problem_kind
     from casrecon.io.results import atomic_folder
     from casrecon.report.fit_report import fit_report
     from casrecon.report.tables import fit_tables
     from casrecon.scenario import Scenario
-
-    from casrecon.io.pointmass_problem import problem_kind
 
     t0 = time.perf_counter()
     if problem_kind(args.problem) == "point-mass":

@@ -19,7 +19,6 @@ from casrecon.estimation.fit import FitResult, clock_bounds, prepare_drop
 from casrecon.estimation.parameters import parameter_set
 from casrecon.estimation.problem import build_nlp
 from casrecon.estimation.solve import solve
-from casrecon.estimation.transcription import STATE_SCALE
 from casrecon.io.flysight import write_flysight1
 from casrecon.io.imu import write_imu_csv
 from casrecon.scenario import Scenario

@@ -144,7 +144,8 @@ class FlightModel:
         v_ned, q, w = x[3:6], x[6:10], x[10:13]
         corr = AtmosphereCorrections(*[p[len(DISPERSION_NAMES) + i] for i in range(5)])
         air = self.atmosphere.at(self.altitude_msl(x), corr)
-        air = replace(air, wind_ned=air.wind_ned + ca.vertcat(0, 0, self.downwash(x, p[PARAMETER_NAMES.index("downwash_mps")])))
+        downwash = self.downwash(x, p[PARAMETER_NAMES.index("downwash_mps")])
+        air = replace(air, wind_ned=air.wind_ned + ca.vertcat(0, 0, downwash))
         c_nb = dcm_body_to_ned(q)
         v_air_body = c_nb.T @ (v_ned - air.wind_ned)
         veh = self.vehicle
