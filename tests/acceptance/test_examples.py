@@ -9,7 +9,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.mark.parametrize("script", ["fit_one_drop.py", "joint_aero_fit.py"])
+@pytest.mark.parametrize("script", ["fit_one_drop.py", "joint_aero_fit.py", "damping_observability.py"])
 def test_example_runs(script):
     proc = subprocess.run([sys.executable, str(ROOT / "examples" / script)], capture_output=True, text=True,
                           timeout=900)
