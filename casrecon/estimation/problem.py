@@ -1,5 +1,7 @@
-"""Assembly of one drop's NLP: min 1/2 |r(z)|^2 s.t. collocation defects = 0, |q_0|^2 = 1.
+"""Assembly of a fit's NLP: min 1/2 |r(z)|^2 s.t. collocation defects = 0, |q_0|^2 = 1 per drop.
 
+One drop or several (a joint fit, whose drops share some parameter columns): each drop is a
+:class:`DropPart` that says where its nodes, parameters and constraint rows sit in z and g.
 Decision vector z (every entry scaled to order one): the node states, node after node
 (state / STATE_SCALE), then the estimated parameters (value / scale). Residuals stack the IMU
 rows (interval after interval), the GPS rows (fix after fix) and the priors; each group's slice is
