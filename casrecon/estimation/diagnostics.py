@@ -14,7 +14,7 @@ from scipy.signal import savgol_filter
 from casrecon.analysis.simulate import Simulator
 from casrecon.estimation.problem import _imu_sigma, _Unscale
 from casrecon.estimation.transcription import D_OFFSETS, R_OFFSETS, channel_bases, interval_function
-from casrecon.physics.aero import DISPERSION_NAMES
+from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment
 
 IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
 
@@ -56,18 +56,39 @@ def gps_residuals(result) -> dict[str, np.ndarray]:
     return {"time_imu_s": data.gps_time_s - clock, "residual": whitened * data.gps_sigma, "sigma": data.gps_sigma}
 
 
+def _moment_coefficient_function(result) -> ca.Function:
+    """``(v_air_body, omega, sound_speed, dispersions) -> (C_l, C_m, C_n)`` about the MRP, from the
+    one aero model (:func:`aero_force_moment`, with rho chosen so that qbar = 1 and S = 1)."""
+    veh, aero = result.scenario.config.vehicle, result.scenario.config.aero
+    vb, w, a = ca.SX.sym("vb", 3), ca.SX.sym("w", 3), ca.SX.sym("a")
+    disp = ca.SX.sym("d", len(DISPERSION_NAMES))
+    rho = 2.0 / ca.sumsqr(vb)
+    _, moment = aero_force_moment(aero, vb, w, rho, a, disp, 1.0, veh.ref_length_m, ca.DM.zeros(3))
+    return ca.Function("moment_coefficients", [vb, w, a, disp], [moment / veh.ref_length_m])
+
+
+def _air_at_nodes(result, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Air-relative velocity in body axes (K, 3) and speed of sound (K,) at the fit's nodes."""
+    model = result.scenario.model
+    x, pp = ca.SX.sym("x", model.n_states), ca.SX.sym("p", model.n_params)
+    t = model.terms(x, pp)
+    fn = ca.Function("air", [x, pp], [t["v_air_body"], t["air"].sound_speed]).map(result.states.shape[0])
+    vb, a = fn(result.states.T, np.tile(p[:, None], result.states.shape[0]))
+    return np.asarray(vb).T, np.asarray(a).ravel()
+
+
 def pitching_moment(result) -> dict[str, np.ndarray]:
     """Pitching-moment coefficient about the MRP (body y) reconstructed from the measured rates.
 
     dw/dt is the Savitzky-Golay derivative (0.1 s window, cubic) of the bias-corrected gyros; the
     moment about the centre of mass I dw/dt + w x I w is moved to the MRP with the measured
-    specific force, the fitted damping term is removed, and the rest is divided by qbar S d. The
-    model curves are the static C_m,body at beta = 0 of the nominal and of the best-fit dispersed
-    database.
+    specific force, the fitted model's damping moment is removed, and the rest is divided by
+    qbar S d. The model curves are the static C_m,body at beta = 0 of the nominal and of the best-fit
+    dispersed database. Every model value comes from the one aero model.
     """
     cfg, data = result.scenario.config, result.data
     veh = cfg.vehicle
-    _, b = _model_params(result)
+    p, b = _model_params(result)
     r_ib = np.asarray(veh.imu_to_body)
     dt = float(np.median(np.diff(data.imu_time_s)))
     w = (data.gyro_imu - b[3:]) @ r_ib.T
@@ -81,34 +102,22 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     m_cm = wdot @ inertia.T + np.cross(w, w @ inertia.T)
     m_mrp = m_cm - np.cross(veh.lever(veh.mrp_m), veh.mass_kg * f_cm)
     qbar = result.column("qbar_pa")[0]
-    alpha = np.radians(result.column("alpha_deg")[0])
-    speed = np.linalg.norm(result.states[:, 3:6], axis=1)
-    d, s = veh.ref_length_m, veh.ref_area_m2
-    cmq = _fitted_cmq(result, np.radians(result.column("alpha_t_deg")[0]))
-    cm = m_mrp[:, 1] / (qbar * s * d) - cmq * d / (2 * speed) * w[:, 1]
+    coef = _moment_coefficient_function(result)
+    k = result.states.shape[0]
+    vb, sound = _air_at_nodes(result, p)
+    disp = np.tile(p[:len(DISPERSION_NAMES), None], k)
+    with_rates = np.asarray(coef.map(k)(vb.T, w.T, sound[None, :], disp))
+    without = np.asarray(coef.map(k)(vb.T, np.zeros((3, k)), sound[None, :], disp))
+    cm = m_mrp[:, 1] / (qbar * veh.ref_area_m2 * veh.ref_length_m) - (with_rates[1] - without[1])
     grid = np.radians(np.linspace(-20, 20, 81))
-    return {"time_imu_s": result.node_time_s, "alpha_deg": np.degrees(alpha), "qbar_pa": qbar, "cm_recon": cm,
-            "alpha_grid_deg": np.degrees(grid), "cm_nominal": _cm_curve(result, grid, False),
-            "cm_fitted": _cm_curve(result, grid, True)}
-
-
-def _fitted_cmq(result, alpha_t: np.ndarray) -> np.ndarray:
-    coeffs = result.scenario.config.aero.coefficients
-    cmq = np.array([float(coeffs.evaluate(0.12, a, np.sin(a))[3]) for a in alpha_t])
-    scale = 1.0
-    if "Cmq_mult" in result.params.names:
-        scale += result.scenario.config.aero.sizes.Cmq_mult * result.parameter("Cmq_mult")[0]
-    return cmq * scale
-
-
-def _cm_curve(result, alpha: np.ndarray, fitted: bool) -> np.ndarray:
-    aero = result.scenario.config.aero
-    mach = float(np.median(result.column("mach")[0]))
-    cm = np.array([float(aero.coefficients.evaluate(mach, abs(a), abs(np.sin(a)))[2]) for a in alpha]) * np.sign(alpha)
-    if not fitted:
-        return cm
-    get = {n: result.parameter(n)[0] if n in result.params.names else 0.0 for n in ("Cmn_mult", "Cm_add")}
-    return cm * (1 + aero.sizes.Cmn_mult * get["Cmn_mult"]) + aero.sizes.Cm_add * get["Cm_add"]
+    speed, a_med = float(np.median(np.linalg.norm(vb, axis=1))), float(np.median(sound))
+    v_grid = speed * np.vstack([np.cos(grid), np.zeros_like(grid), np.sin(grid)])
+    curves = {}
+    for label, d in (("cm_nominal", np.zeros_like(p[:len(DISPERSION_NAMES)])), ("cm_fitted", p[:len(DISPERSION_NAMES)])):
+        curves[label] = np.asarray(coef.map(grid.size)(v_grid, np.zeros((3, grid.size)), a_med,
+                                                       np.tile(d[:, None], grid.size)))[1]
+    return {"time_imu_s": result.node_time_s, "alpha_deg": result.column("alpha_deg")[0], "qbar_pa": qbar,
+            "cm_recon": cm, "alpha_grid_deg": np.degrees(grid), **curves}
 
 
 def reconciled_simulation(result, nominal: bool = False) -> dict:

@@ -67,8 +67,6 @@ class ParameterSet:
         """(model parameter index, estimated index) pairs for the FlightModel parameter vector."""
         return [(PARAMETER_NAMES.index(s.name), i) for i, s in enumerate(self.specs) if s.name in PARAMETER_NAMES]
 
-    def sensor_index(self, name: str) -> int | None:
-        return self.names.index(name) if name in self.names else None
 
 
 def parameter_set(cfg: ProblemConfig) -> ParameterSet:

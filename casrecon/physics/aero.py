@@ -50,10 +50,6 @@ class DispersionSizes:
     Cmq_add: float = 0.0
     Cmq_a2_add: float = 0.0
 
-    def as_array(self) -> np.ndarray:
-        """Sizes in :data:`DISPERSION_NAMES` order."""
-        return np.array([getattr(self, n) for n in DISPERSION_NAMES])
-
 
 @dataclass(frozen=True)
 class AnalyticCoefficients:
