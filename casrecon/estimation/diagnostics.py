@@ -48,8 +48,8 @@ def imu_residuals(result) -> dict[str, np.ndarray]:
 
 def gps_residuals(result) -> dict[str, np.ndarray]:
     """GPS antenna position/velocity residuals (NED, SI) at every fix used, with the fix sigmas."""
-    nlp, data, part = result.extra["nlp"], result.data, result.extra["part"]
-    r = np.asarray(ca.Function("r", [nlp.z], [nlp.residuals])(result.extra["z"])).ravel()
+    data, part = result.data, result.extra["part"]
+    r = result.extra["residuals"]  # the whitened residual vector at the solution, kept by the fit
     gps = next(s for g, s in part.groups.items() if g.split("/")[-1] == "gps")
     whitened = r[gps].reshape(-1, 6)
     clock = result.parameter("clock_offset_s")[0] if "clock_offset_s" in result.params.names else part.guess_clock_s

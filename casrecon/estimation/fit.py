@@ -102,7 +102,7 @@ def drop_result(scenario: Scenario, data: FitData, part: DropPart, nlp: FitNlp, 
         columns=tuple(c for c, _ in COLUMNS), table=table, table_sigma=table_sigma, chi2=chi2,
         n_measurements=counts, dof=dof, reduced_chi2=cov.reduced_chi2, solver=sol, timings=timings,
         condition=cov.condition, notes=data.notes)
-    result.extra.update(covariance=cov, nlp=nlp, part=part, z=sol.z)
+    result.extra.update(covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r)
     return result
 
 
