@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.analysis.simulate import _rk4
-from casrecon.physics.dynamics import OUTPUT_NAMES, FlightModel
+from casrecon.physics.dynamics import DISTURBANCE_NAMES, OUTPUT_NAMES, FlightModel
 
 #: Default Monte Carlo step, s. Checked against the 500 Hz :class:`Simulator` (tests/integration/
 #: test_montecarlo.py): flight time and impact speed agree within 1e-3 s and 1e-3 m/s.
@@ -139,7 +139,8 @@ class BatchSimulator:
         x = ca.SX.sym("x", model.n_states)
         p = ca.SX.sym("p", model.n_params)
         h = ca.SX.sym("h")
-        xn = _rk4(model.rhs, x, p, h)
+        no_disturbance = ca.DM.zeros(len(DISTURBANCE_NAMES))
+        xn = _rk4(model.rhs_d, x, p, h, no_disturbance, no_disturbance)
         xn = ca.vertcat(xn[:6], xn[6:10] / ca.norm_2(xn[6:10]), xn[10:])
         alpha_t = model.outputs(xn, p)[OUTPUT_NAMES.index("alpha_t")]
         step = ca.Function("casrecon_mc_step", [x, p, h], [xn, alpha_t])

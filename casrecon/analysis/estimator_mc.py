@@ -85,27 +85,66 @@ class ConsistencyResult:
         return [c for c in self.cases if "failed" in c]
 
 
-def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
-                         scheduler: str | None = None) -> ConsistencyResult:
-    """Run ``n_cases`` simulate-and-fit cases and test the NEES sum against chi2 at 95 %."""
-    args = [(str(problem), seed, i) for i in range(n_cases)]
+def _map_cases(args: list[tuple], workers: int, scheduler: str | None, progress: bool) -> list[dict]:
+    """run_case over ``args`` on a Dask cluster, local spawn processes, or in this process."""
+    from casrecon.analysis.montecarlo import _import_distributed, _Progress
+
+    bar = _Progress(len(args), progress, label="estimator montecarlo")
+    out: dict[int, dict] = {}
     if scheduler:
-        try:
-            from distributed import Client
-        except ImportError as err:
-            raise RuntimeError("the Dask scheduler needs dask[distributed] (pip install casrecon[dask])") from err
+        Client, as_done = _import_distributed()
         with Client(scheduler) as client:
-            cases = client.gather(client.map(run_case, *zip(*args), pure=False))
+            futures = client.map(run_case, *zip(*args), pure=False)
+            where = {f.key: k for k, f in enumerate(futures)}
+            for fut in as_done(futures):
+                out[where[fut.key]] = fut.result()
+                bar.update(1)
     elif workers > 1:
         import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures import ProcessPoolExecutor, as_completed
 
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            cases = list(pool.map(run_case, *zip(*args)))
+            futs = {pool.submit(run_case, *a): k for k, a in enumerate(args)}
+            for fut in as_completed(futs):
+                out[futs[fut]] = fut.result()
+                bar.update(1)
     else:
-        cases = [run_case(*a) for a in args]
+        for k, a in enumerate(args):
+            out[k] = run_case(*a)
+            bar.update(1)
+    return [out[k] for k in range(len(args))]
+
+
+def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
+                         scheduler: str | None = None, progress: bool = False) -> ConsistencyResult:
+    """Run ``n_cases`` simulate-and-fit cases and test the NEES sum against chi2 at 95 %.
+
+    Local spawn processes (``workers``) or, given a Dask scheduler address, that cluster; case i
+    is reproducible from (seed, i) alone.
+    """
+    args = [(str(Path(problem).resolve()), seed, i) for i in range(n_cases)]
+    cases = _map_cases(args, workers, scheduler, progress)
     ok = [c for c in cases if "nees" in c]
     n_params = len(ok[0]["names"]) if ok else 0
     dof = n_params * len(ok)
     total = float(sum(c["nees"] for c in ok))
-    return ConsistencyResult(cases, n_params, total, (float(chi2.ppf(0.025, dof)), float(chi2.ppf(0.975, dof))))
+    interval = (float(chi2.ppf(0.025, dof)), float(chi2.ppf(0.975, dof))) if dof else (float("nan"),) * 2
+    return ConsistencyResult(cases, n_params, total, interval)
+
+
+def write_consistency(out: Path, res: ConsistencyResult, wall_s: float) -> None:
+    """``nees.json`` (the test and per-parameter RMS of the normalised errors) and ``cases.csv``."""
+    from casrecon.io.results import write_columns, write_json
+
+    ok = [c for c in res.cases if "nees" in c]
+    doc = {"n_cases": len(res.cases), "n_converged": len(ok), "n_params": res.n_params, "nees_sum": res.nees_sum,
+           "chi2_95_interval": list(res.interval), "consistent": res.consistent, "wall_s": wall_s,
+           "failed": [{"index": c["index"], "reason": c["failed"]} for c in res.failed]}
+    if ok:
+        z = np.array([np.array(c["error"]) / np.array(c["sigma"]) for c in ok])
+        doc["normalised_error"] = {n: {"mean": float(m), "rms": float(r)} for n, m, r in
+                                   zip(ok[0]["names"], z.mean(0), np.sqrt((z**2).mean(0)))}
+        write_columns(out / "cases.csv", ["index", "nees", "reduced_chi2"] + [f"z_{n}" for n in ok[0]["names"]],
+                      np.column_stack([[c["index"] for c in ok], [c["nees"] for c in ok],
+                                       [c["reduced_chi2"] for c in ok], z]))
+    write_json(out / "nees.json", doc)

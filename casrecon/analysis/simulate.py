@@ -3,7 +3,9 @@
 The integrator is a fixed-step classical Runge-Kutta scheme (RK4, ``substeps`` steps per output
 interval) with the quaternion renormalised after each step, built once as a CasADi function and
 run in chunks with ``mapaccum`` so that Python is entered once per chunk, not once per step.
-Impact is an event: after the chunk in which altitude AGL changes sign, the step length that lands
+An optional disturbance input d(t) (:data:`casrecon.physics.dynamics.DISTURBANCE_NAMES`: gusts,
+model-error force and moment) is sampled at the output times and interpolated linearly within each
+output interval. Impact is an event: after the chunk in which altitude AGL changes sign, the step length that lands
 exactly on the ground is found by the secant method on one RK4 step from the last state above
 ground.
 """
@@ -15,7 +17,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from casrecon.physics.dynamics import OUTPUT_NAMES, STATE_NAMES, FlightModel
+from casrecon.physics.dynamics import DISTURBANCE_NAMES, OUTPUT_NAMES, STATE_NAMES, FlightModel
 
 
 @dataclass(frozen=True)
@@ -102,19 +104,23 @@ class Simulator:
         x = ca.SX.sym("x", model.n_states)
         p = ca.SX.sym("p", model.n_params)
         h = ca.SX.sym("h")
-        xn = x
-        for _ in range(self.substeps):
-            xn = _rk4(model.rhs, xn, p, h / self.substeps)
+        d0, d1 = ca.SX.sym("d0", len(DISTURBANCE_NAMES)), ca.SX.sym("d1", len(DISTURBANCE_NAMES))
+        xn, n = x, self.substeps
+        for i in range(n):
+            xn = _rk4(model.rhs_d, xn, p, h / n, d0 + (d1 - d0) * i / n, d0 + (d1 - d0) * (i + 1) / n)
         xn = ca.vertcat(xn[:6], xn[6:10] / ca.norm_2(xn[6:10]), xn[10:])
-        self.step = ca.Function("rk4_step", [x, p, h], [xn])
+        self.step = ca.Function("rk4_step", [x, p, h, d0, d1], [xn])
         self._run = self.step.mapaccum("rk4_chunk", self.chunk, [0], [0])
-        self._outputs = model.outputs.map(self.chunk + 1)
+        self._outputs = model.outputs_d.map(self.chunk + 1)
 
-    def run(self, x0, params, t_max_s: float = 300.0, first_step_s: float | None = None) -> Trajectory:
+    def run(self, x0, params, t_max_s: float = 300.0, first_step_s: float | None = None,
+            disturbance=None) -> Trajectory:
         """Integrate from ``x0`` (release, t = 0) until ground impact or ``t_max_s``.
 
         Samples are at 0, t1, t1 + dt, t1 + 2 dt, ... and at impact, where t1 = ``first_step_s``
         (default ``dt_s``); a shorter first step puts the samples on another clock's grid.
+        ``disturbance``, if given, maps an array of times since release (s) to the (n, 9)
+        disturbance input at those times (SI; :data:`DISTURBANCE_NAMES`).
         """
         x0 = np.asarray(x0, float).copy()
         x0[6:10] /= np.linalg.norm(x0[6:10])
@@ -124,17 +130,19 @@ class Simulator:
         t1 = self.dt_s if first_step_s is None else float(first_step_s)
         if not 0 < t1 <= self.dt_s:
             raise ValueError(f"first_step_s must lie in (0, dt_s], got {t1}")
-        x1 = np.asarray(self.step(x0, p, t1)).ravel()
+        dist = _Disturbance(disturbance)
+        x1 = np.asarray(self.step(x0, p, t1, *dist.ends(np.array([0.0, t1])))).ravel()
         blocks, x, t_end, impacted = [x0[:, None], x1[:, None]], x1, t1, False
         while t_end < t_max_s:
-            xs = np.asarray(self._run(x, p_rep, h_rep))
+            xs = np.asarray(self._run(x, p_rep, h_rep, *dist.ends(t_end + self.dt_s * np.arange(self.chunk + 1))))
             below = np.nonzero(xs[2] > 0.0)[0]
             if below.size:
                 k = below[0]
                 blocks.append(xs[:, :k])
                 x_last = xs[:, k - 1] if k > 0 else x
-                blocks.append(self._impact_state(x_last, p)[:, None])
-                t_end += k * self.dt_s
+                t_last = t_end + k * self.dt_s
+                blocks.append(self._impact_state(x_last, p, dist.at(np.array([t_last]))[:, 0])[:, None])
+                t_end = t_last
                 impacted = True
                 break
             blocks.append(xs)
@@ -144,12 +152,13 @@ class Simulator:
         time = np.concatenate([[0.0], t1 + np.arange(n - 1) * self.dt_s])
         if impacted:
             time[-1] = t_end + self._last_h
-        return Trajectory(time, states, self._eval_outputs(states, p), p, impacted)
+        return Trajectory(time, states, self._eval_outputs(states, p, dist.at(time).T), p, impacted)
 
-    def _impact_state(self, x_above: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """State on the ground, found by the secant method on the step length from ``x_above``."""
+    def _impact_state(self, x_above: np.ndarray, p: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """State on the ground, found by the secant method on the step length from ``x_above``
+        (the disturbance held at its value at the last sample above ground)."""
         def depth(h: float) -> float:
-            return float(self.step(x_above, p, h)[2])
+            return float(self.step(x_above, p, h, d, d)[2])
         h0, h1 = 0.0, self.dt_s
         f0, f1 = x_above[2], depth(h1)
         for _ in range(20):
@@ -158,21 +167,45 @@ class Simulator:
             h0, h1, f0 = h1, h1 - f1 * (h1 - h0) / (f1 - f0), f1
             f1 = depth(h1)
         self._last_h = h1
-        return np.asarray(self.step(x_above, p, h1)).ravel()
+        return np.asarray(self.step(x_above, p, h1, d, d)).ravel()
 
-    def _eval_outputs(self, states: np.ndarray, p: np.ndarray) -> np.ndarray:
+    def _eval_outputs(self, states: np.ndarray, p: np.ndarray, d: np.ndarray) -> np.ndarray:
         out, n, m = [], states.shape[0], self.chunk + 1
         for start in range(0, n, m):
-            block = states[start:start + m]
+            block, dblock = states[start:start + m], d[start:start + m]
             pad = np.vstack([block, np.repeat(block[-1:], m - block.shape[0], axis=0)])
-            y = np.asarray(self._outputs(pad.T, ca.repmat(ca.DM(p), 1, m))).T
+            dpad = np.vstack([dblock, np.repeat(dblock[-1:], m - dblock.shape[0], axis=0)])
+            y = np.asarray(self._outputs(pad.T, ca.repmat(ca.DM(p), 1, m), dpad.T)).T
             out.append(y[:block.shape[0]])
         return np.vstack(out)
 
 
-def _rk4(f: ca.Function, x, p, h):
-    k1 = f(x, p)
-    k2 = f(x + h / 2 * k1, p)
-    k3 = f(x + h / 2 * k2, p)
-    k4 = f(x + h * k3, p)
+class _Disturbance:
+    """The disturbance input at given times: a user function, or zero."""
+
+    def __init__(self, fn) -> None:
+        self.fn = fn
+
+    def at(self, t: np.ndarray) -> np.ndarray:
+        """(9, n) disturbance at times ``t`` (s since release)."""
+        if self.fn is None:
+            return np.zeros((len(DISTURBANCE_NAMES), t.size))
+        d = np.asarray(self.fn(t), float)
+        if d.shape != (t.size, len(DISTURBANCE_NAMES)):
+            raise ValueError(f"the disturbance function must return shape ({t.size}, 9), got {d.shape}")
+        return d.T
+
+    def ends(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Disturbance at the start and at the end of each step between consecutive times."""
+        d = self.at(t)
+        return d[:, :-1], d[:, 1:]
+
+
+def _rk4(f: ca.Function, x, p, h, d0, d1):
+    """One classical RK4 step of dx/dt = f(x, p, d) with d linear from d0 to d1 over the step."""
+    dm = 0.5 * (d0 + d1)
+    k1 = f(x, p, d0)
+    k2 = f(x + h / 2 * k1, p, dm)
+    k3 = f(x + h / 2 * k2, p, dm)
+    k4 = f(x + h * k3, p, d1)
     return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)

@@ -55,8 +55,25 @@ def _unix(t: dt.datetime) -> float:
     return t.timestamp()
 
 
-def simulate_truth(scenario: Scenario) -> tuple[Trajectory, float]:
-    """Simulate the truth flight on the IMU's true clock grid.
+def truth_disturbance(scenario: Scenario, seed: int | None = None):
+    """The truth's Gauss-Markov disturbance realisation as a function of flight time (s) ->
+    (n, 9) array, or None without ``[truth]`` gusts or model errors. Seeded by (seed, 1)."""
+    truth = scenario.config.truth
+    if truth is None or truth.disturbance is None:
+        return None
+    dt_s = scenario.config.simulation.dt_s
+    grid = np.arange(-dt_s, scenario.config.simulation.t_max_s + 2 * dt_s, dt_s)
+    values = truth.disturbance.sample(grid, np.random.default_rng([truth.seed if seed is None else seed, 1]))
+
+    def disturbance(t: np.ndarray) -> np.ndarray:
+        return np.column_stack([np.interp(t, grid, values[:, i]) for i in range(values.shape[1])])
+
+    return disturbance
+
+
+def simulate_truth(scenario: Scenario, seed: int | None = None) -> tuple[Trajectory, float]:
+    """Simulate the truth flight on the IMU's true clock grid (with the truth's disturbance
+    realisation for ``seed``, default ``[truth] seed``, if it has one).
 
     Returns the trajectory and ``t_zero``: the release time on the IMU clock (s), so that a sample
     at IMU time ``t_imu`` happened at flight time ``t_imu - t_zero``.
@@ -67,7 +84,8 @@ def simulate_truth(scenario: Scenario) -> tuple[Trajectory, float]:
     t_zero = _unix(cfg.release.time_utc) - _unix(cfg.imu.clock_utc_at_zero) - clock
     first = dt_s - (t_zero % dt_s) if t_zero % dt_s > 1e-12 else dt_s
     sim = Simulator(scenario.model, dt_s=dt_s, substeps=max(1, round(dt_s / cfg.simulation.dt_s)))
-    traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s, first)
+    traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s, first,
+                   disturbance=truth_disturbance(scenario, seed))
     if not traj.impacted:
         raise RuntimeError(f"{cfg.name}: no ground impact within t_max_s = {cfg.simulation.t_max_s} s")
     return traj, t_zero
@@ -186,7 +204,7 @@ def make_synthetic(scenario: Scenario, seed: int | None = None) -> SyntheticData
     if cfg.truth is None:
         raise ValueError(f"{cfg.path}: synthetic data need a [truth] table")
     rng = np.random.default_rng(cfg.truth.seed if seed is None else seed)
-    traj, t_zero = simulate_truth(scenario)
+    traj, t_zero = simulate_truth(scenario, seed)
     imu_t, accel, gyro = _noisy_imu(scenario, traj, t_zero, rng)
     gps = _gps_track(scenario, traj, rng)
     truth = {"problem": cfg.name, "seed": cfg.truth.seed if seed is None else seed,

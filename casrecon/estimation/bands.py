@@ -6,9 +6,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from casrecon.estimation.covariance import Covariance
 from casrecon.estimation.problem import NS, DropPart, _Unscale
-from casrecon.estimation.transcription import STATE_SCALE
+from casrecon.estimation.transcription import STATE_SCALE, disturbance_selection
 from casrecon.physics.dynamics import OUTPUT_NAMES, FlightModel
 
 #: (column, unit factor) of each reported quantity; angles and rates in degrees.
@@ -20,34 +19,55 @@ COLUMNS = (("pos_n_m", 1.0), ("pos_e_m", 1.0), ("pos_d_m", 1.0), ("h_agl_m", 1.0
            ("qbar_pa", 1.0), ("mach", 1.0))
 
 
-def _output_function(model: FlightModel, params) -> ca.Function:
-    """(z_node (13), z_theta) -> (y, dy/d[z_node; z_theta]) for the COLUMNS, scaled inputs."""
+#: Column names and unit factors of the disturbance entries (DISTURBANCE_NAMES order).
+DISTURBANCE_COLUMNS = (("gust_n_mps", 1.0), ("gust_e_mps", 1.0), ("gust_d_mps", 1.0),
+                       ("force_error_x_n", 1.0), ("force_error_y_n", 1.0), ("force_error_z_n", 1.0),
+                       ("moment_error_x_nm", 1.0), ("moment_error_y_nm", 1.0), ("moment_error_z_nm", 1.0))
+#: With disturbance states the bands are computed at most at this many nodes and interpolated.
+MAX_BAND_NODES = 200
+
+
+def columns_of(part: DropPart) -> tuple[str, ...]:
+    """Names of the reconstructed columns of one drop: COLUMNS, then its estimated disturbances."""
+    return tuple(c for c, _ in COLUMNS) + tuple(DISTURBANCE_COLUMNS[i][0] for i in part.active)
+
+
+def _output_function(model: FlightModel, part: DropPart) -> ca.Function:
+    """(z_node (13), z_theta, z_u) -> (y, dy/d[z_node; z_theta; z_u]) for the columns, scaled inputs."""
+    params, active = part.params, part.active
     un = _Unscale(model, params)
-    zx, zt = ca.SX.sym("zx", NS), ca.SX.sym("zt", params.n)
+    zx, zt, zu = ca.SX.sym("zx", NS), ca.SX.sym("zt", params.n), ca.SX.sym("zu", len(active))
     x, theta = zx * ca.DM(STATE_SCALE), zt * ca.DM(params.scales)
-    out = model.outputs(x, un.model_params(theta))
+    u = zu * ca.DM(part.u_scale)
+    out = model.outputs_d(x, un.model_params(theta), disturbance_selection(active) @ u)
     idx = OUTPUT_NAMES.index
     y = ca.vertcat(x[0:3], out[idx("h_agl")], x[3:6], out[idx("roll"):idx("yaw") + 1], x[10:13],
-                   out[idx("alpha")], out[idx("beta")], out[idx("alpha_t")], out[idx("qbar")], out[idx("mach")])
-    y = y * ca.DM([f for _, f in COLUMNS])
-    v = ca.vertcat(zx, zt)
-    return ca.Function("outputs_with_jacobian", [zx, zt], [y, ca.jacobian(y, v)])
+                   out[idx("alpha")], out[idx("beta")], out[idx("alpha_t")], out[idx("qbar")], out[idx("mach")], u)
+    y = y * ca.DM([f for _, f in COLUMNS] + [DISTURBANCE_COLUMNS[i][1] for i in active])
+    v = ca.vertcat(zx, zt, zu)
+    return ca.Function("outputs_with_jacobian", [zx, zt, zu], [y, ca.jacobian(y, v)])
 
 
-def trajectory_with_bands(model: FlightModel, part: DropPart, z: np.ndarray, cov: Covariance):
-    """One drop's node values of COLUMNS and their absolute 1-sigma, arrays (K, len(COLUMNS))."""
+def trajectory_with_bands(model: FlightModel, part: DropPart, z: np.ndarray, cov):
+    """One drop's node values of its columns (:func:`columns_of`) and their absolute 1-sigma,
+    arrays (K, n_columns). With disturbance states the sigmas are computed at up to
+    MAX_BAND_NODES evenly spaced nodes and linearly interpolated in time between them."""
     k = part.mesh.t_nodes.size
-    fn = _output_function(model, part.params).map(k, "thread", 2)
+    fn = _output_function(model, part).map(k, "thread", 2)
     zx = z[part.node_cols].reshape(k, NS).T
     zt = np.repeat(z[part.theta_cols, None], k, axis=1)
-    y, jac = fn(zx, zt)
+    zu = z[part.u_cols].T
+    y, jac = fn(zx, zt, zu)
     y = np.asarray(y).T
-    ny, nv = len(COLUMNS), NS + part.params.n
+    ny, nv = y.shape[1], NS + part.params.n + part.n_u
     jac = np.asarray(jac).reshape(ny, k, nv).transpose(1, 0, 2)  # (k, ny, nv)
-    theta_rows = cov.rows(part.theta_cols)
-    sigma = np.zeros((k, ny))
-    for i in range(k):
-        rows = np.vstack([cov.rows(part.node_offset + np.arange(NS * i, NS * i + NS)), theta_rows])
-        gs = jac[i] @ rows
-        sigma[i] = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", gs, cov.cov_w, gs), 0.0))
+    nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))
+    index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i]]
+                  for i in nodes]
+    sigma = np.zeros((nodes.size, ny))
+    for j, (i, c) in enumerate(zip(nodes, cov.blocks(index_sets))):
+        sigma[j] = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac[i], c, jac[i]), 0.0))
+    if nodes.size < k:
+        t = part.mesh.t_nodes
+        sigma = np.column_stack([np.interp(t, t[nodes], sigma[:, c]) for c in range(ny)])
     return y, sigma

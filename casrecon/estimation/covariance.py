@@ -10,6 +10,10 @@ quaternion-norm row. Z has as many columns as there are free directions (13 + pa
 marginal variances of every node state and every derived output cost a few small dense products.
 ``tests/unit/test_covariance.py`` checks this against a dense inverse of K.
 
+With disturbance states (the weak-constraint option) every node carries independent unknowns, Z
+would have thousands of columns, and the z-block is instead read from sparse LU solves of K itself
+(:class:`KktCovariance`): the parameters' columns once, each requested node's columns on demand.
+
 Two covariances are reported: the absolute one (noise sigmas taken as given) and the one scaled
 by the reduced chi-square chi2 / dof (as lmfit does), dof = measurements - free directions.
 """
@@ -66,6 +70,83 @@ class Covariance:
             zr = zr * np.asarray(scale)[:, None]
         return zr @ self.cov_w @ zr.T
 
+    def blocks(self, index_sets: list[np.ndarray]) -> list[np.ndarray]:
+        """Covariance matrices of z[idx] for each idx of ``index_sets`` (scaled units)."""
+        return [self.covariance_of(idx) for idx in index_sets]
+
+
+class KktCovariance:
+    """The z-block of K^-1 from a sparse LU of the KKT matrix K (used with disturbance states).
+
+    Same interface as :class:`Covariance` for what the fit reads: ``covariance_of``, ``blocks``,
+    ``reduced_chi2`` and ``condition`` (here the condition number of the parameter covariance only:
+    the reduced Hessian is never formed).
+    """
+
+    #: Right-hand sides per LU solve (bounds the dense work array: n_kkt x this x 8 bytes).
+    BATCH = 256
+
+    def __init__(self, kkt: sps.csc_matrix, n_z: int, chi2: float, dof: int) -> None:
+        self.n_z, self.reduced_chi2 = n_z, chi2 / max(dof, 1)
+        try:
+            self._lu = splu(kkt.tocsc())
+        except RuntimeError as err:
+            raise SingularCovariance(f"KKT matrix singular ({err}): some combination of the unknowns is not "
+                                     "determined by the data") from None
+        self.condition = float("nan")
+
+    def _columns(self, idx: np.ndarray) -> np.ndarray:
+        """Rows 0..n_z of K^-1 e_j for every j in idx, (n_z, len(idx))."""
+        out = np.empty((self.n_z, idx.size))
+        n = self._lu.shape[0]
+        for start in range(0, idx.size, self.BATCH):
+            cols = idx[start:start + self.BATCH]
+            e = np.zeros((n, cols.size))
+            e[cols, np.arange(cols.size)] = 1.0
+            out[:, start:start + cols.size] = self._lu.solve(e)[:self.n_z]
+        return out
+
+    def covariance_of(self, idx, scale=None) -> np.ndarray:
+        idx = np.asarray(idx, int)
+        c = self._columns(idx)[idx]
+        c = 0.5 * (c + c.T)
+        if scale is not None:
+            c = c * np.outer(scale, scale)
+        return c
+
+    def blocks(self, index_sets: list[np.ndarray]) -> list[np.ndarray]:
+        """Covariance of z[idx] for each idx; the indices every set shares (the parameters) are
+        solved for once, the rest set by set in batches of about BATCH right-hand sides."""
+        sets = [np.asarray(s, int) for s in index_sets]
+        common = sets[0]
+        for s in sets[1:]:
+            common = np.intersect1d(common, s)
+        x_common = self._columns(common)
+        out: list[np.ndarray] = []
+        pending: list[np.ndarray] = []
+
+        def flush() -> None:
+            own = [np.setdiff1d(s, common) for s in pending]
+            x_own = self._columns(np.concatenate(own)) if own else None
+            start = 0
+            for s, o in zip(pending, own):
+                cols = np.empty((self.n_z, s.size))
+                where_common = np.isin(s, common)
+                cols[:, where_common] = x_common[:, np.searchsorted(common, s[where_common])]
+                cols[:, ~where_common] = x_own[:, start + np.searchsorted(o, s[~where_common])]
+                start += o.size
+                c = cols[s]
+                out.append(0.5 * (c + c.T))
+            pending.clear()
+
+        for s in sets:
+            pending.append(s)
+            if sum(p.size for p in pending) >= self.BATCH:
+                flush()
+        if pending:
+            flush()
+        return out
+
 
 def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_quat: int = 1) -> np.ndarray:
     """Z with A Z = 0 for a fit's constraint Jacobian: defect rows first, then ``n_quat``
@@ -90,13 +171,15 @@ def _to_scipy(m: ca.DM) -> sps.csc_matrix:
                           shape=(m.size1(), m.size2()))
 
 
-def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Covariance:
+def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Covariance | KktCovariance:
     """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J."""
     d = nlp.derivatives
     a = _to_scipy(d.jacobian_g(z))
     d.evaluate(z)
     h_upper = _to_scipy(d.gauss_newton(z))
     h = h_upper + sps.triu(h_upper, 1).T
+    if any(p.n_u for p in nlp.parts):
+        return _kkt_covariance(nlp, h, a, chi2, dof)
     basis = null_space_basis(a, nlp.dependent_columns(), nlp.derivatives.quat_cols.shape[0])
     hr = basis.T @ (h @ basis)
     hr = 0.5 * (hr + hr.T)
@@ -106,6 +189,18 @@ def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Cov
         raise SingularCovariance(_weakest_direction(nlp, basis, vec[:, 0], cond))
     cov_w = (vec / eig) @ vec.T
     return Covariance(basis, cov_w, chi2 / max(dof, 1), cond)
+
+
+def _kkt_covariance(nlp: FitNlp, h, a, chi2: float, dof: int) -> KktCovariance:
+    kkt = sps.bmat([[h, a.T], [a, None]], format="csc")
+    cov = KktCovariance(kkt, h.shape[0], chi2, dof)
+    cols = np.array(sorted(nlp.parameter_columns()))
+    eig = np.linalg.eigvalsh(cov.covariance_of(cols))
+    cov.condition = float(eig[-1] / max(eig[0], 1e-300))
+    if eig[0] <= 0 or cov.condition > MAX_CONDITION:
+        raise SingularCovariance(f"parameter covariance not positive definite (condition {cov.condition:.3g}): some "
+                                 "parameter combination is not determined by the data")
+    return cov
 
 
 def _weakest_direction(nlp: FitNlp, basis: np.ndarray, v: np.ndarray, cond: float) -> str:

@@ -33,10 +33,12 @@ def imu_residuals(result) -> dict[str, np.ndarray]:
     model, data = result.scenario.model, result.data
     p, b = _model_params(result)
     n, k = mesh.n_intervals, mesh.samples_per_interval
-    f = interval_function(model, mesh.h).map(n, "thread", 2)
+    part = result.extra["part"]
+    f = interval_function(model, mesh.h, part.active).map(n, "thread", 2)
     x = result.states.T
+    u = part.disturbances(result.extra["z"])[:, list(part.active)].T
     coefs = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n),
-                         np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)))[2])
+                         np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)), u[:, :-1], u[:, 1:])[2])
     pred = np.zeros((n * k, 6))
     for c, basis in enumerate(channel_bases(k)):
         pred[:, c] = (basis @ coefs[D_OFFSETS[c]:D_OFFSETS[c + 1]]).T.ravel()

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from casrecon.estimation.bands import COLUMNS, trajectory_with_bands
+from casrecon.estimation.bands import columns_of, trajectory_with_bands
 from casrecon.estimation.covariance import Covariance, SingularCovariance, compute_covariance
 from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
@@ -99,7 +99,7 @@ def drop_result(scenario: Scenario, data: FitData, part: DropPart, nlp: FitNlp, 
         scenario=scenario, data=data, params=part.params, values=part.values(sol.z), sigma=sigma,
         correlation=cov_theta / np.outer(sigma, sigma), node_time_s=part.mesh.t_nodes,
         flight_time_s=part.mesh.t_nodes - data.release_imu_s, states=part.states(sol.z),
-        columns=tuple(c for c, _ in COLUMNS), table=table, table_sigma=table_sigma, chi2=chi2,
+        columns=columns_of(part), table=table, table_sigma=table_sigma, chi2=chi2,
         n_measurements=counts, dof=dof, reduced_chi2=cov.reduced_chi2, solver=sol, timings=timings,
         condition=cov.condition, notes=data.notes)
     result.extra.update(covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r)
@@ -110,7 +110,7 @@ def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
     """Read a drop's data and lay its mesh, turning data problems into FitError."""
     try:
         data = load_fit_data(scenario.config)
-        return data, make_mesh(data.imu_time_s, scenario.config.estimation.samples_per_interval)
+        return data, make_mesh(data.imu_time_s, scenario.config.estimation.mesh_samples(scenario.config.imu.rate_hz))
     except (FitDataError, ValueError) as err:
         raise FitError(str(err)) from None
 
@@ -145,8 +145,15 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     return result
 
 
-#: How many times the clock-offset guess may be moved to the bound it reached and the fit redone.
-MAX_CLOCK_SHIFTS = 4
+def max_clock_shifts(nlp: FitNlp) -> int:
+    """How many times a clock-offset guess may move by one mesh interval: enough to cross 3 sigma
+    of its prior (beyond that :func:`_check_clock_plausible` stops the fit anyway), plus one."""
+    shifts = [1]
+    for part in nlp.parts:
+        if "clock_offset_s" in part.params.names:
+            spec = part.params.specs[part.params.index("clock_offset_s")]
+            shifts.append(int(np.ceil(3 * (spec.prior_sigma or spec.scale) / part.mesh.h)) + 1)
+    return max(shifts)
 
 
 def solve_fit(build, start, guesses: dict[str, float], solve_kw: dict):
@@ -154,15 +161,16 @@ def solve_fit(build, start, guesses: dict[str, float], solve_kw: dict):
 
     Each drop's clock offset is bounded to one mesh interval around its guess. When a solution ends
     on such a bound, the guess moves there, the fixes are reassigned to intervals and the fit is
-    redone from that solution (at most MAX_CLOCK_SHIFTS times).
+    redone from that solution (at most :func:`max_clock_shifts` times).
 
     Returns (nlp, SolveResult, build seconds).
     """
-    z, build_s = None, 0.0
-    for attempt in range(MAX_CLOCK_SHIFTS + 1):
+    z, build_s, attempt, limit = None, 0.0, 0, 1
+    while attempt <= limit:
         t = time.perf_counter()
         nlp = build(guesses)
         build_s += time.perf_counter() - t
+        limit = max_clock_shifts(nlp)
         z0 = start(nlp) if z is None else z.copy()
         for part in nlp.parts:
             if "clock_offset_s" in part.params.names:
@@ -180,7 +188,8 @@ def solve_fit(build, start, guesses: dict[str, float], solve_kw: dict):
         _check_clock_plausible(nlp, moved)
         guesses.update(moved)
         z = sol.z
-    raise FitError(f"the IMU-to-GPS clock offset kept reaching its bound after {MAX_CLOCK_SHIFTS} shifts "
+        attempt += 1
+    raise FitError(f"the IMU-to-GPS clock offset kept reaching its bound after {limit} shifts "
                    f"({', '.join(f'{k} {v:+.3f} s' for k, v in moved.items())}); give [estimation] "
                    "clock_offset_guess_s")
 

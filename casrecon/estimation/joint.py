@@ -153,7 +153,7 @@ def _layout(scenarios, meshes, psets, shared):
 
 
 def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str = "gauss-newton",
-              linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-8,
+              linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
               print_level: int = 0) -> JointResult:
     """Solve the joint NLP. Raises FitError when it does not converge or the KKT matrix is singular."""
     if len({sc.config.name for sc in scenarios}) != len(scenarios):

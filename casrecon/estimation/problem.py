@@ -33,6 +33,7 @@ from casrecon.estimation.transcription import (
     gps_function,
     interval_function,
 )
+from casrecon.physics.disturbance import N_DISTURBANCES, DisturbanceModel
 from casrecon.physics.dynamics import FlightModel
 
 NS = 13
@@ -56,6 +57,34 @@ class DropPart:
     groups: dict = field(default_factory=dict)
     state_scale: np.ndarray = field(default_factory=lambda: STATE_SCALE)
     guess_clock_s: float = 0.0
+    disturbance: DisturbanceModel | None = None
+    u_offset: int = 0
+
+    @property
+    def active(self) -> tuple[int, ...]:
+        """Indices (in DISTURBANCE_NAMES) of the disturbance entries estimated at the nodes."""
+        return () if self.disturbance is None else tuple(int(i) for i in self.disturbance.active)
+
+    @property
+    def n_u(self) -> int:
+        return len(self.active)
+
+    @property
+    def u_scale(self) -> np.ndarray:
+        """Scale of the disturbance node values: their prior sigma (SI)."""
+        return np.asarray(self.disturbance.sigma)[list(self.active)] if self.n_u else np.zeros(0)
+
+    @property
+    def u_cols(self) -> np.ndarray:
+        """z indices of the disturbance node values, (K, n_u)."""
+        return self.u_offset + np.arange(self.mesh.t_nodes.size * self.n_u).reshape(self.mesh.t_nodes.size, self.n_u)
+
+    def disturbances(self, z: np.ndarray) -> np.ndarray:
+        """Disturbance at the nodes (K, 9), SI, zero in the entries not estimated."""
+        out = np.zeros((self.mesh.t_nodes.size, N_DISTURBANCES))
+        if self.n_u:
+            out[:, list(self.active)] = np.asarray(z)[self.u_cols] * self.u_scale
+        return out
 
     @property
     def n_states(self) -> int:
@@ -136,9 +165,11 @@ class FitNlp:
         return self.parts[0].states(z), self.parts[0].values(z)
 
     def pack(self, states: np.ndarray, values: np.ndarray) -> np.ndarray:
-        """Per-drop fit: scaled z from node states (K, 13) and parameter values (SI)."""
+        """Per-drop fit: scaled z from node states (K, 13) and parameter values (SI); estimated
+        disturbances (if any) start at zero."""
         part = self.parts[0]
-        return np.concatenate([(states / part.state_scale).ravel(), np.asarray(values) / part.params.scales])
+        return np.concatenate([(states / part.state_scale).ravel(), np.asarray(values) / part.params.scales,
+                               np.zeros(part.u_cols.size)])
 
 
 @dataclass
@@ -257,7 +288,8 @@ def _imu_sigma(cfg) -> np.ndarray:
 class _Unscale:
     """SI quantities from the scaled local variables of a block."""
 
-    def __init__(self, model: FlightModel, params: ParameterSet) -> None:
+    def __init__(self, model: FlightModel, params: ParameterSet, u_scale=np.zeros(0)) -> None:  # noqa: B008
+        self.n_p, self.u_scale = params.n, ca.DM(np.asarray(u_scale, float))
         self.p_sel = _selection(model.n_params, params.model_selection(), params.n)
         self.b_sel = _selection(6, [(j, params.index(n)) for j, n in enumerate(SENSOR_NAMES)
                                     if n in params.names], params.n)
@@ -265,10 +297,14 @@ class _Unscale:
         self.clock = params.index("clock_offset_s") if "clock_offset_s" in params.names else None
 
     def split(self, v: ca.SX):
+        """(xk, xk1, theta, uk, uk1) in SI from a block's scaled locals [xk, xk1, theta, uk, uk1]."""
         xk = v[:NS] * ca.DM(STATE_SCALE)
         xk1 = v[NS:2 * NS] * ca.DM(STATE_SCALE)
-        theta = v[2 * NS:] * self.scales
-        return xk, xk1, theta
+        end = 2 * NS + self.n_p
+        theta = v[2 * NS:end] * self.scales
+        n_u = self.u_scale.numel()
+        uk, uk1 = v[end:end + n_u] * self.u_scale, v[end + n_u:end + 2 * n_u] * self.u_scale
+        return xk, xk1, theta, uk, uk1
 
     def model_params(self, theta):
         return self.p_sel @ theta
@@ -277,21 +313,33 @@ class _Unscale:
         return self.b_sel @ theta
 
 
-def _interval_kind(model, mesh, params, un: _Unscale) -> BlockKind:
-    v = ca.SX.sym("v", 2 * NS + params.n)
+def _interval_kind(model, mesh, params, un: _Unscale, active=()) -> BlockKind:
+    v = ca.SX.sym("v", 2 * NS + params.n + 2 * len(active))
     d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
-    xk, xk1, theta = un.split(v)
-    defect, r_imu, _ = interval_function(model, mesh.h)(xk, xk1, un.model_params(theta), un.biases(theta), d, rr)
+    xk, xk1, theta, uk, uk1 = un.split(v)
+    defect, r_imu, _ = interval_function(model, mesh.h, active)(
+        xk, xk1, un.model_params(theta), un.biases(theta), d, rr, uk, uk1)
     return BlockKind("interval", v, [d, rr], r_imu, defect)
 
 
-def _gps_kind(model, mesh, params, un: _Unscale, guess: float = 0.0) -> BlockKind:
-    v = ca.SX.sym("v", 2 * NS + params.n)
+def _gps_kind(model, mesh, params, un: _Unscale, guess: float = 0.0, active=()) -> BlockKind:
+    v = ca.SX.sym("v", 2 * NS + params.n + 2 * len(active))
     tau0, y, w = ca.SX.sym("tau0"), ca.SX.sym("y", 6), ca.SX.sym("w", 6)
-    xk, xk1, theta = un.split(v)
+    xk, xk1, theta, uk, uk1 = un.split(v)
     tau = tau0 - (theta[un.clock] if un.clock is not None else guess) / mesh.h
-    r = gps_function(model, mesh.h)(xk, xk1, un.model_params(theta), tau, y, w)
+    r = gps_function(model, mesh.h, active)(xk, xk1, un.model_params(theta), tau, y, w, uk, uk1)
     return BlockKind("gps", v, [tau0, y, w], r, None)
+
+
+def _process_kinds(part: DropPart) -> tuple[BlockKind, BlockKind]:
+    """Gauss-Markov prior of the disturbance node values (scaled by sigma): the first node's
+    u_0 / sigma, and per interval (u_k+1 - phi u_k) / (sigma sqrt(1 - phi^2))."""
+    n_u = part.n_u
+    phi = part.disturbance.transition(part.mesh.h)
+    u0 = ca.SX.sym("u0", n_u)
+    v = ca.SX.sym("v", 2 * n_u)
+    step = (v[n_u:] - ca.DM(phi) * v[:n_u]) / ca.DM(np.sqrt(1.0 - phi**2))
+    return BlockKind("disturbance_start", u0, [], u0, None), BlockKind("disturbance_step", v, [], step, None)
 
 
 def _prior_kind(params: ParameterSet) -> tuple[BlockKind | None, dict[str, slice]]:
@@ -309,26 +357,30 @@ def _prior_kind(params: ParameterSet) -> tuple[BlockKind | None, dict[str, slice
 
 def drop_block_sets(model: FlightModel, data: FitData, part: DropPart, cfg) -> list[_BlockSet]:
     """The interval, GPS and prior blocks of one drop, with global columns from ``part``."""
-    mesh, params = part.mesh, part.params
+    mesh, params, active = part.mesh, part.params, part.active
     n_int, k = mesh.n_intervals, mesh.samples_per_interval
-    un = _Unscale(model, params)
+    un = _Unscale(model, params, part.u_scale)
     y = np.column_stack([data.accel_imu, data.gyro_imu])[:n_int * k]
     valid = np.column_stack([data.accel_valid, data.gyro_valid])[:n_int * k]
     part.imu_blocks = compress_imu(mesh, y, valid, _imu_sigma(cfg))
 
     def node_cols(kk: np.ndarray) -> np.ndarray:
         first = part.node_offset + NS * kk[:, None] + np.arange(2 * NS)[None, :]
-        return np.column_stack([first, np.tile(part.theta_cols, (kk.size, 1))])
+        return np.column_stack([first, np.tile(part.theta_cols, (kk.size, 1)), part.u_cols[kk], part.u_cols[kk + 1]])
 
     t_fix = data.gps_time_s
     kfix = np.clip(((t_fix - part.guess_clock_s - mesh.t_nodes[0]) // mesh.h).astype(int), 0, n_int - 1)
     gps_data = [ca.DM((t_fix - mesh.t_nodes[kfix]) / mesh.h).T,
                 ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T), ca.DM(1.0 / data.gps_sigma.T)]
-    sets = [_BlockSet(_interval_kind(model, mesh, params, un), node_cols(np.arange(n_int)),
+    sets = [_BlockSet(_interval_kind(model, mesh, params, un, active), node_cols(np.arange(n_int)),
                       [ca.DM(part.imu_blocks.d), ca.DM(part.imu_blocks.R)],
                       part.defect_offset + NS * np.arange(n_int), "imu"),
-            _BlockSet(_gps_kind(model, mesh, params, un, part.guess_clock_s), node_cols(kfix), gps_data,
+            _BlockSet(_gps_kind(model, mesh, params, un, part.guess_clock_s, active), node_cols(kfix), gps_data,
                       group="gps")]
+    if part.n_u:
+        start, step = _process_kinds(part)
+        sets += [_BlockSet(start, part.u_cols[:1], [], group="disturbance_start"),
+                 _BlockSet(step, np.column_stack([part.u_cols[:-1], part.u_cols[1:]]), [], group="disturbance")]
     return sets + prior_block_sets(part)
 
 
@@ -384,6 +436,7 @@ def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSe
     intervals for the clock offset ``guess_clock_s`` (default: the configured guess)."""
     n_sv = NS * mesh.t_nodes.size
     guess = cfg.estimation.clock_offset_guess_s if guess_clock_s is None else guess_clock_s
-    part = DropPart(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), 0, guess_clock_s=guess)
+    part = DropPart(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), 0, guess_clock_s=guess,
+                    disturbance=cfg.estimation.disturbance, u_offset=n_sv + params.n)
     sets = drop_block_sets(model, data, part, cfg)
-    return assemble_nlp([part], [sets], n_sv + params.n, hessian)
+    return assemble_nlp([part], [sets], n_sv + params.n + part.u_cols.size, hessian)

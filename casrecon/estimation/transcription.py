@@ -1,7 +1,7 @@
 """Hermite-Simpson collocation on a uniform mesh of the IMU clock, and how the data enter it.
 
 Mesh
-    Nodes every ``samples_per_interval`` IMU samples (25 at 500 Hz: h = 50 ms), the first node on
+    Nodes every ``samples_per_interval`` IMU samples (13 at 500 Hz by default: h = 26 ms), the first node on
     the first IMU sample of the fit window. The state between nodes is the cubic Hermite polynomial
     through (x_k, f_k) and (x_k+1, f_k+1), f = rhs(x); the compressed Hermite-Simpson defect is
     x_k+1 - x_k - h/6 (f_k + 4 f_m + f_k+1) with x_m = (x_k + x_k+1)/2 + h/8 (f_k - f_k+1).
@@ -12,8 +12,9 @@ IMU samples (every one, at its own time)
       Hermite basis and c = (w_k, h dw_k/dt, w_k+1, h dw_k+1/dt) in IMU axes, plus the bias;
     - accelerometers: the model's specific force at the collocation points tau = 0, 1/2, 1 (the
       nodes and the Hermite-Simpson midpoint, where the dynamics are evaluated anyway), interpolated
-      by the quadratic through them: f(t_i) = L_i c. Over a 50 ms interval the interpolation error
-      is below 1e-3 of the accelerometer noise for the oscillations seen here.
+      by the quadratic through them: f(t_i) = L_i c.
+    The discretisation error (state polynomial and interpolation) falls as h^4; it is what limits
+    the mesh: see ``EstimationConfig.interval_s``.
     For one channel of one interval the samples' squared whitened residuals are
     sum_i w_i (y_i - B_i c)^2 = |Q^T W y - R c|^2 + r0 with W B = Q R (thin QR over the unmasked
     samples, W = 1 / sigma) and r0 = |(I - Q Q^T) W y|^2 independent of the unknowns. The NLP
@@ -33,6 +34,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from casrecon.physics.disturbance import N_DISTURBANCES
 from casrecon.physics.dynamics import FlightModel
 from casrecon.physics.sensors import gps_antenna_ned, imu_angular_rate, imu_specific_force
 
@@ -101,31 +103,42 @@ def lagrange_matrix(tau_samples: np.ndarray, nodes=ACCEL_TAU) -> np.ndarray:
     return out
 
 
-def imu_model_function(model: FlightModel) -> ca.Function:
-    """``imu(x, p) -> (xdot, [specific force (3); rate (3)])``: the state derivative and the
-    noise- and bias-free IMU output in IMU axes, from one evaluation of the equations of motion."""
+def disturbance_selection(active) -> ca.DM:
+    """(9, n_u) matrix putting the estimated disturbance entries ``active`` into d."""
+    s = np.zeros((N_DISTURBANCES, len(active)))
+    s[np.asarray(active, int), np.arange(len(active))] = 1.0
+    return ca.DM(s)
+
+
+def imu_model_function(model: FlightModel, active=()) -> ca.Function:
+    """``imu(x, p, u) -> (xdot, [specific force (3); rate (3)])``: the state derivative and the
+    noise- and bias-free IMU output in IMU axes, from one evaluation of the equations of motion;
+    ``u`` the values of the disturbance entries ``active`` (empty for a strong-constraint fit)."""
     x = ca.SX.sym("x", model.n_states)
     p = ca.SX.sym("p", model.n_params)
-    t = model.terms(x, p)
+    u = ca.SX.sym("u", len(active))
+    t = model.terms(x, p, disturbance_selection(active) @ u if len(active) else None)
     y = ca.vertcat(imu_specific_force(model.vehicle, t["force_body"], x[10:13], t["omega_dot"]),
                    imu_angular_rate(model.vehicle, x[10:13]))
-    return ca.Function("imu_model", [x, p], [t["xdot"], y])
+    return ca.Function("imu_model", [x, p, u], [t["xdot"], y])
 
 
-def interval_function(model: FlightModel, h: float) -> ca.Function:
-    """``interval(xk, xk1, p, bias6, d, R) -> (defect13 scaled, r_imu, c)`` for one interval.
+def interval_function(model: FlightModel, h: float, active=()) -> ca.Function:
+    """``interval(xk, xk1, p, bias6, d, R, uk, uk1) -> (defect13 scaled, r_imu, c)`` for one interval.
 
     ``d`` holds Q^T W y of the 6 IMU channels and ``R`` their R factors (column major), stacked at
     ``D_OFFSETS`` and ``R_OFFSETS``; ``bias6`` the accelerometer and gyro biases (IMU axes); ``c``
-    the model's basis coefficients of every channel (see the module docstring).
+    the model's basis coefficients of every channel (see the module docstring); ``uk``, ``uk1``
+    the estimated disturbance entries ``active`` at the two nodes (linear in between).
     """
     xk, xk1 = ca.SX.sym("xk", 13), ca.SX.sym("xk1", 13)
     p, b = ca.SX.sym("p", model.n_params), ca.SX.sym("b", 6)
     d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
-    imu = imu_model_function(model)
-    (fk, yk), (fk1, yk1) = imu(xk, p), imu(xk1, p)
+    uk, uk1 = ca.SX.sym("uk", len(active)), ca.SX.sym("uk1", len(active))
+    imu = imu_model_function(model, active)
+    (fk, yk), (fk1, yk1) = imu(xk, p, uk), imu(xk1, p, uk1)
     xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
-    fm, ym = imu(xm, p)
+    fm, ym = imu(xm, p, 0.5 * (uk + uk1))
     defect = (xk1 - xk - h / 6 * (fk + 4 * fm + fk1)) / ca.DM(STATE_SCALE)
     c_ib = ca.DM(np.asarray(model.vehicle.imu_to_body)).T
     wdot_k, wdot_k1 = c_ib @ fk[10:13], c_ib @ fk1[10:13]
@@ -135,18 +148,22 @@ def interval_function(model: FlightModel, h: float) -> ca.Function:
     for c, n in enumerate(CHANNEL_BASIS):
         r_c = ca.reshape(rr[int(R_OFFSETS[c]):int(R_OFFSETS[c + 1])], n, n)
         res.append(d[int(D_OFFSETS[c]):int(D_OFFSETS[c + 1])] - r_c @ coefs[c])
-    return ca.Function("interval", [xk, xk1, p, b, d, rr], [defect, ca.vertcat(*res), ca.vertcat(*coefs)],
-                       ["xk", "xk1", "p", "bias", "d", "R"], ["defect", "r_imu", "c"])
+    return ca.Function("interval", [xk, xk1, p, b, d, rr, uk, uk1],
+                       [defect, ca.vertcat(*res), ca.vertcat(*coefs)],
+                       ["xk", "xk1", "p", "bias", "d", "R", "uk", "uk1"], ["defect", "r_imu", "c"])
 
 
-def gps_function(model: FlightModel, h: float) -> ca.Function:
-    """``gps(xk, xk1, p, tau, y6, inv_sigma6) -> r6``: whitened antenna position/velocity residual."""
+def gps_function(model: FlightModel, h: float, active=()) -> ca.Function:
+    """``gps(xk, xk1, p, tau, y6, inv_sigma6, uk, uk1) -> r6``: whitened antenna position/velocity
+    residual (``uk``, ``uk1``: the estimated disturbance entries ``active`` at the two nodes)."""
     xk, xk1 = ca.SX.sym("xk", 13), ca.SX.sym("xk1", 13)
     p, tau = ca.SX.sym("p", model.n_params), ca.SX.sym("tau")
     y, w = ca.SX.sym("y", 6), ca.SX.sym("w", 6)
-    x = hermite(tau, h, xk, model.rhs(xk, p), xk1, model.rhs(xk1, p))
+    uk, uk1 = ca.SX.sym("uk", len(active)), ca.SX.sym("uk1", len(active))
+    sel = disturbance_selection(active)
+    x = hermite(tau, h, xk, model.rhs_d(xk, p, sel @ uk), xk1, model.rhs_d(xk1, p, sel @ uk1))
     pos, vel = gps_antenna_ned(model.vehicle, x[0:3], x[3:6], x[6:10], x[10:13])
-    return ca.Function("gps", [xk, xk1, p, tau, y, w], [(y - ca.vertcat(pos, vel)) * w])
+    return ca.Function("gps", [xk, xk1, p, tau, y, w, uk, uk1], [(y - ca.vertcat(pos, vel)) * w])
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,11 @@ Model parameters p (:data:`PARAMETER_NAMES`): the aero dispersion factors, then 
 corrections (wind bias north/east m/s, density factor, wind gradient north/east 1/s) and the rotor
 downwash below the helicopter (m/s, downwards, decaying as exp(-distance fallen / length)).
 
+Disturbance d (9, :data:`DISTURBANCE_NAMES`, zero unless given): a time-varying wind perturbation
+(gust, NED, m/s) added to the sounding's wind, and model-error force (body axes, N) and moment
+(about the centre of mass, body axes, N m) added to the aerodynamic ones. The simulator takes a
+Gauss-Markov realisation of it; the fit can estimate it at the nodes (weak-constraint option).
+
     m dv/dt = C_nb F_b + m g - 2 m Omega x v
     I dw/dt = M_cm - w x (I w)
     dq/dt   = q (x) (0, w) / 2
@@ -32,6 +37,9 @@ STATE_NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d", "q0", "q1",
 ATMOSPHERE_PARAMETER_NAMES = ("wind_bias_n", "wind_bias_e", "density_factor",
                               "wind_gradient_n", "wind_gradient_e", "downwash_mps")
 PARAMETER_NAMES = DISPERSION_NAMES + ATMOSPHERE_PARAMETER_NAMES
+#: Entries of the disturbance input: gust wind (NED, m/s), model-error force (body, N) and moment (body, N m).
+DISTURBANCE_NAMES = ("gust_n", "gust_e", "gust_d", "force_x", "force_y", "force_z",
+                     "moment_x", "moment_y", "moment_z")
 #: Names of the rows of :meth:`FlightModel.outputs`.
 OUTPUT_NAMES = ("h_agl", "roll", "pitch", "yaw", "alpha", "beta", "alpha_t", "qbar", "mach",
                 "airspeed", "imu_fx", "imu_fy", "imu_fz", "gyro_x", "gyro_y", "gyro_z",
@@ -97,6 +105,10 @@ class FlightModel:
     ----------
     rhs : casadi.Function
         ``rhs(x[13], p[np]) -> xdot[13]``.
+    rhs_d : casadi.Function
+        ``rhs_d(x, p, d[9]) -> xdot`` with the disturbance input d (:data:`DISTURBANCE_NAMES`).
+    outputs_d : casadi.Function
+        ``outputs_d(x, p, d) -> y``.
     outputs : casadi.Function
         ``outputs(x, p) -> y[len(OUTPUT_NAMES)]``: altitude AGL (m), Euler angles, flow angles (rad),
         qbar (Pa), Mach, airspeed (m/s), noise-free IMU specific force (m/s^2) and rate (rad/s) in
@@ -112,9 +124,13 @@ class FlightModel:
         self._inertia_inv = ca.DM(np.linalg.inv(np.asarray(vehicle.inertia_kgm2)))
         x = ca.SX.sym("x", len(STATE_NAMES))
         p = ca.SX.sym("p", len(PARAMETER_NAMES))
-        terms = self.terms(x, p)
-        self.rhs = ca.Function("rhs", [x, p], [terms["xdot"]], ["x", "p"], ["xdot"])
-        self.outputs = ca.Function("outputs", [x, p], [self._outputs(x, terms)], ["x", "p"], ["y"])
+        d = ca.SX.sym("d", len(DISTURBANCE_NAMES))
+        terms = self.terms(x, p, d)
+        self.rhs_d = ca.Function("rhs_d", [x, p, d], [terms["xdot"]], ["x", "p", "d"], ["xdot"])
+        self.outputs_d = ca.Function("outputs_d", [x, p, d], [self._outputs(x, terms)], ["x", "p", "d"], ["y"])
+        zero = ca.DM.zeros(len(DISTURBANCE_NAMES))
+        self.rhs = ca.Function("rhs", [x, p], [self.rhs_d(x, p, zero)], ["x", "p"], ["xdot"])
+        self.outputs = ca.Function("outputs", [x, p], [self.outputs_d(x, p, zero)], ["x", "p"], ["y"])
 
     @property
     def n_states(self) -> int:
@@ -139,13 +155,15 @@ class FlightModel:
         """Gravity vector in NED, m/s^2, per :class:`DynamicsOptions`."""
         return gravity_vector(self.site, self.options, self.altitude_msl(x))
 
-    def terms(self, x, p) -> dict:
-        """Every intermediate of the equations of motion, for ``x`` and ``p`` (CasADi)."""
+    def terms(self, x, p, d=None) -> dict:
+        """Every intermediate of the equations of motion, for ``x``, ``p`` and the disturbance
+        ``d`` (CasADi; ``d`` None is no disturbance)."""
         v_ned, q, w = x[3:6], x[6:10], x[10:13]
         corr = AtmosphereCorrections(*[p[len(DISPERSION_NAMES) + i] for i in range(5)])
         air = self.atmosphere.at(self.altitude_msl(x), corr)
         downwash = self.downwash(x, p[PARAMETER_NAMES.index("downwash_mps")])
-        air = replace(air, wind_ned=air.wind_ned + ca.vertcat(0, 0, downwash))
+        gust = ca.vertcat(0, 0, downwash) if d is None else d[0:3] + ca.vertcat(0, 0, downwash)
+        air = replace(air, wind_ned=air.wind_ned + gust)
         c_nb = dcm_body_to_ned(q)
         v_air_body = c_nb.T @ (v_ned - air.wind_ned)
         veh = self.vehicle
@@ -155,6 +173,8 @@ class FlightModel:
                 veh.ref_area_m2, veh.ref_length_m, ca.DM(veh.lever(veh.mrp_m)))
         else:
             force, moment = ca.DM.zeros(3), ca.DM.zeros(3)
+        if d is not None:
+            force, moment = force + d[3:6], moment + d[6:9]
         accel = c_nb @ force / veh.mass_kg + self.gravity_ned(x)
         if self.options.earth_rotation:
             accel += coriolis_acceleration(math.radians(self.site.lat_deg), v_ned)

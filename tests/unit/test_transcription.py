@@ -107,10 +107,11 @@ def tiny():
     """A ~1.5 s window of ees-drop-3: 30 intervals, the full parameter set."""
     sc = Scenario.load(PROBLEMS / "ees-drop-3")
     cfg = sc.config
-    cfg = replace(cfg, estimation=replace(cfg.estimation, start_after_release_s=20.0, end_before_impact_s=17.55))
+    cfg = replace(cfg, estimation=replace(cfg.estimation, start_after_release_s=20.0, end_before_impact_s=17.55,
+                                          samples_per_interval=25))
     sc = Scenario.from_config(cfg)
     data = load_fit_data(cfg)
-    mesh = make_mesh(data.imu_time_s, cfg.estimation.samples_per_interval)
+    mesh = make_mesh(data.imu_time_s, cfg.estimation.mesh_samples(cfg.imu.rate_hz))
     params = parameter_set(cfg)
     x0 = initial_guess(data, mesh, cfg.vehicle, sc.atmosphere, cfg.site.ground_alt_msl_m)
     out = {}
