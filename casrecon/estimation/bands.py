@@ -24,7 +24,7 @@ DISTURBANCE_COLUMNS = (("gust_n_mps", 1.0), ("gust_e_mps", 1.0), ("gust_d_mps", 
                        ("force_error_x_n", 1.0), ("force_error_y_n", 1.0), ("force_error_z_n", 1.0),
                        ("moment_error_x_nm", 1.0), ("moment_error_y_nm", 1.0), ("moment_error_z_nm", 1.0))
 #: With disturbance states the bands are computed at most at this many nodes and interpolated.
-MAX_BAND_NODES = 200
+MAX_BAND_NODES = 50
 
 
 def columns_of(part: DropPart) -> tuple[str, ...]:

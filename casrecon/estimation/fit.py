@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from casrecon.estimation.bands import columns_of, trajectory_with_bands
+from casrecon.estimation.bands import MAX_BAND_NODES, columns_of, trajectory_with_bands
 from casrecon.estimation.covariance import Covariance, SingularCovariance, compute_covariance
 from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
@@ -19,6 +19,7 @@ from casrecon.estimation.parameters import ParameterSet, parameter_set
 from casrecon.estimation.problem import DropPart, FitNlp, build_nlp
 from casrecon.estimation.solve import SolveResult, solve
 from casrecon.estimation.transcription import Mesh, make_mesh
+from casrecon.physics.dynamics import DISTURBANCE_NAMES
 from casrecon.scenario import Scenario
 
 
@@ -101,9 +102,18 @@ def drop_result(scenario: Scenario, data: FitData, part: DropPart, nlp: FitNlp, 
         flight_time_s=part.mesh.t_nodes - data.release_imu_s, states=part.states(sol.z),
         columns=columns_of(part), table=table, table_sigma=table_sigma, chi2=chi2,
         n_measurements=counts, dof=dof, reduced_chi2=cov.reduced_chi2, solver=sol, timings=timings,
-        condition=cov.condition, notes=data.notes)
+        condition=cov.condition, notes=data.notes + _weak_constraint_notes(part))
     result.extra.update(covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r)
     return result
+
+
+def _weak_constraint_notes(part: DropPart) -> tuple[str, ...]:
+    if not part.n_u:
+        return ()
+    names = ", ".join(DISTURBANCE_NAMES[i] for i in part.active)
+    return (f"weak constraint: {names} estimated at every node with a Gauss-Markov prior; covariance from a sparse LU "
+            f"of the KKT matrix, 3-sigma bands computed at {min(MAX_BAND_NODES, part.mesh.t_nodes.size)} nodes "
+            "and interpolated between them",)
 
 
 def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
@@ -127,7 +137,7 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     t1 = time.perf_counter()
 
     def build(guesses: dict[str, float]) -> FitNlp:
-        return build_nlp(scenario.model, data, mesh, params, cfg, hessian or est.hessian, guesses[cfg.name])
+        return build_nlp(scenario.model, data, mesh, params, cfg, hessian or est.resolved_hessian(), guesses[cfg.name])
 
     def start(nlp: FitNlp) -> np.ndarray:
         return nlp.pack(x0, np.zeros(params.n))

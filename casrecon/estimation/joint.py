@@ -158,6 +158,11 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str = "ga
     """Solve the joint NLP. Raises FitError when it does not converge or the KKT matrix is singular."""
     if len({sc.config.name for sc in scenarios}) != len(scenarios):
         raise FitError("joint fit: two drops have the same problem name")
+    weak = [sc.config.name for sc in scenarios if sc.config.estimation.disturbance is not None]
+    if weak:
+        raise FitError(f"joint fit: {', '.join(weak)} estimate(s) disturbance states (gust_sigma_mps, "
+                       "force_error_sigma_n or moment_error_sigma_nm in [estimation]); the joint fit supports "
+                       "only the strong constraint so far: fit those drops one by one")
     t0 = time.perf_counter()
     prepared = [prepare_drop(sc) for sc in scenarios]
     psets, shared = _parameter_sets(scenarios, cfg)
