@@ -1,8 +1,13 @@
 """Gust hypothesis (slow): synthetic drop-3 data with Gauss-Markov gusts the balloon did not see.
 
 The strong-constraint fit cannot explain them (it fails or leaves a reduced chi-square far above 1);
-the weak-constraint fit with gust states at the nodes recovers the gust history within its bands,
-with a reduced chi-square near 1 and every parameter within 4 sigma of the truth."""
+the weak-constraint fit with gust states at the nodes recovers the gust history (error well below
+the gust itself, at least 95 % of the nodes inside the 3-sigma band), with a reduced chi-square near
+1 and every parameter within 4 sigma of the truth.
+
+Not tested here: whether the gust sigmas are calibrated. One realisation spans only a few
+correlation times, so its RMS normalised error says little (seed 5 gave 1.75 over a 6 s window, 0.97
+over 14 s, 0.43 over 24 s for gust N); calibration needs a multi-seed study that has not been run."""
 
 import dataclasses
 
@@ -26,7 +31,7 @@ def gusty(tmp_path_factory):
     sc = Scenario.load(PROBLEMS / "ees-drop-3")
     cfg = sc.config
     cfg = dataclasses.replace(cfg, truth=dataclasses.replace(cfg.truth, disturbance=GUSTS),
-                              estimation=dataclasses.replace(cfg.estimation, start_after_release_s=31.0))
+                              estimation=dataclasses.replace(cfg.estimation, start_after_release_s=15.0))
     return _with_data(Scenario.from_config(cfg), tmp_path_factory.mktemp("gusty"), seed=SEED)
 
 
@@ -50,7 +55,7 @@ def test_gust_states_recover_the_gusts(gusty):
         value, sigma = r.column(name)
         z = (value - truth[:, j]) / sigma
         print(name, "rms error", np.sqrt(np.mean((value - truth[:, j]) ** 2)), "rms z", np.sqrt(np.mean(z**2)))
-        assert 0.4 < np.sqrt(np.mean(z**2)) < 1.6
+        assert np.sqrt(np.mean((value - truth[:, j]) ** 2)) < 0.5 * np.sqrt(np.mean(truth[:, j] ** 2))
         assert np.mean(np.abs(z) < 3) > 0.95
     t = truth_parameters_by_name(gusty)
     worst = max(abs(v - t[n]) / s for n, v, s in zip(r.params.names, r.values, r.sigma))
