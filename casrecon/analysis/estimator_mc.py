@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import tempfile
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -85,36 +86,6 @@ class ConsistencyResult:
         return [c for c in self.cases if "failed" in c]
 
 
-def _map_cases(args: list[tuple], workers: int, scheduler: str | None, progress: bool) -> list[dict]:
-    """run_case over ``args`` on a Dask cluster, local spawn processes, or in this process."""
-    from casrecon.analysis.montecarlo import _import_distributed, _Progress
-
-    bar = _Progress(len(args), progress, label="estimator montecarlo")
-    out: dict[int, dict] = {}
-    if scheduler:
-        Client, as_done = _import_distributed()
-        with Client(scheduler) as client:
-            futures = client.map(run_case, *zip(*args), pure=False)
-            where = {f.key: k for k, f in enumerate(futures)}
-            for fut in as_done(futures):
-                out[where[fut.key]] = fut.result()
-                bar.update(1)
-    elif workers > 1:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            futs = {pool.submit(run_case, *a): k for k, a in enumerate(args)}
-            for fut in as_completed(futs):
-                out[futs[fut]] = fut.result()
-                bar.update(1)
-    else:
-        for k, a in enumerate(args):
-            out[k] = run_case(*a)
-            bar.update(1)
-    return [out[k] for k in range(len(args))]
-
-
 def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
                          scheduler: str | None = None, progress: bool = False) -> ConsistencyResult:
     """Run ``n_cases`` simulate-and-fit cases and test the NEES sum against chi2 at 95 %.
@@ -122,8 +93,11 @@ def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: in
     Local spawn processes (``workers``) or, given a Dask scheduler address, that cluster; case i
     is reproducible from (seed, i) alone.
     """
-    args = [(str(Path(problem).resolve()), seed, i) for i in range(n_cases)]
-    cases = _map_cases(args, workers, scheduler, progress)
+    from casrecon.analysis.montecarlo import _Progress, map_with_progress
+
+    bar = _Progress(n_cases, progress, label="estimator montecarlo")
+    cases = map_with_progress(partial(run_case, str(Path(problem).resolve()), seed), list(range(n_cases)),
+                              workers=workers, scheduler=scheduler, bar=bar)
     ok = [c for c in cases if "nees" in c]
     n_params = len(ok[0]["names"]) if ok else 0
     dof = n_params * len(ok)

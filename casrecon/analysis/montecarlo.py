@@ -29,6 +29,7 @@ import multiprocessing
 import sys
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -290,6 +291,40 @@ def _chunks(indices: list[int], chunk_size: int) -> list[tuple[int, ...]]:
     return [tuple(indices[s:s + chunk_size]) for s in range(0, len(indices), chunk_size)]
 
 
+def map_with_progress(fn: Callable, tasks: list, *, workers: int = 1, scheduler: str | None = None,
+                      bar: _Progress | None = None, weight: Callable = lambda task: 1) -> list:
+    """``[fn(t) for t in tasks]`` on a Dask cluster, local spawn processes, or in this process.
+
+    ``scheduler`` (a Dask distributed address) takes precedence over ``workers``; results come back
+    in the order of ``tasks`` whatever order they finish in, and each finished task advances ``bar``
+    by ``weight(task)`` cases. ``fn`` must be importable (picklable) for the first two.
+    """
+    results: dict[int, object] = {}
+
+    def done(k: int, value) -> None:
+        results[k] = value
+        if bar is not None:
+            bar.update(weight(tasks[k]))
+
+    if scheduler is not None:
+        Client, dask_as_completed = _import_distributed()
+        with Client(scheduler) as client:
+            futures = client.map(fn, tasks, pure=False)
+            where = {f.key: k for k, f in enumerate(futures)}
+            for fut in dask_as_completed(futures):
+                done(where[fut.key], fut.result())
+    elif workers <= 1 or len(tasks) <= 1:
+        for k, task in enumerate(tasks):
+            done(k, fn(task))
+    else:
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx) as pool:
+            futs = {pool.submit(fn, task): k for k, task in enumerate(tasks)}
+            for fut in as_completed(futs):
+                done(futs[fut], fut.result())
+    return [results[k] for k in range(len(tasks))]
+
+
 def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions = Dispersions(), *,
               workers: int = 1, scheduler: str | None = None, chunk_size: int = 250, dt_s: float = DEFAULT_DT_S,
               t_max_s: float = 300.0, backend: str = "auto", progress: bool = False) -> dict[str, np.ndarray]:
@@ -307,27 +342,8 @@ def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions 
     tasks = [ChunkTask(problem, int(seed), c, dispersions, float(dt_s), float(t_max_s), batch, backend)
              for c in _chunks(indices, chunk_size)]
     bar = _Progress(len(indices), progress)
-    results: dict[int, dict] = {}
-    if scheduler is not None:
-        Client, dask_as_completed = _import_distributed()
-        with Client(scheduler) as client:
-            futures = client.map(simulate_chunk, tasks, pure=False)
-            where = {f.key: k for k, f in enumerate(futures)}
-            for fut in dask_as_completed(futures):
-                results[where[fut.key]] = fut.result()
-                bar.update(len(tasks[where[fut.key]].indices))
-    elif workers == 1 or len(tasks) == 1:
-        for k, t in enumerate(tasks):
-            results[k] = simulate_chunk(t)
-            bar.update(len(t.indices))
-    else:
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx) as pool:
-            futs = {pool.submit(simulate_chunk, t): k for k, t in enumerate(tasks)}
-            for fut in as_completed(futs):
-                results[futs[fut]] = fut.result()
-                bar.update(len(tasks[futs[fut]].indices))
-    parts = [results[k] for k in range(len(tasks))]
+    parts = map_with_progress(simulate_chunk, tasks, workers=workers, scheduler=scheduler,
+                              bar=bar, weight=lambda t: len(t.indices))
     if not parts:
         return {}
     return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}

@@ -174,18 +174,28 @@ def _to_scipy(m: ca.DM) -> sps.csc_matrix:
                           shape=(m.size1(), m.size2()))
 
 
-def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Covariance | KktCovariance:
-    """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J."""
+def fisher_and_jacobian(nlp: FitNlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.csc_matrix]:
+    """(H, A) at ``z`` (scaled): the full symmetric Gauss-Newton Hessian J^T J and dg/dz."""
     d = nlp.derivatives
     a = _to_scipy(d.jacobian_g(z))
-    d.evaluate(z)
     h_upper = _to_scipy(d.gauss_newton(z))
-    h = h_upper + sps.triu(h_upper, 1).T
-    if any(p.n_u for p in nlp.parts):
-        return _kkt_covariance(nlp, h, a, chi2, dof)
+    return h_upper + sps.triu(h_upper, 1).T, a
+
+
+def reduced_hessian(nlp: FitNlp, h: sps.csc_matrix, a: sps.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """(Z, Z^T H Z): a null-space basis of the constraint Jacobian and the reduced Hessian
+    (strong-constraint fits only: with disturbance states Z would have thousands of columns)."""
     basis = null_space_basis(a, nlp.dependent_columns(), nlp.derivatives.quat_cols.shape[0])
     hr = basis.T @ (h @ basis)
-    hr = 0.5 * (hr + hr.T)
+    return basis, 0.5 * (hr + hr.T)
+
+
+def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Covariance | KktCovariance:
+    """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J."""
+    h, a = fisher_and_jacobian(nlp, z)
+    if any(p.n_u for p in nlp.parts):
+        return _kkt_covariance(nlp, h, a, chi2, dof)
+    basis, hr = reduced_hessian(nlp, h, a)
     eig, vec = np.linalg.eigh(hr)
     cond = float(eig[-1] / max(eig[0], 1e-300))
     if eig[0] <= 0 or cond > MAX_CONDITION:

@@ -10,6 +10,11 @@ Hessian choices
     converges nearly as fast as Newton's method at a fraction of the cost; J^T J is also the Fisher
     information the covariance uses. ``"exact"``: the exact Hessian of the Lagrangian assembled
     from per-block exact Hessians.
+
+Stopping: Ipopt's own test (``tol``), or, for strong-constraint fits, the statistical test of
+:mod:`casrecon.estimation.convergence` (a full Gauss-Newton step would lower chi-square by less
+than 1e-3), made at Ipopt's iterates and once more on an unconverged return; ``SolveResult.status``
+says which test stopped the fit.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from casrecon.estimation import convergence
 from casrecon.estimation.problem import FitNlp
 
 
@@ -38,6 +44,7 @@ class SolveResult:
     solve_s: float
     hessian: str
     linear_solver: str
+    decrement: float | None = None
 
 
 #: Ipopt stops "at an acceptable level" after ACCEPTABLE_ITER successive iterates whose scaled
@@ -95,8 +102,9 @@ class _Derivative(ca.Callback):
 
 
 def make_solver(nlp: FitNlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
-                print_level: int = 0) -> tuple[ca.Function, list]:
-    """Build the Ipopt solver of ``nlp``; also returns the callbacks, which must outlive it."""
+                print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[ca.Function, list]:
+    """Build the Ipopt solver of ``nlp``; also returns the callbacks, which must outlive it (the
+    last is the :class:`~casrecon.estimation.convergence.DecrementStop`, or None)."""
     f = 0.5 * ca.sumsqr(nlp.residuals)
     f_fn = ca.Function("f", [nlp.z], [f])
     g_fn = ca.Function("g", [nlp.z], [nlp.constraints])
@@ -107,6 +115,10 @@ def make_solver(nlp: FitNlp, linear_solver: str = "mumps", max_iter: int = 200, 
             "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": ACCEPTABLE_TOL,
             "ipopt.acceptable_iter": ACCEPTABLE_ITER, "grad_f": callbacks[0], "jac_g": callbacks[1],
             "hess_lag": callbacks[2]}
+    stop = convergence.DecrementStop(nlp, bounds) if convergence.applies(nlp) else None
+    if stop is not None:
+        opts["iteration_callback"] = stop
+    callbacks.append(stop)
     if linear_solver == "spral":
         os.environ.setdefault("OMP_CANCELLATION", "TRUE")
         os.environ.setdefault("OMP_PROC_BIND", "TRUE")
@@ -118,15 +130,30 @@ def solve(nlp: FitNlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: i
           print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> SolveResult:
     """Build the solver and run Ipopt from ``z0`` (scaled); ``bounds`` = (lbx, ubx), scaled."""
     t0 = time.perf_counter()
-    solver, _callbacks = make_solver(nlp, linear_solver, max_iter, tol, print_level)
+    solver, callbacks = make_solver(nlp, linear_solver, max_iter, tol, print_level, bounds)
     t1 = time.perf_counter()
     n_g = nlp.constraints.numel()
     lbx, ubx = bounds if bounds is not None else (-np.inf, np.inf)
     sol = solver(x0=z0, lbg=np.zeros(n_g), ubg=np.zeros(n_g), lbx=lbx, ubx=ubx)
+    z = np.asarray(sol["x"]).ravel()
+    converged, status, decrement = _judge(nlp, solver.stats(), callbacks[-1], z, np.asarray(sol["g"]).ravel(), bounds)
     t2 = time.perf_counter()
-    stats = solver.stats()
-    return SolveResult(z=np.asarray(sol["x"]).ravel(), lam_g=np.asarray(sol["lam_g"]).ravel(),
-                       objective=float(sol["f"]), converged=bool(stats["success"]),
-                       status=str(stats["return_status"]), iterations=int(stats["iter_count"]),
-                       build_s=t1 - t0, solve_s=t2 - t1, hessian=nlp.derivatives.hessian,
-                       linear_solver=linear_solver)
+    return SolveResult(z=z, lam_g=np.asarray(sol["lam_g"]).ravel(), objective=float(sol["f"]), converged=converged,
+                       status=status, iterations=int(solver.stats()["iter_count"]), build_s=t1 - t0, solve_s=t2 - t1,
+                       hessian=nlp.derivatives.hessian, linear_solver=linear_solver, decrement=decrement)
+
+
+def _judge(nlp: FitNlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) -> tuple[bool, str, float | None]:
+    """(converged, status, Gauss-Newton decrement): Ipopt's verdict, or the decrement test's when
+    it stopped Ipopt or when Ipopt ended unconverged at a feasible iterate."""
+    status = str(stats["return_status"])
+    if stop is not None and stop.stopped_at is not None:
+        return True, f"Converged (Gauss-Newton decrement {stop.stopped_at:.2g} chi2)", stop.stopped_at
+    if stats["success"] or stop is None:
+        return bool(stats["success"]), status, None
+    if g.size and np.abs(g).max() > convergence.FEASIBILITY_TOL:
+        return False, status, None
+    delta = convergence.gauss_newton_decrement(nlp, z, convergence.at_bounds(z, bounds))
+    if delta <= convergence.DECREMENT_TOL:
+        return True, f"Converged (Gauss-Newton decrement {delta:.2g} chi2; Ipopt: {status})", delta
+    return False, f"{status}; Gauss-Newton decrement {delta:.3g} chi2", delta
