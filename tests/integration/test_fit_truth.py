@@ -114,7 +114,7 @@ def fit(request, ees_fits) -> DropFit:
 def test_converged(fit):
     r = fit.result
     assert r.converged, r.solver.status
-    assert r.solver.status == "Solve_Succeeded"
+    assert r.solver.status == "Solve_Succeeded" or r.solver.status.startswith("Converged (Gauss-Newton decrement")
 
 
 def test_parameters_within_3_sigma(fit):
