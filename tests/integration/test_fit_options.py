@@ -146,3 +146,17 @@ def test_undetermined_parameter_raises_singular():
     with pytest.raises(FitError, match="KKT matrix singular") as info:
         fit_drop(Scenario.from_config(replace(cfg, aero=aero, estimation=est)))
     assert "Cl_add" in str(info.value)
+
+
+def test_gauss_newton_decrement_measures_distance_from_optimum(mask_fit):
+    """At the estimate the decrement is below its 1e-3 tolerance; moved by u in the whitened
+    reduced coordinates (dz = Z L u, cov_w = L L^T) it is |u|^2, here 4 (the problem is nearly
+    linear over 2 sigma)."""
+    from casrecon.estimation.convergence import DECREMENT_TOL, gauss_newton_decrement
+
+    nlp, z, cov = mask_fit.extra["nlp"], mask_fit.extra["z"], mask_fit.extra["covariance"]
+    assert gauss_newton_decrement(nlp, z) <= DECREMENT_TOL
+    u = np.zeros(cov.cov_w.shape[0])
+    u[[0, -1]] = np.sqrt(2.0)
+    dz = cov.basis @ (np.linalg.cholesky(cov.cov_w) @ u)
+    assert gauss_newton_decrement(nlp, z + dz) == pytest.approx(4.0, rel=0.05)

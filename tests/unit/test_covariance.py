@@ -84,3 +84,14 @@ def test_recomputed_covariance_is_the_reported_one(short_fit):
     assert cov.basis @ cov.cov_w @ cov.basis[-5:].T == pytest.approx(ref.basis @ ref.cov_w @ ref.basis[-5:].T,
                                                                      rel=1e-9, abs=1e-15)
     assert cov.reduced_chi2 == 1.0
+
+
+def test_at_bounds_hand_cases():
+    """Within 1e-4 of the bound interval's width of a bound (1e-4 absolute when one-sided)."""
+    from casrecon.estimation.convergence import at_bounds
+
+    z = np.array([0.0, 1.0 - 5e-5, 0.5, -1.0, 3.0, 2e-5])
+    lo = np.array([0.0, -1.0, 0.0, -np.inf, -np.inf, 0.0])
+    hi = np.array([1.0, 1.0, 1.0, np.inf, 3.0 + 2e-4, np.inf])
+    np.testing.assert_array_equal(at_bounds(z, (lo, hi)), [0, 1, 5])
+    assert at_bounds(z, None).size == 0
