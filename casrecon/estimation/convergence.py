@@ -14,7 +14,8 @@ and the iterate is then sqrt(delta) standard deviations (in the Mahalanobis metr
 estimate's own covariance) from the optimum of the linearised problem. When the defects are
 satisfied (max |c| <= FEASIBILITY_TOL, scaled units) and delta <= DECREMENT_TOL the fit has
 converged whatever Ipopt's dual infeasibility says. :class:`DecrementStop` applies the test at
-Ipopt's iterates (as its iteration callback; variables on a bound held, as in Ipopt's active set) and :func:`gauss_newton_decrement` after it returns.
+Ipopt's iterates (as its iteration callback; variables on a bound are held, as in Ipopt's active
+set) and :func:`gauss_newton_decrement` once more after it returns.
 
 Strong-constraint fits only: with disturbance states the null space has thousands of directions
 and the test is not made (Ipopt's own test stands).
