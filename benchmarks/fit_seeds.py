@@ -99,10 +99,12 @@ def summarise(res: dict) -> dict:
                "sigma_over_prior": float(ratio[i])}
            for i, n in enumerate(res["names"])}
     be = res["band_errors"]
-    bands = {c: {"rms": float(np.sqrt(np.mean(be[:, :, j] ** 2))), "inside_3sigma": float(np.mean(np.abs(be[:, :, j]) <= 3))}
+    bands = {c: {"rms": float(np.sqrt(np.mean(be[:, :, j] ** 2))),
+                 "inside_3sigma": float(np.mean(np.abs(be[:, :, j]) <= 3))}
              for j, c in enumerate(BAND_COLUMNS)}
     return {"rms_all": float(np.sqrt(np.mean(z ** 2))), "per_parameter": per, "bands": bands,
-            "reduced_chi2_mean": float(res["reduced_chi2"].mean()), "reduced_chi2_sd": float(res["reduced_chi2"].std(ddof=1)),
+            "reduced_chi2_mean": float(res["reduced_chi2"].mean()),
+            "reduced_chi2_sd": float(res["reduced_chi2"].std(ddof=1)),
             "fit_s_median": float(np.median(res["fit_s"]))}
 
 

@@ -6,7 +6,8 @@ What is made, and the simplifications kept (documented for whoever fits it):
   UTC of a sample is that plus ``t_imu`` plus the truth ``clock_offset_s``). Before release the
   vehicle hangs still at the release attitude (specific force -g, rates as at release); in flight
   the simulator's samples fall exactly on the IMU clock; after impact a 20 ms half-sine ground-reaction
-  pulse (60 g, clipped by the accelerometers) is followed by rest at the impact attitude. Truth bias plus white noise (``accel_noise_mps2``, ``gyro_noise_dps``) are added and
+  pulse (60 g, clipped by the accelerometers) is followed by rest at the impact attitude. Truth bias plus
+  white noise (``accel_noise_mps2``, ``gyro_noise_dps``) are added and
   values beyond the declared saturation limits are clipped to them, as a real device does.
 - **GPS** (FlySight 1 CSV, ``rate_hz`` on whole UTC multiples of the period): antenna position and
   velocity from the lever arm; before release it moves with the helicopter at the release

@@ -115,7 +115,8 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     speed, a_med = float(np.median(np.linalg.norm(vb, axis=1))), float(np.median(sound))
     v_grid = speed * np.vstack([np.cos(grid), np.zeros_like(grid), np.sin(grid)])
     curves = {}
-    for label, d in (("cm_nominal", np.zeros_like(p[:len(DISPERSION_NAMES)])), ("cm_fitted", p[:len(DISPERSION_NAMES)])):
+    n_disp = len(DISPERSION_NAMES)
+    for label, d in (("cm_nominal", np.zeros_like(p[:n_disp])), ("cm_fitted", p[:n_disp])):
         curves[label] = np.asarray(coef.map(grid.size)(v_grid, np.zeros((3, grid.size)), a_med,
                                                        np.tile(d[:, None], grid.size)))[1]
     return {"time_imu_s": result.node_time_s, "alpha_deg": result.column("alpha_deg")[0], "qbar_pa": qbar,

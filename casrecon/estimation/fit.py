@@ -221,7 +221,8 @@ def check_determined(nlp: FitNlp, z: np.ndarray) -> None:
     names = nlp.parameter_columns()
     dead = [name for col, name in names.items() if diag[col] == 0.0 and not in_g[col]]
     if dead:
-        raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual or constraint and carry no prior, so "
+        raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual or constraint and carry "
+                       "no prior, so "
                        "nothing determines them; fix them or switch their prior on")
 
 

@@ -72,8 +72,8 @@ def write_diagnostics(out: Path, result) -> dict:
     write_columns(out / "residuals_gps.csv", ["time_imu_s"] + [f"{n}_residual" for n in names]
                   + [f"{n}_sigma" for n in names], np.column_stack([gps["time_imu_s"], gps["residual"], gps["sigma"]]))
     d = result.data
-    write_columns(out / "gps_fixes.csv", ["time_imu_s", "pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps",
-                                          "vel_d_mps"], np.column_stack([gps["time_imu_s"], d.gps_pos_ned, d.gps_vel_ned]))
+    gps_cols = ["time_imu_s", "pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps", "vel_d_mps"]
+    write_columns(out / "gps_fixes.csv", gps_cols, np.column_stack([gps["time_imu_s"], d.gps_pos_ned, d.gps_vel_ned]))
     pm = dg.pitching_moment(result)
     write_columns(out / "pitching_moment.csv", ["time_imu_s", "alpha_deg", "qbar_pa", "cm_recon"],
                   np.column_stack([pm["time_imu_s"], pm["alpha_deg"], pm["qbar_pa"], pm["cm_recon"]]))
@@ -113,7 +113,8 @@ def roll_rate_table(rows: list[dict], cla_mult: tuple[float, float] | None) -> s
              "| flight time, s | reconstructed, deg/s | 3-sigma | model, fitted C_La | model, nominal C_La |",
              "|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['flight_time_s']:.1f} | {r['reconstructed_dps']:.2f} | {r['reconstructed_3sigma_dps']:.3f} | "
+        lines.append(f"| {r['flight_time_s']:.1f} | {r['reconstructed_dps']:.2f} | "
+                     f"{r['reconstructed_3sigma_dps']:.3f} | "
                      f"{r['model_fitted_dps']:.2f} | {r['model_nominal_dps']:.2f} |")
     return "\n".join(lines) + "\n"
 

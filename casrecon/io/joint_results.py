@@ -46,7 +46,8 @@ def _per_drop(result, reconciled: dict[str, dict]) -> list[str]:
         rho = d.parameter("density_factor")[0]
         rec = reconciled.get(name, {})
         lines.append(f"| {name} | {w[0] - d.data.release_imu_s:.2f} to {w[1] - d.data.release_imu_s:.2f} | "
-                     f"{chi2:.0f} / {n} | {wn:+.3f}, {we:+.3f} | {rho:+.5f} | {np.linalg.norm(d.states[-1, 3:6]):.2f} | "
+                     f"{chi2:.0f} / {n} | {wn:+.3f}, {we:+.3f} | {rho:+.5f} | "
+                     f"{np.linalg.norm(d.states[-1, 3:6]):.2f} | "
                      f"{rec.get('flight_time_difference_s', float('nan')):+.3f} | "
                      f"{rec.get('impact_speed_difference_mps', float('nan')):+.3f} |")
     return lines

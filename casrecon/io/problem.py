@@ -514,7 +514,8 @@ def load_aero(path: str | Path) -> AeroDatabase:
     vanes_t = f.table("vanes")
     vanes = None
     if vanes_t is not None:
-        vanes = SpinVanes(count=vanes_t.integer("count", 0, 1), radius_m=vanes_t.number("radius_m", required=True, positive=True),
+        vanes = SpinVanes(count=vanes_t.integer("count", 0, 1),
+                          radius_m=vanes_t.number("radius_m", required=True, positive=True),
                           area_m2=vanes_t.number("area_m2", required=True, positive=True),
                           incidence_deg=vanes_t.number("incidence_deg", required=True),
                           lift_slope_per_rad=vanes_t.number("lift_slope_per_rad", 2 * np.pi / 5, positive=True))

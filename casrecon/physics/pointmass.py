@@ -20,6 +20,9 @@ from casrecon.physics.atmosphere import Atmosphere, AtmosphereCorrections
 from casrecon.physics.dynamics import DynamicsOptions, Site, gravity_vector
 from casrecon.physics.earth import coriolis_acceleration
 
+DEFAULT_OPTIONS = DynamicsOptions()
+"""Default dynamics options (a frozen dataclass, so one shared instance is safe)."""
+
 POINT_MASS_STATES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
 
 
@@ -34,7 +37,7 @@ class PointMassModel:
     """
 
     def __init__(self, atmosphere: Atmosphere, site: Site, mass_kg: float,
-                 options: DynamicsOptions = DynamicsOptions()) -> None:
+                 options: DynamicsOptions = DEFAULT_OPTIONS) -> None:
         self.atmosphere, self.site, self.mass_kg, self.options = atmosphere, site, float(mass_kg), options
         x, area, wb = ca.SX.sym("x", 6), ca.SX.sym("area", 3), ca.SX.sym("wb", 2)
         self.rhs = ca.Function("point_mass_rhs", [x, area, wb], [self.derivative(x, area, wb)])

@@ -126,7 +126,8 @@ def main() -> None:
     for n, (h, v, e, w) in TABLE3.items():
         rng = np.random.default_rng(100 + n)
         text = TEMPLATE.format(
-            n=n, seed=NOISE_SEED[n], tf=TABLE1_FLIGHT_TIME[n], release=RELEASE_UTC[n], imu0=IMU_START_UTC[n], h=h, v=fmt(v),
+            n=n, seed=NOISE_SEED[n], tf=TABLE1_FLIGHT_TIME[n], release=RELEASE_UTC[n], imu0=IMU_START_UTC[n], h=h,
+            v=fmt(v),
             e=fmt(e), w=fmt(w), wb=fmt(rng.normal(0, 1 / 3, 2)), rho=f"{rng.normal(0, 0.01 / 3):.5f}",
             ab=fmt(rng.normal(0, 0.05, 3)), gb=fmt(rng.normal(0, 0.1, 3)), clk=f"{rng.uniform(-0.02, 0.02):.4f}",
             disp=disp, estimation=ESTIMATION.get(n, ""))

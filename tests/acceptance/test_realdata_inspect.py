@@ -1,5 +1,5 @@
-"""``casrecon inspect`` on the real data in tests/data/realdata (copies of ../shared/realdata) (read only), and on malformed
-copies of it: exit status 2 with exactly one located stderr line, never a traceback."""
+"""``casrecon inspect`` on the real data in tests/data/realdata (copies of ../shared/realdata) (read only), and on
+malformed copies of it: exit status 2 with exactly one located stderr line, never a traceback."""
 
 from __future__ import annotations
 
