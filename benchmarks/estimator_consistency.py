@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +45,10 @@ def main() -> None:
     nees = np.array([c["nees"] for c in ok])
     print(f"NEES per case: mean {nees.mean():.2f} (expected {res.n_params}), max {nees.max():.1f} "
           f"(case {ok[int(nees.argmax())]['index']})")
+    stops = Counter(c["status"].split(" (")[0] for c in ok)
+    print("stopped by: " + ", ".join(f"{k} {v}" for k, v in stops.items())
+          + f"; Ipopt iterations median {np.median([c['iterations'] for c in ok]):.0f}, "
+          f"max {max(c['iterations'] for c in ok)}")
     z = np.array([np.array(c["error"]) / np.array(c["sigma"]) for c in ok])
     print("RMS of (estimate - truth) / sigma per parameter:")
     for name, rms, mean in zip(ok[0]["names"], np.sqrt((z**2).mean(0)), z.mean(0)):

@@ -65,7 +65,8 @@ def run_case(problem: str, seed: int, index: int) -> dict:
     cov = r.correlation * np.outer(r.sigma, r.sigma)
     nees = float(e @ np.linalg.solve(cov, e))
     return {"index": index, "names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(),
-            "nees": nees, "reduced_chi2": r.reduced_chi2}
+            "nees": nees, "reduced_chi2": r.reduced_chi2, "status": r.solver.status,
+            "iterations": r.solver.iterations, "solve_s": r.solver.solve_s}
 
 
 @dataclass(frozen=True)
