@@ -28,7 +28,10 @@ from casrecon.estimation.parameters import parameter_set
 from casrecon.scenario import Scenario
 
 
-def _draw_truth(scenario: Scenario, rng: np.random.Generator) -> Scenario:
+def draw_truth(scenario: Scenario, rng: np.random.Generator) -> Scenario:
+    """The scenario with a truth drawn from the fit's own priors: every estimated aero dispersion,
+    the wind bias (m/s, N and E), the density factor, the accelerometer and gyro biases (body axes,
+    SI) and the clock offset (s); everything else in ``[truth]`` (e.g. gusts) is kept."""
     cfg = scenario.config
     params = parameter_set(cfg)
     truth = cfg.truth
@@ -53,7 +56,7 @@ def run_case(problem: str, seed: int, index: int) -> dict:
     from casrecon.estimation.fit import FitError, fit_drop
 
     rng = np.random.default_rng([seed, index])
-    scenario = _draw_truth(Scenario.load(problem), rng)
+    scenario = draw_truth(Scenario.load(problem), rng)
     with tempfile.TemporaryDirectory() as tmp:
         sc = _with_data(scenario, Path(tmp), seed=int(rng.integers(2**31)))
         try:

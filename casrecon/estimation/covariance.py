@@ -70,6 +70,11 @@ class Covariance:
             zr = zr * np.asarray(scale)[:, None]
         return zr @ self.cov_w @ zr.T
 
+    def variance_of_combination(self, idx, weights) -> float:
+        """Absolute variance of sum_j weights[j] z[idx[j]] (e.g. a time mean of a node history)."""
+        w = self.rows(idx).T @ np.asarray(weights, float)
+        return float(w @ self.cov_w @ w)
+
     def blocks(self, index_sets: list[np.ndarray]) -> list[np.ndarray]:
         """Covariance matrices of z[idx] for each idx of ``index_sets`` (scaled units)."""
         return [self.covariance_of(idx) for idx in index_sets]
@@ -116,6 +121,13 @@ class KktCovariance:
         if scale is not None:
             c = c * np.outer(scale, scale)
         return c
+
+    def variance_of_combination(self, idx, weights) -> float:
+        """Absolute variance of sum_j weights[j] z[idx[j]], from one LU solve."""
+        idx, w = np.asarray(idx, int), np.asarray(weights, float)
+        e = np.zeros(self._lu.shape[0])
+        np.add.at(e, idx, w)
+        return float(self._lu.solve(e)[idx] @ w)
 
     def blocks(self, index_sets: list[np.ndarray]) -> list[np.ndarray]:
         """Covariance of z[idx] for each idx; the indices every set shares (the parameters) are

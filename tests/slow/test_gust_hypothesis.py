@@ -8,7 +8,8 @@ xfail records the measured failure).
 
 Not tested here: whether the gust sigmas are calibrated. One realisation spans only a few
 correlation times, so its RMS normalised error says little (seed 5 gave 1.75 over a 6 s window, 0.97
-over 14 s, 0.43 over 24 s for gust N); calibration needs a multi-seed study that has not been run."""
+over 14 s, 0.43 over 24 s for gust N); the multi-seed study is test_gust_calibration.py and
+benchmarks/gust_calibration.py (it finds the slope multipliers biased with gusts)."""
 
 import dataclasses
 

@@ -7,9 +7,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import scipy.sparse as sps
 from conftest import PROBLEMS
 
-from casrecon.estimation.covariance import compute_covariance
+from casrecon.estimation.covariance import KktCovariance, compute_covariance
 from casrecon.estimation.fit import fit_drop
 from casrecon.estimation.problem import NS
 from casrecon.estimation.transcription import STATE_SCALE
@@ -27,7 +28,7 @@ def short_fit():
 
 
 @pytest.fixture(scope="module")
-def dense_kkt_cov(short_fit):
+def dense_kkt(short_fit):
     nlp, z = short_fit.extra["nlp"], short_fit.solver.z
     d = nlp.derivatives
     a = np.asarray(d.jacobian_g(z).full())
@@ -35,7 +36,12 @@ def dense_kkt_cov(short_fit):
     hu = np.asarray(d.hess_target.assemble(d._jtj).full())
     h = hu + np.triu(hu, 1).T
     n_z, n_g = h.shape[0], a.shape[0]
-    kkt = np.block([[h, a.T], [a, np.zeros((n_g, n_g))]])
+    return np.block([[h, a.T], [a, np.zeros((n_g, n_g))]]), n_z
+
+
+@pytest.fixture(scope="module")
+def dense_kkt_cov(dense_kkt):
+    kkt, n_z = dense_kkt
     return np.linalg.inv(kkt)[:n_z, :n_z]
 
 
@@ -95,3 +101,20 @@ def test_at_bounds_hand_cases():
     hi = np.array([1.0, 1.0, 1.0, np.inf, 3.0 + 2e-4, np.inf])
     np.testing.assert_array_equal(at_bounds(z, (lo, hi)), [0, 1, 5])
     assert at_bounds(z, None).size == 0
+
+
+def test_variance_of_a_combination_matches_the_dense_inverse(short_fit, dense_kkt, dense_kkt_cov):
+    """The variance of a weighted sum (here the window mean of the pitch rate, then arbitrary
+    weights on pitch rate and two parameters) from the null-space covariance and from one sparse-LU
+    solve of the KKT matrix (the disturbance-state path) equals w^T C w of the dense inverse."""
+    nlp = short_fit.extra["nlp"]
+    k = nlp.mesh.t_nodes.size
+    q_idx = NS * np.arange(k) + 11
+    cases = [(q_idx, np.full(k, 1.0 / k)),
+             (np.r_[q_idx[:3], nlp.n_state_vars, nlp.n_state_vars + 4], np.array([1.0, -2.0, 0.5, 3.0, -1.0]))]
+    kkt, n_z = dense_kkt
+    lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1)
+    for idx, w in cases:
+        want = w @ dense_kkt_cov[np.ix_(idx, idx)] @ w
+        assert short_fit.extra["covariance"].variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
+        assert lu_cov.variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
