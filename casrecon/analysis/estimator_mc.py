@@ -30,7 +30,7 @@ from casrecon.scenario import Scenario
 
 def draw_truth(scenario: Scenario, rng: np.random.Generator) -> Scenario:
     """The scenario with a truth drawn from the fit's own priors: every estimated aero dispersion,
-    the wind bias (m/s, N and E), the density factor, the accelerometer and gyro biases (body axes,
+    the wind bias (m/s, N and E), the density factor, the accelerometer and gyro biases (IMU axes,
     SI) and the clock offset (s); everything else in ``[truth]`` (e.g. gusts) is kept."""
     cfg = scenario.config
     params = parameter_set(cfg)

@@ -71,7 +71,8 @@ class Covariance:
         return zr @ self.cov_w @ zr.T
 
     def variance_of_combination(self, idx, weights) -> float:
-        """Absolute variance of sum_j weights[j] z[idx[j]] (e.g. a time mean of a node history)."""
+        """Variance of sum_j weights[j] z[idx[j]] (scaled z units, not chi-square-scaled), e.g. of a
+        time mean of a node history."""
         w = self.rows(idx).T @ np.asarray(weights, float)
         return float(w @ self.cov_w @ w)
 
@@ -123,7 +124,7 @@ class KktCovariance:
         return c
 
     def variance_of_combination(self, idx, weights) -> float:
-        """Absolute variance of sum_j weights[j] z[idx[j]], from one LU solve."""
+        """Variance of sum_j weights[j] z[idx[j]] (scaled z units), from one LU solve."""
         idx, w = np.asarray(idx, int), np.asarray(weights, float)
         e = np.zeros(self._lu.shape[0])
         np.add.at(e, idx, w)
