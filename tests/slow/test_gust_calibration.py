@@ -3,7 +3,7 @@
 Four seeds of a 3-5 s terminal window of ees-drop-3, parameter truth drawn from the priors. Control:
 in still air the parameter errors pass the pooled NEES test. With Gauss-Markov gusts the
 normal-force and pitching-moment slope multipliers come out biased upward by several sigma on most
-seed (measured mean z +3.8 over 8 seeds for Cmn_mult; over 3 seeds +2.6 at 0.3 times the gust sigma, +1.1 at
+seeds (measured mean z +3.8 over 8 seeds for Cmn_mult; over 3 seeds +2.6 at 0.3 times the gust sigma, +1.1 at
 0.1 times), the behaviour of a joint MAP estimate of a gain multiplying latent inputs; a strict
 xfail records it until the fit maximises the marginal likelihood of the parameters.
 """
