@@ -109,3 +109,21 @@ def run_gust_case(case: GustCase) -> dict:
     out["params"] = {"nees": float(e @ np.linalg.solve(c, e)), "dof": len(e),
                      "z": dict(zip(r.params.names, (e / r.sigma).tolist()))}
     return out
+
+
+def marginal_profile_case(case: GustCase, name: str = "Cmn_mult", n_points: int = 9) -> dict:
+    """Fit one case and profile ``name`` jointly and under the Laplace marginal
+    (:func:`casrecon.analysis.marginal.marginal_profile`) over a grid spanning the truth and the
+    estimate plus 1.5 sigma either side; the truth, estimate, sigma and both minima (SI)."""
+    from casrecon.analysis.marginal import marginal_profile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        sc = case_scenario(case, Path(tmp))
+        r = fit_drop(sc)
+    truth = truth_parameters_by_name(sc)[name]
+    value, sigma = r.parameter(name)
+    grid = np.linspace(min(truth, value) - 1.5 * sigma, max(truth, value) + 1.5 * sigma, n_points)
+    prof = marginal_profile(r, name, grid)
+    return {"seed": case.seed, "name": name, "truth": truth, "estimate": value, "sigma": sigma,
+            "joint_minimum": prof.joint_minimum, "marginal_minimum": prof.marginal_minimum,
+            "all_converged": bool(prof.converged.all())}
