@@ -5,7 +5,8 @@ in still air the parameter errors pass the pooled NEES test. With Gauss-Markov g
 normal-force and pitching-moment slope multipliers come out biased upward by several sigma on most
 seeds (measured mean z +3.8 over 8 seeds for Cmn_mult; over 3 seeds +2.6 at 0.3 times the gust sigma, +1.1 at
 0.1 times), the behaviour of a joint MAP estimate of a gain multiplying latent inputs; a strict
-xfail records it until the fit maximises the marginal likelihood of the parameters.
+xfail records it until the fit maximises the marginal likelihood of the parameters. The Laplace-
+marginal profile (casrecon.analysis.marginal) shows that this is the cause (last test; about 4 min).
 """
 
 import numpy as np
@@ -13,7 +14,7 @@ import pytest
 from conftest import PROBLEMS
 from scipy import stats
 
-from casrecon.analysis.gust_calibration import GustCase, run_gust_case
+from casrecon.analysis.gust_calibration import GustCase, marginal_profile_case, run_gust_case
 from casrecon.analysis.montecarlo import map_with_progress
 
 pytestmark = pytest.mark.slow
@@ -42,3 +43,16 @@ def test_gusty_slope_multipliers_are_unbiased():
         z = np.array([c["params"]["z"][name] for c in cases])
         print(name, "z per seed", z)
         assert abs(z.mean()) < 3 / np.sqrt(len(SEEDS))
+
+
+def test_laplace_marginal_profile_removes_most_of_the_bias():
+    """The diagnosis: adding 1/2 log det of the latent Hessian to the profile moves Cmn_mult's
+    minimum to within 3 sigma of the truth on each seed (measured -0.01, -0.03, +2.17 sigma against
+    +5.1 to +5.4 for the fit), while the joint profile's minimum reproduces the fit's estimate."""
+    rows = map_with_progress(marginal_profile_case, [GustCase(PROBLEMS / "ees-drop-3", s, start_s=34.0)
+                                                     for s in SEEDS[:3]], workers=2)
+    for r in rows:
+        print(r)
+        assert abs(r["joint_minimum"] - r["estimate"]) < 0.2 * r["sigma"]
+        assert abs(r["marginal_minimum"] - r["truth"]) < 3 * r["sigma"]
+        assert abs(r["marginal_minimum"] - r["truth"]) < abs(r["estimate"] - r["truth"]) - 2 * r["sigma"]

@@ -29,3 +29,14 @@ def test_own_parameters_are_marginalised_before_summing():
 
 def test_crossing_interpolates_linearly():
     assert _crossing(np.array([0.0, 1.0, 2.0]), np.array([0.0, 4.0, 16.0]), 9.0) == pytest.approx(1.4166666)
+
+
+def test_marginal_profile_minimum_is_the_local_parabola_vertex():
+    from casrecon.analysis.marginal import MarginalProfile
+
+    x = np.linspace(-2.0, 6.0, 9)
+    joint = np.where(np.abs(x - 1.3) < 3.0, (x - 1.3) ** 2, 100.0)  # far points outside the 5-point window
+    marginal = (x - 5.5) ** 2  # minimum near the grid's end: the window is clipped to the last 3 points
+    prof = MarginalProfile("p", x, joint, marginal, np.ones(9, bool))
+    assert prof.joint_minimum == pytest.approx(1.3)
+    assert prof.marginal_minimum == pytest.approx(5.5)
