@@ -20,20 +20,16 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
 
+from casrecon.analysis.estimator_mc import chi2_interval
 from casrecon.analysis.gust_calibration import AXES, GustCase, run_gust_case
 from casrecon.analysis.montecarlo import map_with_progress
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
 
-def _interval(dof: int) -> tuple[float, float]:
-    return float(stats.chi2.ppf(0.025, dof)), float(stats.chi2.ppf(0.975, dof))
-
-
 def _verdict(nees: float, dof: int) -> str:
-    lo, hi = _interval(dof)
+    lo, hi = chi2_interval(dof)
     return f"{nees:.1f} over {dof} dof, 95 % interval [{lo:.1f}, {hi:.1f}] -> " + (
         "consistent" if lo <= nees <= hi else "NOT consistent")
 

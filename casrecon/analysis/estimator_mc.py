@@ -49,6 +49,22 @@ def draw_truth(scenario: Scenario, rng: np.random.Generator) -> Scenario:
     return Scenario.from_config(dataclasses.replace(cfg, truth=new))
 
 
+def chi2_interval(dof: int, quantiles: tuple[float, float] = (0.025, 0.975)) -> tuple[float, float]:
+    """Chi-square quantiles with ``dof`` degrees of freedom (default the two-sided 95 % interval;
+    NaNs for 0 dof)."""
+    if not dof:
+        return float("nan"), float("nan")
+    return float(chi2.ppf(quantiles[0], dof)), float(chi2.ppf(quantiles[1], dof))
+
+
+def parameter_errors(result, truth: dict[str, float]) -> tuple[np.ndarray, float]:
+    """(estimate - truth over the estimated parameters (SI), NEES e^T C^-1 e with C the reported
+    absolute parameter covariance) of a :class:`~casrecon.estimation.fit.FitResult`."""
+    e = np.array([result.values[i] - truth[n] for i, n in enumerate(result.params.names)])
+    cov = result.correlation * np.outer(result.sigma, result.sigma)
+    return e, float(e @ np.linalg.solve(cov, e))
+
+
 def run_case(problem: str, seed: int, index: int) -> dict:
     """Draw a truth, simulate, fit; returns the errors, sigmas and NEES of case ``index``."""
     from casrecon.analysis.observability import _with_data
@@ -64,9 +80,7 @@ def run_case(problem: str, seed: int, index: int) -> dict:
         except FitError as err:
             return {"index": index, "failed": str(err)}
         truth = truth_parameters_by_name(sc)
-    e = np.array([r.values[i] - truth[n] for i, n in enumerate(r.params.names)])
-    cov = r.correlation * np.outer(r.sigma, r.sigma)
-    nees = float(e @ np.linalg.solve(cov, e))
+    e, nees = parameter_errors(r, truth)
     return {"index": index, "names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(),
             "nees": nees, "reduced_chi2": r.reduced_chi2, "status": r.solver.status,
             "iterations": r.solver.iterations, "solve_s": r.solver.solve_s}
@@ -106,8 +120,7 @@ def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: in
     n_params = len(ok[0]["names"]) if ok else 0
     dof = n_params * len(ok)
     total = float(sum(c["nees"] for c in ok))
-    interval = (float(chi2.ppf(0.025, dof)), float(chi2.ppf(0.975, dof))) if dof else (float("nan"),) * 2
-    return ConsistencyResult(cases, n_params, total, interval)
+    return ConsistencyResult(cases, n_params, total, chi2_interval(dof))
 
 
 def write_consistency(out: Path, res: ConsistencyResult, wall_s: float) -> None:

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.estimator_mc import draw_truth
+from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
 from casrecon.analysis.observability import _with_data
 from casrecon.analysis.synthetic import truth_disturbance, truth_parameters_by_name
 from casrecon.estimation.fit import FitResult, fit_drop
@@ -92,21 +92,24 @@ def _axis_errors(r: FitResult, truth: np.ndarray, j: int, subsample_s: float) ->
             "rms_error": float(np.sqrt(np.mean(err**2))), "rms_truth": float(np.sqrt(np.mean(truth[:, j] ** 2)))}
 
 
+def _fit_case(case: GustCase) -> tuple[Scenario, FitResult]:
+    """The case's scenario and its fit (the synthetic data live in a temporary folder)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        sc = case_scenario(case, Path(tmp))
+        return sc, fit_drop(sc)
+
+
 def run_gust_case(case: GustCase) -> dict:
     """Fit one case; its status, reduced chi-square, per-axis gust figures and parameter errors."""
     t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        sc = case_scenario(case, Path(tmp))
-        r = fit_drop(sc)
+    sc, r = _fit_case(case)
     truth_fn = truth_disturbance(sc, case.seed)
     truth = truth_fn(r.flight_time_s) if truth_fn else np.zeros((r.flight_time_s.size, 9))
     out = {"seed": case.seed, "converged": bool(r.converged), "status": r.solver.status,
            "reduced_chi2": float(r.reduced_chi2), "fit_s": time.perf_counter() - t0}
     out.update({AXES[j]: _axis_errors(r, truth, j, case.subsample_s) for j in range(3)})
-    t = truth_parameters_by_name(sc)
-    e = np.array([v - t[n] for n, v in zip(r.params.names, r.values)])
-    c = r.correlation * np.outer(r.sigma, r.sigma)
-    out["params"] = {"nees": float(e @ np.linalg.solve(c, e)), "dof": len(e),
+    e, nees = parameter_errors(r, truth_parameters_by_name(sc))
+    out["params"] = {"nees": nees, "dof": len(e),
                      "z": dict(zip(r.params.names, (e / r.sigma).tolist()))}
     return out
 
@@ -117,9 +120,7 @@ def marginal_profile_case(case: GustCase, name: str = "Cmn_mult", n_points: int 
     estimate plus 1.5 sigma either side; the truth, estimate, sigma and both minima (SI)."""
     from casrecon.analysis.marginal import marginal_profile
 
-    with tempfile.TemporaryDirectory() as tmp:
-        sc = case_scenario(case, Path(tmp))
-        r = fit_drop(sc)
+    sc, r = _fit_case(case)
     truth = truth_parameters_by_name(sc)[name]
     value, sigma = r.parameter(name)
     grid = np.linspace(min(truth, value) - 1.5 * sigma, max(truth, value) + 1.5 * sigma, n_points)

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import null_space
 
+from casrecon.analysis.observability import refit_with_held
 from casrecon.estimation.covariance import fisher_and_jacobian, reduced_hessian
-from casrecon.estimation.fit import FitResult, clock_bounds
-from casrecon.estimation.solve import solve
+from casrecon.estimation.fit import FitResult
 
 
 @dataclass(frozen=True)
@@ -75,17 +75,10 @@ def latent_log_det(result: FitResult, z: np.ndarray) -> float:
 def marginal_profile(result: FitResult, name: str, values: np.ndarray, max_iter: int = 150) -> MarginalProfile:
     """Refit ``result`` with ``name`` held at each of ``values`` (SI, warm-started from the fit)
     and return the joint and Laplace-marginal profiles."""
-    nlp, part, z_best = result.extra["nlp"], result.extra["part"], result.extra["z"]
-    i = result.params.index(name)
-    col, scale = part.theta_cols[i], result.params.scales[i]
     values = np.asarray(values, float)
     joint, half_log_det, converged = [], [], []
     for v in values:
-        lbx, ubx = clock_bounds(nlp)
-        lbx[col] = ubx[col] = v / scale
-        z0 = z_best.copy()
-        z0[col] = v / scale
-        sol = solve(nlp, z0, max_iter=max_iter, bounds=(lbx, ubx))
+        sol = refit_with_held(result, name, v, max_iter)
         joint.append(sol.objective)
         half_log_det.append(0.5 * latent_log_det(result, sol.z))
         converged.append(sol.converged)

@@ -18,7 +18,7 @@ from casrecon.estimation.covariance import compute_covariance
 from casrecon.estimation.fit import FitResult, clock_bounds, prepare_drop
 from casrecon.estimation.parameters import parameter_set
 from casrecon.estimation.problem import build_nlp
-from casrecon.estimation.solve import solve
+from casrecon.estimation.solve import SolveResult, solve
 from casrecon.io.flysight import write_flysight1
 from casrecon.io.imu import write_imu_csv
 from casrecon.scenario import Scenario
@@ -80,23 +80,28 @@ def _crossing(x: np.ndarray, y: np.ndarray, level: float) -> float:
     return float("nan")
 
 
+def refit_with_held(result: FitResult, name: str, value: float, max_iter: int = 100) -> SolveResult:
+    """Re-solve ``result``'s NLP with parameter ``name`` held at ``value`` (SI), warm-started from
+    the fit, clock-offset bounds as in the fit."""
+    nlp, z_best, part = result.extra["nlp"], result.extra["z"], result.extra["part"]
+    i = result.params.index(name)
+    col, scale = part.theta_cols[i], result.params.scales[i]
+    lbx, ubx = clock_bounds(nlp)
+    lbx[col] = ubx[col] = value / scale
+    z0 = z_best.copy()
+    z0[col] = value / scale
+    return solve(nlp, z0, max_iter=max_iter, bounds=(lbx, ubx))
+
+
 def profile_likelihood(result: FitResult, name: str, n_points: int = 9, span_sigma: float = 4.0) -> Profile:
     """Refit with ``name`` held at each of ``n_points`` values across +-``span_sigma`` Fisher
     sigmas (warm-started from the fit); delta chi-square = 2 (objective - best objective)."""
-    nlp, z_best = result.extra["nlp"], result.extra["z"]
-    part = result.extra["part"]
-    i = result.params.index(name)
-    col, scale = part.theta_cols[i], result.params.scales[i]
     value, sigma = result.parameter(name)
     grid = value + sigma * np.linspace(-span_sigma, span_sigma, n_points)
     best = result.solver.objective
     delta = []
     for v in grid:
-        lbx, ubx = clock_bounds(nlp)
-        lbx[col] = ubx[col] = v / scale
-        z0 = z_best.copy()
-        z0[col] = v / scale
-        sol = solve(nlp, z0, max_iter=100, bounds=(lbx, ubx))
+        sol = refit_with_held(result, name, v)
         delta.append(2 * (sol.objective - best) if sol.converged else np.nan)
     delta = np.maximum(np.array(delta), 0.0)
     mid = len(grid) // 2

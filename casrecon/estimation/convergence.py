@@ -73,6 +73,15 @@ def gauss_newton_decrement(nlp: FitNlp, z: np.ndarray, fixed: np.ndarray = ()) -
         return float("inf")
 
 
+def decrement_if_feasible(nlp: FitNlp, z: np.ndarray, g: np.ndarray,
+                          bounds: tuple[np.ndarray, np.ndarray] | None) -> float | None:
+    """The Gauss-Newton decrement at ``z`` with the variables on a bound held, or None when the
+    constraint values ``g`` violate FEASIBILITY_TOL (the test is not made)."""
+    if g.size and np.abs(g).max() > FEASIBILITY_TOL:
+        return None
+    return gauss_newton_decrement(nlp, z, at_bounds(z, bounds))
+
+
 class DecrementStop(ca.Callback):
     """Ipopt iteration callback: stop when the iterate is feasible and its decrement is small.
 
@@ -106,14 +115,10 @@ class DecrementStop(ca.Callback):
     def eval(self, args):
         f = float(args[1])
         previous, self.previous_f = self.previous_f, f
-        g = np.asarray(args[2]).ravel()
         if previous is None or abs(f - previous) > OBJECTIVE_CHANGE * max(abs(f), 1.0):
             return [0]
-        if g.size and np.abs(g).max() > FEASIBILITY_TOL:
-            return [0]
-        z = np.asarray(args[0]).ravel()
-        delta = gauss_newton_decrement(self.nlp, z, at_bounds(z, self.bounds))
-        if delta <= DECREMENT_TOL:
+        delta = decrement_if_feasible(self.nlp, np.asarray(args[0]).ravel(), np.asarray(args[2]).ravel(), self.bounds)
+        if delta is not None and delta <= DECREMENT_TOL:
             self.stopped_at = delta
             return [1]
         return [0]

@@ -222,8 +222,7 @@ def check_determined(nlp: FitNlp, z: np.ndarray) -> None:
     dead = [name for col, name in names.items() if diag[col] == 0.0 and not in_g[col]]
     if dead:
         raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual or constraint and carry "
-                       "no prior, so "
-                       "nothing determines them; fix them or switch their prior on")
+                       "no prior, so nothing determines them; fix them or switch their prior on")
 
 
 def clock_bounds(nlp: FitNlp) -> tuple[np.ndarray, np.ndarray]:

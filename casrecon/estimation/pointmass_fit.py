@@ -266,8 +266,7 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     counts["gps"] = int((data.inv_sigma > 0).sum())
     dof = sum(counts.values()) - (nlp.z.numel() - nlp.constraints.numel())
     return PointMassResult(cfg, model_name, data.t_unix, states, state_sigma, cda, cda_sigma, part.params, values,
-                           sigma,
-                           norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, data.notes,
+                           sigma, norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, data.notes,
                            {"nlp": nlp, "z": sol.z, "covariance": cov, "track": data.track, "y": data.y,
                             "inv_sigma": data.inv_sigma, "areas": np.column_stack(areas),
                             "area_sigma": np.column_stack(area_sigma)})

@@ -151,9 +151,9 @@ def _judge(nlp: FitNlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds)
         return True, f"Converged (Gauss-Newton decrement {stop.stopped_at:.2g} chi2)", stop.stopped_at
     if stats["success"] or stop is None:
         return bool(stats["success"]), status, None
-    if g.size and np.abs(g).max() > convergence.FEASIBILITY_TOL:
+    delta = convergence.decrement_if_feasible(nlp, z, g, bounds)
+    if delta is None:
         return False, status, None
-    delta = convergence.gauss_newton_decrement(nlp, z, convergence.at_bounds(z, bounds))
     if delta <= convergence.DECREMENT_TOL:
         return True, f"Converged (Gauss-Newton decrement {delta:.2g} chi2; Ipopt: {status})", delta
     return False, f"{status}; Gauss-Newton decrement {delta:.3g} chi2", delta
