@@ -79,7 +79,7 @@ def case_scenario(case: GustCase, folder: Path) -> Scenario:
 
 def _axis_errors(r: FitResult, truth: np.ndarray, j: int, subsample_s: float) -> dict:
     """Window-mean z and subsampled NEES of gust axis ``j`` (DISTURBANCE_NAMES index) of ``r``."""
-    part, cov = r.extra["part"], r.extra["covariance"]
+    part, cov = r.part, r.covariance
     jj = list(part.active).index(j)
     idx, scale = part.u_cols[:, jj], part.u_scale[jj]
     err = r.column(AXES[j])[0] - truth[:, j]

@@ -61,7 +61,7 @@ class MarginalProfile:
 def latent_log_det(result: FitResult, z: np.ndarray) -> float:
     """log det of the Gauss-Newton Hessian of the latent unknowns at ``z`` (parameters held),
     in orthonormal independent coordinates (scaled units)."""
-    nlp, part = result.extra["nlp"], result.extra["part"]
+    nlp, part = result.nlp, result.part
     h, a = fisher_and_jacobian(nlp, z)
     basis, _ = reduced_hessian(nlp, h, a)
     latent = basis @ null_space(basis[part.theta_cols])

@@ -83,7 +83,7 @@ def _crossing(x: np.ndarray, y: np.ndarray, level: float) -> float:
 def refit_with_held(result: FitResult, name: str, value: float, max_iter: int = 100) -> SolveResult:
     """Re-solve ``result``'s NLP with parameter ``name`` held at ``value`` (SI), warm-started from
     the fit, clock-offset bounds as in the fit."""
-    nlp, z_best, part = result.extra["nlp"], result.extra["z"], result.extra["part"]
+    nlp, z_best, part = result.nlp, result.z, result.part
     i = result.params.index(name)
     col, scale = part.theta_cols[i], result.params.scales[i]
     lbx, ubx = clock_bounds(nlp)

@@ -29,14 +29,14 @@ def _model_params(result) -> tuple[np.ndarray, np.ndarray]:
 def imu_residuals(result) -> dict[str, np.ndarray]:
     """Measured minus predicted IMU output at every sample of the fit (IMU axes, SI), with sigma
     and the validity mask (False where saturated and masked)."""
-    mesh = result.extra["part"].mesh
+    mesh = result.part.mesh
     model, data = result.scenario.model, result.data
     p, b = _model_params(result)
     n, k = mesh.n_intervals, mesh.samples_per_interval
-    part = result.extra["part"]
+    part = result.part
     f = interval_function(model, mesh.h, part.active).map(n, "thread", 2)
     x = result.states.T
-    u = part.disturbances(result.extra["z"])[:, list(part.active)].T
+    u = part.disturbances(result.z)[:, list(part.active)].T
     coefs = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n),
                          np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)), u[:, :-1], u[:, 1:])[2])
     pred = np.zeros((n * k, 6))
@@ -50,8 +50,8 @@ def imu_residuals(result) -> dict[str, np.ndarray]:
 
 def gps_residuals(result) -> dict[str, np.ndarray]:
     """GPS antenna position/velocity residuals (NED, SI) at every fix used, with the fix sigmas."""
-    data, part = result.data, result.extra["part"]
-    r = result.extra["residuals"]  # the whitened residual vector at the solution, kept by the fit
+    data, part = result.data, result.part
+    r = result.residuals  # the whitened residual vector at the solution, kept by the fit
     gps = next(s for g, s in part.groups.items() if g.split("/")[-1] == "gps")
     whitened = r[gps].reshape(-1, 6)
     clock = result.parameter("clock_offset_s")[0] if "clock_offset_s" in result.params.names else part.guess_clock_s

@@ -7,7 +7,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -50,8 +50,12 @@ class FitResult:
     solver: SolveResult
     timings: dict[str, float]
     condition: float
+    covariance: Covariance             # of the whole NLP (joint fits: shared by every drop)
+    nlp: FitNlp                        # the NLP solved (joint fits: the joint NLP)
+    part: DropPart                     # where this drop sits in ``nlp``
+    z: np.ndarray                      # scaled decision vector at the solution
+    residuals: np.ndarray              # whitened residual vector of ``nlp`` at ``z``
     notes: tuple[str, ...] = ()
-    extra: dict = field(default_factory=dict)
 
     @property
     def converged(self) -> bool:
@@ -102,8 +106,8 @@ def drop_result(scenario: Scenario, data: FitData, part: DropPart, nlp: FitNlp, 
         flight_time_s=part.mesh.t_nodes - data.release_imu_s, states=part.states(sol.z),
         columns=columns_of(part), table=table, table_sigma=table_sigma, chi2=chi2,
         n_measurements=counts, dof=dof, reduced_chi2=cov.reduced_chi2, solver=sol, timings=timings,
-        condition=cov.condition, notes=data.notes + _weak_constraint_notes(part))
-    result.extra.update(covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r)
+        condition=cov.condition, covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r,
+        notes=data.notes + _weak_constraint_notes(part))
     return result
 
 

@@ -15,7 +15,7 @@ is compared with the node state at its own epoch, whitened by the receiver's rep
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -26,7 +26,7 @@ from casrecon.estimation.assembly import BlockKind
 from casrecon.estimation.covariance import Covariance
 from casrecon.estimation.fit import FitError, check_converged, check_determined, covariance_or_fail, residual_vector
 from casrecon.estimation.parameters import ParameterSet, ParameterSpec
-from casrecon.estimation.problem import DropPart, _BlockSet, assemble_nlp
+from casrecon.estimation.problem import DropPart, FitNlp, _BlockSet, assemble_nlp
 from casrecon.estimation.segment import SegmentError, find_segment
 from casrecon.estimation.solve import SolveResult, solve
 from casrecon.estimation.transcription import Mesh
@@ -72,8 +72,15 @@ class PointMassResult:
     reduced_chi2: float
     solver: SolveResult
     timings: dict[str, float]
+    nlp: FitNlp
+    z: np.ndarray                     # scaled decision vector at the solution
+    covariance: Covariance
+    track: GpsTrack                   # the whole track as read
+    y: np.ndarray                     # (K, 6) fixes on the nodes (0 where none)
+    inv_sigma: np.ndarray             # (K, 6) inverse 1-sigma of those fixes, 0 where none
+    areas: np.ndarray                 # (K, n_areas) CdA and (with lift) AN, AE, m^2
+    area_sigma: np.ndarray            # (K, n_areas) absolute 1-sigma, m^2
     notes: tuple[str, ...] = ()
-    extra: dict = field(default_factory=dict)
 
     def residual_stats(self) -> dict[str, dict[str, float]]:
         """Per component: RMS of the normalised residuals and their lag-1 autocorrelation (near 0
@@ -266,7 +273,6 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     counts["gps"] = int((data.inv_sigma > 0).sum())
     dof = sum(counts.values()) - (nlp.z.numel() - nlp.constraints.numel())
     return PointMassResult(cfg, model_name, data.t_unix, states, state_sigma, cda, cda_sigma, part.params, values,
-                           sigma, norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, data.notes,
-                           {"nlp": nlp, "z": sol.z, "covariance": cov, "track": data.track, "y": data.y,
-                            "inv_sigma": data.inv_sigma, "areas": np.column_stack(areas),
-                            "area_sigma": np.column_stack(area_sigma)})
+                           sigma, norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, nlp=nlp,
+                           z=sol.z, covariance=cov, track=data.track, y=data.y, inv_sigma=data.inv_sigma,
+                           areas=np.column_stack(areas), area_sigma=np.column_stack(area_sigma), notes=data.notes)

@@ -20,7 +20,7 @@ NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
 
 
 def _model_summary(r) -> dict:
-    return {"model": r.model_name, "lift": r.extra["areas"].shape[1] > 1, "converged": r.solver.converged,
+    return {"model": r.model_name, "lift": r.areas.shape[1] > 1, "converged": r.solver.converged,
             "status": r.solver.status, "iterations": r.solver.iterations, "chi2": r.chi2,
             "n_measurements": r.n_measurements, "reduced_chi2": r.reduced_chi2, "residuals": r.residual_stats(),
             "timings": r.timings}
@@ -59,16 +59,16 @@ def write_pointmass_results(out: Path, main, constant) -> None:
         data += [main.states[:, i], 3 * main.state_sigma[:, i]]
     cols += ["h_msl_m"]
     data += [main.config.site.ground_alt_msl_m - main.states[:, 2]]
-    for j, name in enumerate(("cda_m2", "lift_n_m2", "lift_e_m2")[:main.extra["areas"].shape[1]]):
+    for j, name in enumerate(("cda_m2", "lift_n_m2", "lift_e_m2")[:main.areas.shape[1]]):
         cols += [name, f"{name}_3sigma"]
-        data += [main.extra["areas"][:, j], 3 * main.extra["area_sigma"][:, j]]
+        data += [main.areas[:, j], 3 * main.area_sigma[:, j]]
     # UTC seconds need ms resolution: the default 9 significant digits round 1.5e9 s to 10 s
     write_columns(out / "trajectory.csv", cols, np.column_stack(data), fmt=["%.3f"] + ["%.9g"] * (len(cols) - 1))
     rcols = ["time_s"] + [f"{n}_{m}" for m in ("fit", "constant") for n in NAMES]
     write_columns(out / "residuals_gps.csv", rcols, np.column_stack(
         [main.t_unix - t0, main.normalized_residuals, constant.normalized_residuals]))
     write_columns(out / "gps_fixes.csv", ["time_s"] + [f"{n}_measured" for n in NAMES] + ["used"],
-                  np.column_stack([main.t_unix - t0, main.extra["y"], main.extra["inv_sigma"][:, 0] > 0]))
+                  np.column_stack([main.t_unix - t0, main.y, main.inv_sigma[:, 0] > 0]))
     params = {s.name: {"value": float(v), "sigma": float(sg), "three_sigma": 3 * float(sg), "unit": s.unit}
               for s, v, sg in zip(main.params.specs, main.values, main.sigma)}
     write_json(out / "parameters.json", {"parameters": params})

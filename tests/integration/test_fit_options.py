@@ -154,7 +154,7 @@ def test_gauss_newton_decrement_measures_distance_from_optimum(mask_fit):
     linear over 2 sigma)."""
     from casrecon.estimation.convergence import DECREMENT_TOL, gauss_newton_decrement
 
-    nlp, z, cov = mask_fit.extra["nlp"], mask_fit.extra["z"], mask_fit.extra["covariance"]
+    nlp, z, cov = mask_fit.nlp, mask_fit.z, mask_fit.covariance
     assert gauss_newton_decrement(nlp, z) <= DECREMENT_TOL
     u = np.zeros(cov.cov_w.shape[0])
     u[[0, -1]] = np.sqrt(2.0)

@@ -90,7 +90,7 @@ class DropFit:
             dq = np.zeros(4)
             dq[j] = eps
             jac[:, :, j] = (rotvec(q_est + dq) - rotvec(q_est - dq)) / (2 * eps)
-        cov = self.result.extra["covariance"]
+        cov = self.result.covariance
         k = q_est.shape[0]
         rows = cov.basis[(NS * np.arange(k)[:, None] + np.arange(6, 10)[None, :])]  # (K, 4, n_w), scale 1
         g = np.einsum("kij,kjw->kiw", jac, rows)

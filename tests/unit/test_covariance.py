@@ -29,7 +29,7 @@ def short_fit():
 
 @pytest.fixture(scope="module")
 def dense_kkt(short_fit):
-    nlp, z = short_fit.extra["nlp"], short_fit.solver.z
+    nlp, z = short_fit.nlp, short_fit.solver.z
     d = nlp.derivatives
     a = np.asarray(d.jacobian_g(z).full())
     d.evaluate(z)
@@ -52,8 +52,8 @@ def relative_gap(got: np.ndarray, want: np.ndarray) -> float:
 
 
 def test_parameter_block_equals_dense_kkt_inverse(short_fit, dense_kkt_cov):
-    nlp = short_fit.extra["nlp"]
-    cov = short_fit.extra["covariance"]
+    nlp = short_fit.nlp
+    cov = short_fit.covariance
     idx = np.arange(nlp.n_state_vars, nlp.z.numel())
     got = cov.covariance_of(idx)
     want = dense_kkt_cov[np.ix_(idx, idx)]
@@ -65,8 +65,8 @@ def test_parameter_block_equals_dense_kkt_inverse(short_fit, dense_kkt_cov):
 
 @pytest.mark.parametrize("node", [0, 1, 13, -1])
 def test_node_state_blocks_equal_dense_kkt_inverse(short_fit, dense_kkt_cov, node):
-    nlp = short_fit.extra["nlp"]
-    cov = short_fit.extra["covariance"]
+    nlp = short_fit.nlp
+    cov = short_fit.covariance
     k = nlp.mesh.t_nodes.size
     node = node % k
     # node state and its cross-covariance with the parameters
@@ -77,16 +77,16 @@ def test_node_state_blocks_equal_dense_kkt_inverse(short_fit, dense_kkt_cov, nod
         # the unit-norm row makes the initial quaternion's covariance rank-deficient (q0 dq0 = 0):
         # compare entries relative to the largest variance of the block instead
         assert np.max(np.abs(got - want)) / np.max(np.diag(want)) < 1e-6
-        q = short_fit.extra["nlp"].unpack(short_fit.solver.z)[0][0, 6:10] / STATE_SCALE[6:10]
+        q = short_fit.nlp.unpack(short_fit.solver.z)[0][0, 6:10] / STATE_SCALE[6:10]
         assert np.abs(q @ got[6:10, 6:10]).max() < 1e-9 * np.max(np.diag(want))
     else:
         assert relative_gap(got, want) < 1e-6
 
 
 def test_recomputed_covariance_is_the_reported_one(short_fit):
-    nlp, z = short_fit.extra["nlp"], short_fit.solver.z
+    nlp, z = short_fit.nlp, short_fit.solver.z
     cov = compute_covariance(nlp, z, 1.0, 1)
-    ref = short_fit.extra["covariance"]
+    ref = short_fit.covariance
     assert cov.basis @ cov.cov_w @ cov.basis[-5:].T == pytest.approx(ref.basis @ ref.cov_w @ ref.basis[-5:].T,
                                                                      rel=1e-9, abs=1e-15)
     assert cov.reduced_chi2 == 1.0
@@ -107,7 +107,7 @@ def test_variance_of_a_combination_matches_the_dense_inverse(short_fit, dense_kk
     """The variance of a weighted sum (here the window mean of the pitch rate, then arbitrary
     weights on pitch rate and two parameters) from the null-space covariance and from one sparse-LU
     solve of the KKT matrix (the disturbance-state path) equals w^T C w of the dense inverse."""
-    nlp = short_fit.extra["nlp"]
+    nlp = short_fit.nlp
     k = nlp.mesh.t_nodes.size
     q_idx = NS * np.arange(k) + 11
     cases = [(q_idx, np.full(k, 1.0 / k)),
@@ -116,5 +116,5 @@ def test_variance_of_a_combination_matches_the_dense_inverse(short_fit, dense_kk
     lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1)
     for idx, w in cases:
         want = w @ dense_kkt_cov[np.ix_(idx, idx)] @ w
-        assert short_fit.extra["covariance"].variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
+        assert short_fit.covariance.variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
         assert lu_cov.variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)

@@ -121,7 +121,7 @@ def short_weak_fit(drop3):
 
 
 def test_weak_constraint_blocks_match_casadi(short_weak_fit):
-    nlp, z = short_weak_fit.extra["nlp"], short_weak_fit.solver.z
+    nlp, z = short_weak_fit.nlp, short_weak_fit.solver.z
     z = z + 1e-3 * np.random.default_rng(2).normal(size=z.size)
     jr = ca.Function("jr", [nlp.z], [ca.jacobian(nlp.residuals, nlp.z), nlp.residuals])
     j_r, r = (np.asarray(ca.DM(m).full()) for m in jr(z))
@@ -140,7 +140,7 @@ def test_weak_constraint_blocks_match_casadi(short_weak_fit):
 
 
 def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
-    nlp, z = short_weak_fit.extra["nlp"], short_weak_fit.solver.z
+    nlp, z = short_weak_fit.nlp, short_weak_fit.solver.z
     d = nlp.derivatives
     d._z = None
     a = np.asarray(d.jacobian_g(z).full())
@@ -148,7 +148,7 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
     h = hu + np.triu(hu, 1).T
     n_z, n_g = h.shape[0], a.shape[0]
     dense = np.linalg.inv(np.block([[h, a.T], [a, np.zeros((n_g, n_g))]]))[:n_z, :n_z]
-    cov = short_weak_fit.extra["covariance"]
+    cov = short_weak_fit.covariance
     part = nlp.parts[0]
     idx = np.r_[part.theta_cols, part.u_cols[7], part.node_cols[13 * 5:13 * 6]]
     want = dense[np.ix_(idx, idx)]
