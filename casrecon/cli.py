@@ -277,8 +277,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fixed", nargs="*", default=[], help="dispersion factors held at 0")
     p.add_argument("--no-single", action="store_true", help="skip the single-drop fits of the sigma comparison")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
-    p.add_argument("--linear-solver", choices=("mumps", "spral"), default="mumps")
-    p.add_argument("--hessian", choices=("gauss-newton", "exact"), default="gauss-newton")
+    p.add_argument("--linear-solver", choices=("mumps", "spral"), default=None,
+                   help="Ipopt linear solver (default: each problem's [estimation] linear_solver)")
+    p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
+                   help="Hessian for Ipopt (default: each problem's [estimation] hessian)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
     p.set_defaults(func=_joint)
     p = sub.add_parser("montecarlo", help="dispersed forward simulations: touchdown time and impact speed")

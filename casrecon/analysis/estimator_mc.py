@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
-from casrecon.estimation.parameters import parameter_set
+from casrecon.estimation.drop import parameter_set
 from casrecon.scenario import Scenario
 
 

@@ -23,7 +23,7 @@ import numpy as np
 from scipy.linalg import null_space
 
 from casrecon.analysis.observability import refit_with_held
-from casrecon.estimation.covariance import fisher_and_jacobian, reduced_hessian
+from casrecon.estimation.engine.covariance import fisher_and_jacobian, reduced_hessian
 from casrecon.estimation.fit import FitResult
 
 

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.analysis.synthetic import make_synthetic, simulate_truth, truth_parameters_by_name
-from casrecon.estimation.covariance import compute_covariance
-from casrecon.estimation.fit import FitResult, clock_bounds, prepare_drop
-from casrecon.estimation.parameters import parameter_set
-from casrecon.estimation.problem import build_nlp
-from casrecon.estimation.solve import SolveResult, solve
+from casrecon.estimation.continuation import clock_bounds
+from casrecon.estimation.drop import build_nlp, parameter_set
+from casrecon.estimation.engine.covariance import compute_covariance
+from casrecon.estimation.engine.solve import SolveResult, solve
+from casrecon.estimation.fit import FitResult, prepare_drop
 from casrecon.io.flysight import write_flysight1
 from casrecon.io.imu import write_imu_csv
 from casrecon.scenario import Scenario
@@ -86,7 +86,7 @@ def refit_with_held(result: FitResult, name: str, value: float, max_iter: int = 
     nlp, z_best, part = result.nlp, result.z, result.part
     i = result.params.index(name)
     col, scale = part.theta_cols[i], result.params.scales[i]
-    lbx, ubx = clock_bounds(nlp)
+    lbx, ubx = clock_bounds([part], nlp.n_z)
     lbx[col] = ubx[col] = value / scale
     z0 = z_best.copy()
     z0[col] = value / scale
@@ -127,15 +127,15 @@ def predicted_covariance(scenario: Scenario) -> tuple[tuple[str, ...], np.ndarra
         sc = _with_data(scenario, Path(tmp))
         data, mesh = prepare_drop(sc)
         params = parameter_set(sc.config)
-        nlp = build_nlp(sc.model, data, mesh, params, sc.config)
+        fit_nlp = build_nlp(sc.model, data, mesh, params, sc.config)
         traj, t_zero = simulate_truth(sc)
         t = t_zero + traj.time_s
         idx = np.clip(np.searchsorted(t, mesh.t_nodes - 1e-6), 0, t.size - 1)
         truth = truth_parameters_by_name(sc)
         values = np.array([truth.get(n, 0.0) for n in params.names])
-        z = nlp.pack(traj.states[idx], values)
-        cov = compute_covariance(nlp, z, 1.0, 1)
-        part = nlp.parts[0]
+        z = fit_nlp.pack(traj.states[idx], values)
+        cov = compute_covariance(fit_nlp.nlp, z, 1.0, 1)
+        part = fit_nlp.parts[0]
         return params.names, cov.covariance_of(part.theta_cols, params.scales)
 
 

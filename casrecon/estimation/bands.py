@@ -6,7 +6,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from casrecon.estimation.problem import NS, DropPart, _Unscale
+from casrecon.estimation.layout import NS, BlockLocals, DropLayout
 from casrecon.estimation.transcription import STATE_SCALE, disturbance_selection
 from casrecon.physics.dynamics import OUTPUT_NAMES, FlightModel
 
@@ -27,19 +27,19 @@ DISTURBANCE_COLUMNS = (("gust_n_mps", 1.0), ("gust_e_mps", 1.0), ("gust_d_mps", 
 MAX_BAND_NODES = 50
 
 
-def columns_of(part: DropPart) -> tuple[str, ...]:
+def columns_of(part: DropLayout) -> tuple[str, ...]:
     """Names of the reconstructed columns of one drop: COLUMNS, then its estimated disturbances."""
     return tuple(c for c, _ in COLUMNS) + tuple(DISTURBANCE_COLUMNS[i][0] for i in part.active)
 
 
-def _output_function(model: FlightModel, part: DropPart) -> ca.Function:
+def _output_function(model: FlightModel, part: DropLayout) -> ca.Function:
     """(z_node (13), z_theta, z_u) -> (y, dy/d[z_node; z_theta; z_u]) for the columns, scaled inputs."""
     params, active = part.params, part.active
-    un = _Unscale(model, params)
+    loc = BlockLocals(part)
     zx, zt, zu = ca.SX.sym("zx", NS), ca.SX.sym("zt", params.n), ca.SX.sym("zu", len(active))
     x, theta = zx * ca.DM(STATE_SCALE), zt * ca.DM(params.scales)
     u = zu * ca.DM(part.u_scale)
-    out = model.outputs_d(x, un.model_params(theta), disturbance_selection(active) @ u)
+    out = model.outputs_d(x, loc.model_params(theta), disturbance_selection(active) @ u)
     idx = OUTPUT_NAMES.index
     y = ca.vertcat(x[0:3], out[idx("h_agl")], x[3:6], out[idx("roll"):idx("yaw") + 1], x[10:13],
                    out[idx("alpha")], out[idx("beta")], out[idx("alpha_t")], out[idx("qbar")], out[idx("mach")], u)
@@ -48,7 +48,7 @@ def _output_function(model: FlightModel, part: DropPart) -> ca.Function:
     return ca.Function("outputs_with_jacobian", [zx, zt, zu], [y, ca.jacobian(y, v)])
 
 
-def trajectory_with_bands(model: FlightModel, part: DropPart, z: np.ndarray, cov):
+def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, cov):
     """One drop's node values of its columns (:func:`columns_of`) and their absolute 1-sigma,
     arrays (K, n_columns). With disturbance states the sigmas are computed at up to
     MAX_BAND_NODES evenly spaced nodes and linearly interpolated in time between them."""

@@ -12,50 +12,22 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 from casrecon.analysis.simulate import Simulator
-from casrecon.estimation.problem import _imu_sigma, _Unscale
-from casrecon.estimation.transcription import D_OFFSETS, R_OFFSETS, channel_bases, interval_function
+from casrecon.estimation.kinds.gps import GpsKind
+from casrecon.estimation.kinds.imu import IMU_CHANNELS, ImuKind, model_and_bias_values
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment
 
-IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
-
-
-def _model_params(result) -> tuple[np.ndarray, np.ndarray]:
-    """FlightModel parameter vector and the 6 IMU biases of the fit's estimates."""
-    un = _Unscale(result.scenario.model, result.params)
-    theta = ca.DM(result.values)
-    return np.asarray(un.model_params(theta)).ravel(), np.asarray(un.biases(theta)).ravel()
-
+__all__ = ["IMU_CHANNELS", "imu_residuals", "gps_residuals", "pitching_moment", "reconciled_simulation"]
 
 def imu_residuals(result) -> dict[str, np.ndarray]:
-    """Measured minus predicted IMU output at every sample of the fit (IMU axes, SI), with sigma
-    and the validity mask (False where saturated and masked)."""
-    mesh = result.part.mesh
-    model, data = result.scenario.model, result.data
-    p, b = _model_params(result)
-    n, k = mesh.n_intervals, mesh.samples_per_interval
-    part = result.part
-    f = interval_function(model, mesh.h, part.active).map(n, "thread", 2)
-    x = result.states.T
-    u = part.disturbances(result.z)[:, list(part.active)].T
-    coefs = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n),
-                         np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)), u[:, :-1], u[:, 1:])[2])
-    pred = np.zeros((n * k, 6))
-    for c, basis in enumerate(channel_bases(k)):
-        pred[:, c] = (basis @ coefs[D_OFFSETS[c]:D_OFFSETS[c + 1]]).T.ravel()
-    y = np.column_stack([data.accel_imu, data.gyro_imu])[:n * k]
-    valid = np.column_stack([data.accel_valid, data.gyro_valid])[:n * k]
-    return {"time_imu_s": data.imu_time_s[:n * k], "residual": y - pred, "valid": valid,
-            "sigma": _imu_sigma(result.scenario.config)}
+    """Measured minus predicted IMU output at every sample of the fit (see
+    :meth:`casrecon.estimation.kinds.imu.ImuKind.residuals`)."""
+    return ImuKind().residuals(result)
 
 
 def gps_residuals(result) -> dict[str, np.ndarray]:
-    """GPS antenna position/velocity residuals (NED, SI) at every fix used, with the fix sigmas."""
-    data, part = result.data, result.part
-    r = result.residuals  # the whitened residual vector at the solution, kept by the fit
-    gps = next(s for g, s in part.groups.items() if g.split("/")[-1] == "gps")
-    whitened = r[gps].reshape(-1, 6)
-    clock = result.parameter("clock_offset_s")[0] if "clock_offset_s" in result.params.names else part.guess_clock_s
-    return {"time_imu_s": data.gps_time_s - clock, "residual": whitened * data.gps_sigma, "sigma": data.gps_sigma}
+    """GPS antenna position/velocity residuals at every fix used (see
+    :meth:`casrecon.estimation.kinds.gps.GpsKind.residuals`)."""
+    return GpsKind().residuals(result)
 
 
 def _moment_coefficient_function(result) -> ca.Function:
@@ -90,7 +62,7 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     """
     cfg, data = result.scenario.config, result.data
     veh = cfg.vehicle
-    p, b = _model_params(result)
+    p, b = model_and_bias_values(result)
     r_ib = np.asarray(veh.imu_to_body)
     dt = float(np.median(np.diff(data.imu_time_s)))
     w = (data.gyro_imu - b[3:]) @ r_ib.T
@@ -128,7 +100,7 @@ def reconciled_simulation(result, nominal: bool = False) -> dict:
     atmosphere corrections (EES paper section VI), against the reconstruction. ``nominal=True``
     sets the dispersions to 0 (the pre-flight database) and keeps the fitted atmosphere."""
     scenario = result.scenario
-    p, _ = _model_params(result)
+    p, _ = model_and_bias_values(result)
     if nominal:
         p[:len(DISPERSION_NAMES)] = 0.0
     sim = Simulator(scenario.model, dt_s=0.002)

@@ -1,7 +1,9 @@
 """The per-drop fit as one call: data, mesh, NLP, initial guess, Ipopt, covariance, bands.
 
-``fit_drop(scenario)`` returns a :class:`FitResult` or raises :class:`FitError` with the reason
-(no convergence, singular KKT matrix, unusable data); it never writes files.
+``fit_drop(scenario)`` returns a :class:`FitResult` or raises
+:class:`~casrecon.estimation.engine.checks.FitError` with the reason (no convergence, singular KKT
+matrix, unusable data); it never writes files. :class:`FitSettings` holds the solver settings of
+a drop, resolved once from its ``[estimation]`` table, for the per-drop and the joint fit alike.
 """
 
 from __future__ import annotations
@@ -12,19 +14,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from casrecon.estimation.bands import MAX_BAND_NODES, columns_of, trajectory_with_bands
-from casrecon.estimation.covariance import Covariance, SingularCovariance, compute_covariance
+from casrecon.estimation.continuation import solve_fit
+from casrecon.estimation.drop import FitNlp, build_nlp, parameter_set
+from casrecon.estimation.engine.checks import (
+    FitError,
+    covariance_or_fail,
+    residual_vector,
+)
+from casrecon.estimation.engine.covariance import Covariance, KktCovariance
+from casrecon.estimation.engine.nlp import Nlp
+from casrecon.estimation.engine.solve import SolveResult
 from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
-from casrecon.estimation.parameters import ParameterSet, parameter_set
-from casrecon.estimation.problem import DropPart, FitNlp, build_nlp
-from casrecon.estimation.solve import SolveResult, solve
+from casrecon.estimation.layout import DropLayout
+from casrecon.estimation.parameters import ParameterSet
+from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import Mesh, make_mesh
 from casrecon.physics.dynamics import DISTURBANCE_NAMES
 from casrecon.scenario import Scenario
-
-
-class FitError(RuntimeError):
-    """The fit did not produce a trustworthy result; the message says why."""
 
 
 @dataclass
@@ -50,9 +57,10 @@ class FitResult:
     solver: SolveResult
     timings: dict[str, float]
     condition: float
-    covariance: Covariance             # of the whole NLP (joint fits: shared by every drop)
-    nlp: FitNlp                        # the NLP solved (joint fits: the joint NLP)
-    part: DropPart                     # where this drop sits in ``nlp``
+    covariance: Covariance | KktCovariance  # of the whole NLP (joint fits: shared by every drop)
+    nlp: Nlp                           # the NLP solved (joint fits: the joint NLP)
+    part: DropLayout                   # where this drop sits in ``nlp``
+    measurements: dict                 # each measurement kind's data, by kind name
     z: np.ndarray                      # scaled decision vector at the solution
     residuals: np.ndarray              # whitened residual vector of ``nlp`` at ``z``
     notes: tuple[str, ...] = ()
@@ -71,47 +79,48 @@ class FitResult:
         i = self.columns.index(name)
         return self.table[:, i], self.table_sigma[:, i]
 
-
-def _chi2(nlp: FitNlp, part: DropPart, r: np.ndarray) -> tuple[dict[str, float], dict[str, int]]:
-    """chi-square and measurement count per residual group of one drop (IMU includes the constant
-    part of its QR compression, and counts samples, not compressed rows)."""
-    chi2, counts = {}, {}
-    for g, s in part.groups.items():
-        key = g.split("/")[-1]
-        chi2[key] = float(r[s] @ r[s])
-        counts[key] = s.stop - s.start
-    if part.imu_blocks is not None:
-        chi2["imu"] += float(part.imu_blocks.const_chi2.sum())
-        counts["imu"] = int(part.imu_blocks.n_used.sum())
-    return chi2, counts
+    def group(self, name: str) -> str:
+        """This drop's name of the residual group ``name`` in ``nlp`` (prefixed in a joint fit)."""
+        prefixed = f"{self.part.name}/{name}"
+        return prefixed if prefixed in self.nlp.groups else name
 
 
-def residual_vector(nlp: FitNlp, z: np.ndarray) -> np.ndarray:
-    import casadi as ca
+def drop_statistics(nlp: Nlp, fit_nlp: FitNlp, part: DropLayout, r: np.ndarray) -> tuple[dict, dict, int]:
+    """chi-square and measurement count per residual group of one drop (group names without the
+    drop prefix; IMU counts samples, and includes its compression constant), and the drop's dof:
+    its measurements minus the free directions of the columns it sees (its nodes, latent values
+    and parameters, shared ones included) less its constraints. For a per-drop fit this is the
+    fit's dof; in a joint fit the drops' dofs add up to less than the joint dof."""
+    prefix = f"{part.name}/"
+    mine = [g for g in nlp.groups if g.startswith(prefix)] if len(fit_nlp.parts) > 1 else list(nlp.groups)
+    chi2 = {g.removeprefix(prefix): v for g, v in nlp.group_chi2(r, mine).items()}
+    counts = {g.removeprefix(prefix): nlp.n_measurements[g] for g in mine}
+    n_cols = part.n_state_vars + part.u_cols.size + part.params.n
+    n_constraints = part.n_states * part.mesh.n_intervals + 1
+    return chi2, counts, sum(counts.values()) - (n_cols - n_constraints)
 
-    return np.asarray(ca.Function("residuals", [nlp.z], [nlp.residuals])(z)).ravel()
 
-
-def drop_result(scenario: Scenario, data: FitData, part: DropPart, nlp: FitNlp, sol: SolveResult,
-                cov: Covariance, r: np.ndarray, timings: dict[str, float]) -> FitResult:
-    """The :class:`FitResult` of one drop of a solved NLP (the whole NLP for a per-drop fit)."""
+def drop_result(scenario: Scenario, data: FitData, fit_nlp: FitNlp, index: int, sol: SolveResult,
+                cov: Covariance | KktCovariance, r: np.ndarray, timings: dict[str, float]) -> FitResult:
+    """The :class:`FitResult` of drop ``index`` of a solved NLP (the whole NLP for a per-drop fit)."""
+    nlp, part = fit_nlp.nlp, fit_nlp.parts[index]
     cov_theta = cov.covariance_of(part.theta_cols, part.params.scales)
     sigma = np.sqrt(np.diag(cov_theta))
     table, table_sigma = trajectory_with_bands(scenario.model, part, sol.z, cov)
-    chi2, counts = _chi2(nlp, part, r)
-    dof = sum(counts.values()) - (nlp.z.numel() - nlp.constraints.numel())
+    chi2, counts, dof = drop_statistics(nlp, fit_nlp, part, r)
     result = FitResult(
         scenario=scenario, data=data, params=part.params, values=part.values(sol.z), sigma=sigma,
         correlation=cov_theta / np.outer(sigma, sigma), node_time_s=part.mesh.t_nodes,
         flight_time_s=part.mesh.t_nodes - data.release_imu_s, states=part.states(sol.z),
         columns=columns_of(part), table=table, table_sigma=table_sigma, chi2=chi2,
-        n_measurements=counts, dof=dof, reduced_chi2=cov.reduced_chi2, solver=sol, timings=timings,
+        n_measurements=counts, dof=dof, reduced_chi2=sum(chi2.values()) / max(dof, 1), solver=sol, timings=timings,
         condition=cov.condition, covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r,
+        measurements=dict(fit_nlp.contexts[index].measurements),
         notes=data.notes + _weak_constraint_notes(part))
     return result
 
 
-def _weak_constraint_notes(part: DropPart) -> tuple[str, ...]:
+def _weak_constraint_notes(part: DropLayout) -> tuple[str, ...]:
     if not part.n_u:
         return ()
     names = ", ".join(DISTURBANCE_NAMES[i] for i in part.active)
@@ -120,20 +129,38 @@ def _weak_constraint_notes(part: DropPart) -> tuple[str, ...]:
             "and interpolated between them",)
 
 
+#: Largest relative difference between the declared IMU rate and the one measured in the file.
+RATE_TOLERANCE = 0.02
+
+
 def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
-    """Read a drop's data and lay its mesh, turning data problems into FitError."""
+    """Read a drop's data and lay its mesh, turning data problems into FitError.
+
+    The samples per interval come from the IMU rate measured in the file (median sample spacing);
+    a declared ``[sensors.imu] rate_hz`` more than RATE_TOLERANCE away from it is an error (a
+    400 Hz log declared as 500 Hz would otherwise get intervals 25 % longer than asked for).
+    """
+    cfg = scenario.config
     try:
-        data = load_fit_data(scenario.config)
-        return data, make_mesh(data.imu_time_s, scenario.config.estimation.mesh_samples(scenario.config.imu.rate_hz))
+        data = load_fit_data(cfg)
+        measured_hz = 1.0 / float(np.median(np.diff(data.imu_time_s)))
+        if abs(measured_hz - cfg.imu.rate_hz) > RATE_TOLERANCE * cfg.imu.rate_hz:
+            raise FitError(f"{cfg.imu.file}: the IMU samples are {measured_hz:.2f} Hz apart (median spacing) but "
+                           f"{cfg.path} declares [sensors.imu] rate_hz = {cfg.imu.rate_hz:g}; correct rate_hz")
+        return data, make_mesh(data.imu_time_s, cfg.estimation.mesh_samples(measured_hz))
     except (FitDataError, ValueError) as err:
         raise FitError(str(err)) from None
 
 
 def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
              print_level: int = 0) -> FitResult:
-    """Reconstruct one drop (DESIGN section 1). Raises FitError when the result is not usable."""
+    """Reconstruct one drop (see docs/design.md). Raises FitError when the result is not usable.
+
+    ``linear_solver`` and ``hessian`` override the problem's ``[estimation]`` settings.
+    """
     cfg = scenario.config
-    est = cfg.estimation
+    settings = FitSettings.from_estimation(cfg.estimation, linear_solver=linear_solver, hessian=hessian,
+                                           print_level=print_level)
     t0 = time.perf_counter()
     data, mesh = prepare_drop(scenario)
     params = parameter_set(cfg)
@@ -141,158 +168,17 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     t1 = time.perf_counter()
 
     def build(guesses: dict[str, float]) -> FitNlp:
-        return build_nlp(scenario.model, data, mesh, params, cfg, hessian or est.resolved_hessian(), guesses[cfg.name])
+        return build_nlp(scenario.model, data, mesh, params, cfg, settings.hessian, guesses[cfg.name])
 
-    def start(nlp: FitNlp) -> np.ndarray:
-        return nlp.pack(x0, np.zeros(params.n))
+    def start(fit_nlp: FitNlp) -> np.ndarray:
+        return fit_nlp.pack(x0, np.zeros(params.n))
 
-    nlp, sol, build_s = solve_fit(build, start, {cfg.name: est.clock_offset_guess_s},
-                                  dict(linear_solver=linear_solver or est.linear_solver, max_iter=est.max_iter,
-                                       tol=est.tol, print_level=print_level))
+    fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: cfg.estimation.clock_offset_guess_s}, settings)
     t3 = time.perf_counter()
-    r = residual_vector(nlp, sol.z)
-    cov = covariance_or_fail(nlp, sol.z, r)
+    r = residual_vector(fit_nlp.nlp, sol.z)
+    cov = covariance_or_fail(fit_nlp.nlp, sol.z, r)
     timings = {"build_s": build_s, "initial_guess_s": t1 - t0, "solve_s": sol.solve_s}
-    result = drop_result(scenario, data, nlp.parts[0], nlp, sol, cov, r, timings)
+    result = drop_result(scenario, data, fit_nlp, 0, sol, cov, r, timings)
     t4 = time.perf_counter()
     timings.update(covariance_s=t4 - t3, total_s=t4 - t0)
     return result
-
-
-def max_clock_shifts(nlp: FitNlp) -> int:
-    """How many times a clock-offset guess may move by one mesh interval: enough to cross 3 sigma
-    of its prior (beyond that :func:`_check_clock_plausible` stops the fit anyway), plus one."""
-    shifts = [1]
-    for part in nlp.parts:
-        if "clock_offset_s" in part.params.names:
-            spec = part.params.specs[part.params.index("clock_offset_s")]
-            shifts.append(int(np.ceil(3 * (spec.prior_sigma or spec.scale) / part.mesh.h)) + 1)
-    return max(shifts)
-
-
-def solve_fit(build, start, guesses: dict[str, float], solve_kw: dict):
-    """Build and solve, keeping every GPS fix on its collocation interval.
-
-    Each drop's clock offset is bounded to one mesh interval around its guess. When a solution ends
-    on such a bound, the guess moves there, the fixes are reassigned to intervals and the fit is
-    redone from that solution (at most :func:`max_clock_shifts` times).
-
-    Returns (nlp, SolveResult, build seconds).
-    """
-    z, build_s, attempt, limit = None, 0.0, 0, 1
-    while attempt <= limit:
-        t = time.perf_counter()
-        nlp = build(guesses)
-        build_s += time.perf_counter() - t
-        limit = max_clock_shifts(nlp)
-        z0 = start(nlp) if z is None else z.copy()
-        for part in nlp.parts:
-            if "clock_offset_s" in part.params.names:
-                i = part.params.index("clock_offset_s")
-                z0[part.theta_cols[i]] = part.guess_clock_s / part.params.scales[i]
-        if attempt == 0:
-            check_determined(nlp, z0)
-        bounds = clock_bounds(nlp)
-        sol = solve(nlp, z0, bounds=bounds, **solve_kw)
-        build_s += sol.build_s
-        check_converged(sol, nlp)
-        moved = clocks_at_bound(sol, nlp, bounds)
-        if not moved:
-            return nlp, sol, build_s
-        _check_clock_plausible(nlp, moved)
-        guesses.update(moved)
-        z = sol.z
-        attempt += 1
-    raise FitError(f"the IMU-to-GPS clock offset kept reaching its bound after {limit} shifts "
-                   f"({', '.join(f'{k} {v:+.3f} s' for k, v in moved.items())}); give [estimation] "
-                   "clock_offset_guess_s")
-
-
-def check_determined(nlp: FitNlp, z: np.ndarray) -> None:
-    """FitError before solving when a parameter has no effect on any residual or constraint and no
-    prior (its column of the KKT matrix is zero, so the matrix is singular whatever the data)."""
-    jg = nlp.derivatives.jacobian_g(z)
-    in_g = np.zeros(nlp.z.numel(), bool)
-    g_cols = np.asarray(jg.sparsity().get_triplet()[1])
-    in_g[g_cols[np.asarray(jg.nonzeros()) != 0.0]] = True
-    jtj = nlp.derivatives.gauss_newton(z)
-    diag = np.zeros(nlp.z.numel())
-    sp = jtj.sparsity()
-    rows, cols = sp.get_triplet()
-    values = np.asarray(jtj.nonzeros())
-    on_diag = np.asarray(rows) == np.asarray(cols)
-    diag[np.asarray(rows)[on_diag]] = values[on_diag]
-    names = nlp.parameter_columns()
-    dead = [name for col, name in names.items() if diag[col] == 0.0 and not in_g[col]]
-    if dead:
-        raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual or constraint and carry "
-                       "no prior, so nothing determines them; fix them or switch their prior on")
-
-
-def clock_bounds(nlp: FitNlp) -> tuple[np.ndarray, np.ndarray]:
-    """Scaled bounds: each drop's clock offset within one mesh interval of its guess (so every GPS
-    fix stays on its collocation interval); everything else free."""
-    n = nlp.z.numel()
-    lbx, ubx = np.full(n, -np.inf), np.full(n, np.inf)
-    for part in nlp.parts:
-        if "clock_offset_s" in part.params.names:
-            i = part.params.index("clock_offset_s")
-            guess = part.guess_clock_s
-            col, scale = part.theta_cols[i], part.params.scales[i]
-            lbx[col], ubx[col] = (guess - part.mesh.h) / scale, (guess + part.mesh.h) / scale
-    return lbx, ubx
-
-
-def _check_clock_plausible(nlp: FitNlp, moved: dict[str, float]) -> None:
-    """FitError when a clock offset runs beyond 3 sigma of its prior: the data are then being bent
-    to a model that does not fit them (or the clock guess is far off)."""
-    for part in nlp.parts:
-        if part.name in moved and "clock_offset_s" in part.params.names:
-            spec = part.params.specs[part.params.index("clock_offset_s")]
-            limit = 3 * (spec.prior_sigma or spec.scale)
-            if abs(moved[part.name]) > limit:
-                raise FitError(f"{part.name}: the IMU-to-GPS clock offset runs to {moved[part.name]:+.3f} s, beyond 3 "
-                               f"sigma of its prior ({limit:.3f} s); the model probably does not fit the data (or "
-                               "give [estimation] clock_offset_guess_s, or hold the clock with estimate_clock = false)")
-
-
-def clocks_at_bound(sol: SolveResult, nlp: FitNlp, bounds) -> dict[str, float]:
-    """{drop: clock offset (s)} of the drops whose clock offset ended on its bound."""
-    moved = {}
-    for part in nlp.parts:
-        if "clock_offset_s" not in part.params.names:
-            continue
-        i = part.params.index("clock_offset_s")
-        col = part.theta_cols[i]
-        width = bounds[1][col] - bounds[0][col]
-        if min(sol.z[col] - bounds[0][col], bounds[1][col] - sol.z[col]) < 1e-4 * width:
-            moved[part.name] = float(sol.z[col] * part.params.scales[i])
-    return moved
-
-
-def check_converged(sol: SolveResult, nlp: FitNlp | None = None) -> None:
-    """FitError when Ipopt failed; says whether the KKT matrix at its last iterate is singular."""
-    if sol.converged:
-        return
-    why = ""
-    if nlp is not None:
-        try:
-            compute_covariance(nlp, sol.z, 1.0, 1)
-        except SingularCovariance as err:
-            why = f"; at the last iterate the {err}"
-        except Exception:  # noqa: BLE001 - a diagnosis attempt must not hide the real failure
-            pass
-    raise FitError(f"Ipopt did not converge: {sol.status} after {sol.iterations} iterations "
-                   f"(objective {sol.objective:.6g}){why}; no result written")
-
-
-def covariance_or_fail(nlp: FitNlp, z: np.ndarray, r: np.ndarray) -> Covariance:
-    """KKT covariance; FitError when singular. chi2 includes the IMU compression constants."""
-    imu = [p for p in nlp.parts if p.imu_blocks is not None]
-    chi2 = float(r @ r) + sum(float(p.imu_blocks.const_chi2.sum()) for p in imu)
-    n_meas = r.size + sum(int(p.imu_blocks.n_used.sum()) - p.groups_size("imu") for p in imu)
-    dof = n_meas - (nlp.z.numel() - nlp.constraints.numel())
-    try:
-        return compute_covariance(nlp, z, chi2, dof)
-    except SingularCovariance as err:
-        raise FitError(str(err)) from None

@@ -17,18 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.estimation.fit import (
-    FitError,
-    FitResult,
-    covariance_or_fail,
-    drop_result,
-    prepare_drop,
-    residual_vector,
-    solve_fit,
-)
+from casrecon.estimation.continuation import solve_fit
+from casrecon.estimation.drop import FitNlp, assemble_drops, load_measurements, parameter_set
+from casrecon.estimation.engine.checks import FitError, covariance_or_fail, residual_vector
+from casrecon.estimation.fit import FitResult, drop_result, prepare_drop
 from casrecon.estimation.initial_guess import initial_guess
-from casrecon.estimation.parameters import ParameterSet, parameter_set
-from casrecon.estimation.problem import NS, DropPart, assemble_nlp, drop_block_sets
+from casrecon.estimation.kinds.base import DropContext
+from casrecon.estimation.layout import NS, DropLayout
+from casrecon.estimation.parameters import ParameterSet
+from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import STATE_SCALE
 from casrecon.io.toml_fields import load_toml
 from casrecon.physics.aero import DISPERSION_NAMES
@@ -109,6 +106,7 @@ class JointResult:
     timings: dict[str, float]
     iterations: int
     status: str
+    settings: FitSettings
 
 
 def _parameter_sets(scenarios: list[Scenario], cfg: JointConfig) -> tuple[list[ParameterSet], tuple[str, ...]]:
@@ -132,12 +130,12 @@ def _parameter_sets(scenarios: list[Scenario], cfg: JointConfig) -> tuple[list[P
     return out, shared
 
 
-def _layout(scenarios, meshes, psets, shared):
-    """DropParts with global columns: all nodes, then shared factors, then each drop's own."""
+def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float]) -> tuple[list[DropLayout], int]:
+    """DropLayouts with global columns: all nodes, then shared factors, then each drop's own."""
     node_offsets = np.cumsum([0] + [NS * m.t_nodes.size for m in meshes])
     shared_col = {n: int(node_offsets[-1]) + i for i, n in enumerate(shared)}
     next_col = int(node_offsets[-1]) + len(shared)
-    parts, defect_offset = [], 0
+    layouts = []
     for sc, mesh, ps, off in zip(scenarios, meshes, psets, node_offsets):
         cols = []
         for name in ps.names:
@@ -146,16 +144,28 @@ def _layout(scenarios, meshes, psets, shared):
             else:
                 cols.append(next_col)
                 next_col += 1
-        parts.append(DropPart(sc.config.name, mesh, ps, int(off), np.array(cols), defect_offset,
-                              guess_clock_s=sc.config.estimation.clock_offset_guess_s))
-        defect_offset += NS * mesh.n_intervals
-    return parts, next_col
+        layouts.append(DropLayout(sc.config.name, mesh, ps, int(off), np.array(cols),
+                                  guess_clock_s=guesses[sc.config.name]))
+    return layouts, next_col
 
 
-def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str = "gauss-newton",
-              linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
+def joint_settings(scenarios: list[Scenario], **overrides) -> tuple[FitSettings, list[str]]:
+    """The joint fit's solver settings: the first drop's ``[estimation]`` (keyword overrides
+    win), and notes naming drops whose settings differ (their values are not used)."""
+    settings = [FitSettings.from_estimation(sc.config.estimation, **overrides) for sc in scenarios]
+    notes = [f"{sc.config.name}: [estimation] solver settings {s} differ from the first drop's; the joint fit uses "
+             f"{settings[0]}" for sc, s in zip(scenarios[1:], settings[1:]) if s != settings[0]]
+    return settings[0], notes
+
+
+def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | None = None,
+              linear_solver: str | None = None, max_iter: int | None = None, tol: float | None = None,
               print_level: int = 0) -> JointResult:
-    """Solve the joint NLP. Raises FitError when it does not converge or the KKT matrix is singular."""
+    """Solve the joint NLP. Raises FitError when it does not converge or the KKT matrix is singular.
+
+    Solver settings come from the drops' ``[estimation]`` tables (see :func:`joint_settings`);
+    the keyword arguments override them.
+    """
     if len({sc.config.name for sc in scenarios}) != len(scenarios):
         raise FitError("joint fit: two drops have the same problem name")
     weak = [sc.config.name for sc in scenarios if sc.config.estimation.disturbance is not None]
@@ -163,50 +173,50 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str = "ga
         raise FitError(f"joint fit: {', '.join(weak)} estimate(s) disturbance states (gust_sigma_mps, "
                        "force_error_sigma_n or moment_error_sigma_nm in [estimation]); the joint fit supports "
                        "only the strong constraint so far: fit those drops one by one")
+    settings, setting_notes = joint_settings(scenarios, hessian=hessian, linear_solver=linear_solver,
+                                             max_iter=max_iter, tol=tol, print_level=print_level)
     t0 = time.perf_counter()
     prepared = [prepare_drop(sc) for sc in scenarios]
     psets, shared = _parameter_sets(scenarios, cfg)
-    guesses0 = [sc.config.estimation.clock_offset_guess_s for sc in scenarios]
+    measurements = [load_measurements(sc.config, data) for sc, (data, _) in zip(scenarios, prepared)]
     x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
            for sc, (data, mesh) in zip(scenarios, prepared)]
 
-    def build(guesses: dict[str, float]):
-        parts, n_z = _layout(scenarios, [m for _, m in prepared], psets, shared)
-        for part in parts:
-            part.guess_clock_s = guesses[part.name]
-        sets = [drop_block_sets(sc.model, data, part, sc.config)
-                for sc, (data, _), part in zip(scenarios, prepared, parts)]
-        return assemble_nlp(parts, sets, n_z, hessian, prefix_groups=True)
+    def build(guesses: dict[str, float]) -> FitNlp:
+        layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses)
+        contexts = [DropContext(sc.model, sc.config, layout, data, meas, prefixed=True)
+                    for sc, (data, _), layout, meas in zip(scenarios, prepared, layouts, measurements)]
+        return assemble_drops(contexts, n_z, settings.hessian)
 
-    def start(nlp) -> np.ndarray:
-        z0 = np.zeros(nlp.z.numel())
-        for part, x0 in zip(nlp.parts, x0s):
+    def start(fit_nlp: FitNlp) -> np.ndarray:
+        z0 = np.zeros(fit_nlp.nlp.n_z)
+        for part, x0 in zip(fit_nlp.parts, x0s):
             z0[part.node_cols] = (x0 / STATE_SCALE).ravel()
         return z0
 
-    nlp, sol, build_s = solve_fit(build, start, {sc.config.name: g for sc, g in zip(scenarios, guesses0)},
-                                  dict(linear_solver=linear_solver, max_iter=max_iter, tol=tol,
-                                       print_level=print_level))
-    parts, n_z = nlp.parts, nlp.z.numel()
+    guesses0 = {sc.config.name: sc.config.estimation.clock_offset_guess_s for sc in scenarios}
+    fit_nlp, sol, build_s = solve_fit(build, start, guesses0, settings)
+    nlp = fit_nlp.nlp
     t2 = time.perf_counter()
     r = residual_vector(nlp, sol.z)
     cov = covariance_or_fail(nlp, sol.z, r)
     timings = {"build_s": build_s, "solve_s": sol.solve_s}
-    drops = [drop_result(sc, data, part, nlp, sol, cov, r, timings)
-             for sc, (data, _), part in zip(scenarios, prepared, parts)]
-    columns = nlp.parameter_columns()
+    drops = [drop_result(sc, data, fit_nlp, i, sol, cov, r, timings)
+             for i, (sc, (data, _)) in enumerate(zip(scenarios, prepared))]
+    if setting_notes:
+        drops = [dataclasses.replace(d, notes=d.notes + tuple(setting_notes)) for d in drops]
+    columns = nlp.parameter_names
     cols = np.array(list(columns))
-    scales = np.zeros(n_z)
-    for part in parts:
+    scales = np.zeros(nlp.n_z)
+    for part in fit_nlp.parts:
         scales[part.theta_cols] = part.params.scales
     c = cov.covariance_of(cols, scales[cols])
     sigma = np.sqrt(np.diag(c))
     t3 = time.perf_counter()
     timings.update(covariance_s=t3 - t2, total_s=t3 - t0)
-    chi2 = float(sum(sum(d.chi2.values()) for d in drops))
     return JointResult(cfg, drops, tuple(columns.values()), sol.z[cols] * scales[cols], sigma,
-                       c / np.outer(sigma, sigma), shared, chi2, drops[0].dof, cov.reduced_chi2, timings,
-                       sol.iterations, sol.status)
+                       c / np.outer(sigma, sigma), shared, nlp.chi2(r), nlp.dof(), cov.reduced_chi2, timings,
+                       sol.iterations, sol.status, settings)
 
 
 def _single_sigma(problem: str) -> tuple[str, dict[str, float]]:

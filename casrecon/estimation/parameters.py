@@ -1,9 +1,10 @@
-"""The estimated parameters of one drop: names, scaling, priors, and where each one goes.
+"""The estimated parameters of a fit: names, scaling, priors; and the flight model's own.
 
 Names match ``truth.json``: the dispersion factors (``CA_mult`` ...), ``wind_bias_n``,
-``wind_bias_e``, ``density_factor``, ``accel_bias_x/y/z`` (m/s^2, IMU axes), ``gyro_bias_x/y/z``
-(rad/s, IMU axes) and ``clock_offset_s``. Each parameter is an Ipopt variable divided by its
-``scale``; a prior, when on, is a residual ``(value - 0) / sigma``.
+``wind_bias_e``, ``density_factor`` (and ``downwash_mps``) are the flight model's
+(:func:`model_parameters`); the measurement kinds add theirs (IMU biases, clock offset, ...; see
+:mod:`casrecon.estimation.kinds`). Each parameter is an Ipopt variable divided by its ``scale``; a
+prior, when on, is a residual ``(value - 0) / sigma``.
 """
 
 from __future__ import annotations
@@ -14,9 +15,6 @@ import numpy as np
 
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.aero import DISPERSION_NAMES
-from casrecon.physics.dynamics import PARAMETER_NAMES
-
-SENSOR_NAMES = tuple(f"{k}_bias_{a}" for k in ("accel", "gyro") for a in "xyz")
 
 
 @dataclass(frozen=True)
@@ -27,7 +25,8 @@ class ParameterSpec:
     ----------
     name : str
     group : str
-        ``"aero"``, ``"atmosphere"``, ``"imu"`` or ``"clock"`` (the residual group of its prior).
+        Prior group (``"aero"``, ``"atmosphere"``, ``"imu"``, ``"clock"``, ...): its prior's
+        residual group is ``prior_<group>``.
     scale : float
         Typical size, SI units: the Ipopt variable is value / scale.
     prior_sigma : float or None
@@ -63,14 +62,9 @@ class ParameterSet:
     def index(self, name: str) -> int:
         return self.names.index(name)
 
-    def model_selection(self) -> list[tuple[int, int]]:
-        """(model parameter index, estimated index) pairs for the FlightModel parameter vector."""
-        return [(PARAMETER_NAMES.index(s.name), i) for i, s in enumerate(self.specs) if s.name in PARAMETER_NAMES]
-
-
-
-def parameter_set(cfg: ProblemConfig) -> ParameterSet:
-    """The parameters a per-drop fit estimates, with priors per ``[estimation]``."""
+def model_parameters(cfg: ProblemConfig) -> tuple[ParameterSpec, ...]:
+    """The flight model's parameters a per-drop fit estimates (dispersions, atmosphere
+    corrections, downwash), with priors per ``[estimation]``."""
     est, sizes = cfg.estimation, cfg.aero.sizes
     active = est.estimate or tuple(n for n in DISPERSION_NAMES if getattr(sizes, n) > 0)
     if cfg.aero.vanes is None:
@@ -86,11 +80,4 @@ def parameter_set(cfg: ProblemConfig) -> ParameterSet:
     if est.estimate_downwash:
         specs.append(ParameterSpec("downwash_mps", "atmosphere", est.downwash_sigma_mps,
                                    est.downwash_sigma_mps if on else None, "m/s"))
-    for name in SENSOR_NAMES:
-        sigma = cfg.imu.accel_bias_sigma_mps2 if name.startswith("accel") else cfg.imu.gyro_bias_sigma_radps
-        unit = "m/s^2" if name.startswith("accel") else "rad/s"
-        specs.append(ParameterSpec(name, "imu", sigma, sigma if est.imu_bias_prior else None, unit))
-    if est.estimate_clock:
-        specs.append(ParameterSpec("clock_offset_s", "clock", est.clock_sigma_s,
-                                   est.clock_sigma_s if est.clock_prior else None, "s"))
-    return ParameterSet(tuple(specs))
+    return tuple(specs)

@@ -22,22 +22,28 @@ import numpy as np
 import pymap3d
 from scipy.interpolate import BSpline
 
-from casrecon.estimation.assembly import BlockKind
-from casrecon.estimation.covariance import Covariance
-from casrecon.estimation.fit import FitError, check_converged, check_determined, covariance_or_fail, residual_vector
+from casrecon.estimation.engine.blocks import BlockSet, Term
+from casrecon.estimation.engine.checks import (
+    FitError,
+    check_converged,
+    check_determined,
+    covariance_or_fail,
+    residual_vector,
+)
+from casrecon.estimation.engine.covariance import Covariance
+from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
+from casrecon.estimation.engine.solve import SolveResult, solve
+from casrecon.estimation.kinds.drag import CDA_SCALE, SCALE, drag_interval_kind, drag_prior_terms
+from casrecon.estimation.kinds.priors import prior_terms
+from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet, ParameterSpec
-from casrecon.estimation.problem import DropPart, FitNlp, _BlockSet, assemble_nlp
 from casrecon.estimation.segment import SegmentError, find_segment
-from casrecon.estimation.solve import SolveResult, solve
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.pointmass import PointMassModel
-
-SCALE = np.array([100.0, 100.0, 100.0, 10.0, 10.0, 10.0])
-CDA_SCALE = 0.1
 
 
 @dataclass
@@ -72,7 +78,7 @@ class PointMassResult:
     reduced_chi2: float
     solver: SolveResult
     timings: dict[str, float]
-    nlp: FitNlp
+    nlp: Nlp
     z: np.ndarray                     # scaled decision vector at the solution
     covariance: Covariance
     track: GpsTrack                   # the whole track as read
@@ -154,43 +160,6 @@ def _parameters(n_coef: int, n_areas: int, cfg: PointMassConfig) -> ParameterSet
     return ParameterSet(tuple(specs))
 
 
-def _interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: int, wind_scale: float) -> BlockKind:
-    n_c = n_coef * n_areas
-    v = ca.SX.sym("v", 12 + n_c + 2)
-    xk, xk1 = v[:6] * ca.DM(SCALE), v[6:12] * ca.DM(SCALE)
-    coef, wind = ca.reshape(v[12:12 + n_c] * CDA_SCALE, n_coef, n_areas), v[12 + n_c:] * wind_scale
-    bk, bm, bk1 = (ca.SX.sym(n, n_coef) for n in ("bk", "bm", "bk1"))
-    yk, wk, yk1, wk1 = ca.SX.sym("yk", 6), ca.SX.sym("wk", 6), ca.SX.sym("yk1", 6), ca.SX.sym("wk1", 6)
-
-    def area(b):
-        a = coef.T @ b
-        return ca.vertcat(a, ca.DM.zeros(3 - n_areas)) if n_areas < 3 else a
-
-    fk, fk1 = model.rhs(xk, area(bk), wind), model.rhs(xk1, area(bk1), wind)
-    xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
-    defect = (xk1 - xk - h / 6 * (fk + 4 * model.rhs(xm, area(bm), wind) + fk1)) / ca.DM(SCALE)
-    residual = ca.vertcat((yk - xk) * wk, (yk1 - xk1) * wk1)
-    return BlockKind("pm_interval", v, [bk, bm, bk1, yk, wk, yk1, wk1], residual, defect)
-
-
-def _prior_kind(params: ParameterSet, n_coef: int, n_areas: int, cfg: PointMassConfig) -> tuple[BlockKind, dict]:
-    v = ca.SX.sym("v", params.n)
-    rows, groups = [], {}
-    if n_coef > 2:
-        for a in range(n_areas):
-            c = v[a * n_coef:(a + 1) * n_coef] * CDA_SCALE
-            rows += [(c[i] - 2 * c[i + 1] + c[i + 2]) / cfg.drag.smoothness_sigma_m2 for i in range(n_coef - 2)]
-        groups["prior_smoothness"] = slice(0, len(rows))
-    if n_areas > 1:
-        start = len(rows)
-        rows += [v[i] * CDA_SCALE / cfg.drag.lift_sigma_m2 for i in range(n_coef, n_coef * n_areas)]
-        groups["prior_lift"] = slice(start, len(rows))
-    start, n_c = len(rows), n_coef * n_areas
-    rows += [v[n_c + i] * params.scales[n_c + i] / params.specs[n_c + i].prior_sigma for i in range(2)]
-    groups["prior_atmosphere"] = slice(start, start + 2)
-    return BlockKind("pm_prior", v, [], ca.vertcat(*rows), None), groups
-
-
 def _initial_cda(data: PointMassData, cfg: PointMassConfig, atm: Atmosphere) -> float:
     """CdA from the drag needed to explain the vertical acceleration at each good fix (median)."""
     ok = data.inv_sigma[:, 0] > 0
@@ -217,7 +186,7 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     params = _parameters(n_coef, n_areas, cfg)
     k = t_rel.size
     mesh = Mesh(t_rel, h, 1)
-    part = DropPart(cfg.name, mesh, params, 0, 6 * k + np.arange(params.n), 0, state_scale=SCALE)
+    part = DropLayout(cfg.name, mesh, params, 0, 6 * k + np.arange(params.n), state_scale=SCALE)
     n_int = k - 1
     cols = np.column_stack([6 * np.arange(n_int)[:, None] + np.arange(12)[None, :],
                             np.tile(part.theta_cols, (n_int, 1))])
@@ -226,11 +195,12 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     last[-1] = 1.0
     block_data = [ca.DM(basis[:-1].T), ca.DM(b_mid.T), ca.DM(basis[1:].T), ca.DM(data.y[:-1].T),
                   ca.DM(data.inv_sigma[:-1].T), ca.DM(data.y[1:].T), ca.DM((data.inv_sigma[1:] * last).T)]
-    kind = _interval_kind(model, h, n_coef, n_areas, params.scales[-1])
-    sets = [_BlockSet(kind, cols, block_data, 6 * np.arange(n_int), "gps")]
-    prior, part.groups = _prior_kind(params, n_coef, n_areas, cfg)
-    sets.append(_BlockSet(prior, part.theta_cols[None, :], [], group="prior"))
-    nlp = assemble_nlp([part], [sets], 6 * k + params.n, quaternions=False)
+    kind = drag_interval_kind(model, h, n_coef, n_areas, params.scales[-1])
+    terms = [Term("gps", (BlockSet(kind, cols, block_data),)),
+             *drag_prior_terms(n_coef, n_areas, part.theta_cols[:n_coef * n_areas], cfg),
+             *prior_terms(params, part.theta_cols)]
+    nlp = assemble_nlp(terms, 6 * k + params.n, dependent=part.dependent_cols,
+                       parameter_names=dict(zip(part.theta_cols.tolist(), params.names)))
     cda0 = _initial_cda(data, cfg, atm)
     pos_vel = np.column_stack([np.interp(t_rel, t_rel[data.inv_sigma[:, i] > 0], data.y[data.inv_sigma[:, i] > 0, i])
                                for i in range(6)])
@@ -268,8 +238,8 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     cda, cda_sigma = areas[0], area_sigma[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         norm = np.where(data.inv_sigma > 0, (data.y - states) * data.inv_sigma, np.nan)
-    chi2 = {g: float(r[s] @ r[s]) for g, s in part.groups.items()}
-    counts = {g: s.stop - s.start for g, s in part.groups.items()}
+    chi2 = nlp.group_chi2(r)
+    counts = dict(nlp.n_measurements)
     counts["gps"] = int((data.inv_sigma > 0).sum())
     dof = sum(counts.values()) - (nlp.z.numel() - nlp.constraints.numel())
     return PointMassResult(cfg, model_name, data.t_unix, states, state_sigma, cda, cda_sigma, part.params, values,

@@ -152,7 +152,7 @@ def test_gauss_newton_decrement_measures_distance_from_optimum(mask_fit):
     """At the estimate the decrement is below its 1e-3 tolerance; moved by u in the whitened
     reduced coordinates (dz = Z L u, cov_w = L L^T) it is |u|^2, here 4 (the problem is nearly
     linear over 2 sigma)."""
-    from casrecon.estimation.convergence import DECREMENT_TOL, gauss_newton_decrement
+    from casrecon.estimation.engine.convergence import DECREMENT_TOL, gauss_newton_decrement
 
     nlp, z, cov = mask_fit.nlp, mask_fit.z, mask_fit.covariance
     assert gauss_newton_decrement(nlp, z) <= DECREMENT_TOL
@@ -160,3 +160,17 @@ def test_gauss_newton_decrement_measures_distance_from_optimum(mask_fit):
     u[[0, -1]] = np.sqrt(2.0)
     dz = cov.basis @ (np.linalg.cholesky(cov.cov_w) @ u)
     assert gauss_newton_decrement(nlp, z + dz) == pytest.approx(4.0, rel=0.05)
+
+
+def test_declared_imu_rate_must_match_the_file():
+    """A log whose samples are 500 Hz apart declared as 400 Hz is refused, naming both rates,
+    instead of silently getting intervals of another length than asked for."""
+    from casrecon.estimation.fit import prepare_drop
+
+    sc = Scenario.load(PROBLEMS / "ees-drop-1")
+    cfg = sc.config
+    wrong = Scenario.from_config(replace(cfg, imu=replace(cfg.imu, rate_hz=400.0)))
+    with pytest.raises(FitError, match=r"500\.00 Hz.*rate_hz = 400"):
+        prepare_drop(wrong)
+    data, mesh = prepare_drop(sc)
+    assert mesh.h == pytest.approx(0.026, rel=1e-6)  # 13 samples at the measured 500 Hz

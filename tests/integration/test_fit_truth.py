@@ -29,7 +29,7 @@ from conftest import EES_DROPS, PROBLEMS
 
 from casrecon.analysis.synthetic import simulate_truth, truth_parameters_by_name
 from casrecon.estimation.fit import fit_drop
-from casrecon.estimation.problem import NS
+from casrecon.estimation.layout import NS
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.scenario import Scenario
 

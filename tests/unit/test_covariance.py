@@ -10,9 +10,9 @@ import pytest
 import scipy.sparse as sps
 from conftest import PROBLEMS
 
-from casrecon.estimation.covariance import KktCovariance, compute_covariance
+from casrecon.estimation.engine.covariance import KktCovariance, compute_covariance
 from casrecon.estimation.fit import fit_drop
-from casrecon.estimation.problem import NS
+from casrecon.estimation.layout import NS
 from casrecon.estimation.transcription import STATE_SCALE
 from casrecon.scenario import Scenario
 
@@ -54,12 +54,12 @@ def relative_gap(got: np.ndarray, want: np.ndarray) -> float:
 def test_parameter_block_equals_dense_kkt_inverse(short_fit, dense_kkt_cov):
     nlp = short_fit.nlp
     cov = short_fit.covariance
-    idx = np.arange(nlp.n_state_vars, nlp.z.numel())
+    idx = np.arange(short_fit.part.n_state_vars, nlp.z.numel())
     got = cov.covariance_of(idx)
     want = dense_kkt_cov[np.ix_(idx, idx)]
     assert relative_gap(got, want) < 1e-6
     # and what FitResult reports is that block in SI units
-    s = nlp.params.scales
+    s = short_fit.params.scales
     assert short_fit.sigma == pytest.approx(np.sqrt(np.diag(want)) * s, rel=1e-6)
 
 
@@ -67,17 +67,17 @@ def test_parameter_block_equals_dense_kkt_inverse(short_fit, dense_kkt_cov):
 def test_node_state_blocks_equal_dense_kkt_inverse(short_fit, dense_kkt_cov, node):
     nlp = short_fit.nlp
     cov = short_fit.covariance
-    k = nlp.mesh.t_nodes.size
+    k = short_fit.part.mesh.t_nodes.size
     node = node % k
     # node state and its cross-covariance with the parameters
-    idx = np.r_[NS * node + np.arange(NS), np.arange(nlp.n_state_vars, nlp.z.numel())]
+    idx = np.r_[NS * node + np.arange(NS), np.arange(short_fit.part.n_state_vars, nlp.z.numel())]
     got = cov.covariance_of(idx)
     want = dense_kkt_cov[np.ix_(idx, idx)]
     if node == 0:
         # the unit-norm row makes the initial quaternion's covariance rank-deficient (q0 dq0 = 0):
         # compare entries relative to the largest variance of the block instead
         assert np.max(np.abs(got - want)) / np.max(np.diag(want)) < 1e-6
-        q = short_fit.nlp.unpack(short_fit.solver.z)[0][0, 6:10] / STATE_SCALE[6:10]
+        q = short_fit.part.states(short_fit.solver.z)[0, 6:10] / STATE_SCALE[6:10]
         assert np.abs(q @ got[6:10, 6:10]).max() < 1e-9 * np.max(np.diag(want))
     else:
         assert relative_gap(got, want) < 1e-6
@@ -94,7 +94,7 @@ def test_recomputed_covariance_is_the_reported_one(short_fit):
 
 def test_at_bounds_hand_cases():
     """Within 1e-4 of the bound interval's width of a bound (1e-4 absolute when one-sided)."""
-    from casrecon.estimation.convergence import at_bounds
+    from casrecon.estimation.engine.convergence import at_bounds
 
     z = np.array([0.0, 1.0 - 5e-5, 0.5, -1.0, 3.0, 2e-5])
     lo = np.array([0.0, -1.0, 0.0, -np.inf, -np.inf, 0.0])
@@ -107,11 +107,11 @@ def test_variance_of_a_combination_matches_the_dense_inverse(short_fit, dense_kk
     """The variance of a weighted sum (here the window mean of the pitch rate, then arbitrary
     weights on pitch rate and two parameters) from the null-space covariance and from one sparse-LU
     solve of the KKT matrix (the disturbance-state path) equals w^T C w of the dense inverse."""
-    nlp = short_fit.nlp
-    k = nlp.mesh.t_nodes.size
+    k = short_fit.part.mesh.t_nodes.size
     q_idx = NS * np.arange(k) + 11
+    n_sv = short_fit.part.n_state_vars
     cases = [(q_idx, np.full(k, 1.0 / k)),
-             (np.r_[q_idx[:3], nlp.n_state_vars, nlp.n_state_vars + 4], np.array([1.0, -2.0, 0.5, 3.0, -1.0]))]
+             (np.r_[q_idx[:3], n_sv, n_sv + 4], np.array([1.0, -2.0, 0.5, 3.0, -1.0]))]
     kkt, n_z = dense_kkt
     lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1)
     for idx, w in cases:

@@ -134,9 +134,9 @@ def test_weak_constraint_blocks_match_casadi(short_weak_fit):
     jtj = np.triu(j_r.T @ j_r)
     assert np.asarray(d.gauss_newton(z).full()) == pytest.approx(jtj, rel=1e-9, abs=1e-9 * np.abs(jtj).max())
     # the disturbance columns carry their Gauss-Markov prior rows
-    part = nlp.parts[0]
-    assert part.u_cols.shape == (nlp.mesh.t_nodes.size, 9)
-    assert "disturbance" in part.groups and "disturbance_start" in part.groups
+    part = short_weak_fit.part
+    assert part.u_cols.shape == (part.mesh.t_nodes.size, 9)
+    assert "disturbance" in nlp.groups and "disturbance_start" in nlp.groups
 
 
 def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
@@ -149,7 +149,7 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
     n_z, n_g = h.shape[0], a.shape[0]
     dense = np.linalg.inv(np.block([[h, a.T], [a, np.zeros((n_g, n_g))]]))[:n_z, :n_z]
     cov = short_weak_fit.covariance
-    part = nlp.parts[0]
+    part = short_weak_fit.part
     idx = np.r_[part.theta_cols, part.u_cols[7], part.node_cols[13 * 5:13 * 6]]
     want = dense[np.ix_(idx, idx)]
     s = np.sqrt(np.diag(want))
@@ -158,4 +158,4 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
     assert np.max(np.abs(block - want) / np.outer(s, s)) < 1e-6
     # the fit reports the estimated disturbances with their bands
     v, sig = short_weak_fit.column("moment_error_y_nm")
-    assert v.shape == sig.shape == (nlp.mesh.t_nodes.size,) and np.all(sig > 0)
+    assert v.shape == sig.shape == (part.mesh.t_nodes.size,) and np.all(sig > 0)

@@ -12,10 +12,9 @@ from conftest import PROBLEMS
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from casrecon.estimation.drop import build_nlp, parameter_set
 from casrecon.estimation.fitdata import load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
-from casrecon.estimation.parameters import parameter_set
-from casrecon.estimation.problem import build_nlp
 from casrecon.estimation.transcription import (
     ACCEL_TAU,
     CHANNEL_BASIS,
@@ -116,18 +115,19 @@ def tiny():
     x0 = initial_guess(data, mesh, cfg.vehicle, sc.atmosphere, cfg.site.ground_alt_msl_m)
     out = {}
     for hess in ("gauss-newton", "exact"):
-        nlp = build_nlp(sc.model, data, mesh, params, cfg, hess)
-        out[hess] = nlp
+        out[hess] = build_nlp(sc.model, data, mesh, params, cfg, hess)
     rng = np.random.default_rng(3)
     z0 = out["exact"].pack(x0, rng.normal(size=params.n) * params.scales)
+    out = {hess: fit_nlp.nlp for hess, fit_nlp in out.items()}
+    out["mesh"] = mesh
     z = z0 + 1e-3 * rng.normal(size=z0.size)
     return out, z
 
 
 def test_tiny_problem_size(tiny):
-    nlp = tiny[0]["gauss-newton"]
-    assert 25 <= nlp.mesh.n_intervals <= 35
-    assert nlp.constraints.numel() == 13 * nlp.mesh.n_intervals + 1
+    nlp, mesh = tiny[0]["gauss-newton"], tiny[0]["mesh"]
+    assert 25 <= mesh.n_intervals <= 35
+    assert nlp.constraints.numel() == 13 * mesh.n_intervals + 1
 
 
 def test_block_gradient_and_jacobian_match_casadi(tiny):

@@ -1,4 +1,4 @@
-"""Global sparse derivatives assembled from per-block (per-interval, per-fix) pieces.
+"""Blocks: the pieces an NLP is made of, and the sparse targets their derivatives land in.
 
 A block depends on a few local variables (two neighbouring nodes and the parameters). Its value
 function (residuals, constraints), its derivative function (J_r^T r, J_g nonzeros and the
@@ -12,6 +12,8 @@ upper-triangular order lands in the global upper triangle (the local-to-global m
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -104,3 +106,70 @@ class BlockKind:
         jtj = np.matmul(j.transpose(0, 2, 1), j)
         h_rows, h_cols = self.patterns["jtj"]
         return jtj[:, h_rows, h_cols]
+
+
+#: Threads over which the block functions of one set are evaluated.
+MAP_THREADS = 2
+
+
+class BlockSet:
+    """All blocks of one kind in an NLP: the kind, each block's global columns and its data.
+
+    Parameters
+    ----------
+    kind : BlockKind
+    cols : (n_blocks, kind.n_local) int array
+        Global z index of every local variable of every block (increasing along a row).
+    data : list of DM
+        Per-block data inputs of ``kind``, one column per block.
+    determining : bool
+        Whether the block's constraints (if any) are among those that fix the dependent columns
+        of the NLP (collocation defects), or side constraints (e.g. a unit norm).
+    """
+
+    def __init__(self, kind: BlockKind, cols: np.ndarray, data: list | None = None, determining: bool = True) -> None:
+        self.kind, self.cols, self.data = kind, np.asarray(cols, np.int64), list(data or [])
+        self.determining = determining
+        n = self.cols.shape[0]
+        self.derivs = kind.derivatives.map(n, "thread", MAP_THREADS) if n > 1 else kind.derivatives
+        self.hess = kind.exact_hessian.map(n, "thread", MAP_THREADS) if n > 1 else kind.exact_hessian
+        self.values = kind.values.map(n, "thread", MAP_THREADS) if n > 1 else kind.values
+
+    @property
+    def n_blocks(self) -> int:
+        return int(self.cols.shape[0])
+
+    def local(self, z: np.ndarray) -> np.ndarray:
+        """The blocks' local variables (n_local, n_blocks) from the global z."""
+        return z[self.cols].T
+
+
+@dataclass(frozen=True)
+class Term:
+    """One named residual group of an NLP: its block sets and what its rows stand for.
+
+    Parameters
+    ----------
+    group : str
+        Residual group name (chi-square is reported per group), e.g. ``"imu"``, ``"gps"``,
+        ``"prior_aero"``; a term with no residual rows (constraints only) reports nothing.
+    sets : tuple of BlockSet
+    const_chi2 : float
+        Part of the group's chi-square that no unknown changes (e.g. the constant of an exact QR
+        compression of many samples into few rows).
+    n_measurements : int or None
+        Measurements the rows stand for (None: one per residual row).
+    """
+
+    group: str
+    sets: tuple[BlockSet, ...] = field(default_factory=tuple)
+    const_chi2: float = 0.0
+    n_measurements: int | None = None
+
+
+def unit_norm_term(cols: np.ndarray, group: str = "unit_norm") -> Term:
+    """Side constraints |z[c]|^2 = 1 for each row ``c`` of ``cols`` (e.g. a quaternion per drop)."""
+    cols = np.asarray(cols, np.int64)
+    v = ca.SX.sym("v", cols.shape[1])
+    kind = BlockKind(group, v, [], ca.SX(0, 1), ca.dot(v, v) - 1)
+    return Term(group, (BlockSet(kind, cols, determining=False),))

@@ -1,17 +1,17 @@
-"""Covariance of the fit from the KKT matrix at the solution (DESIGN section 1).
+"""Covariance of an NLP's estimate from the KKT matrix at the solution.
 
 For min 1/2 |r(z)|^2 s.t. g(z) = 0 the covariance of z is the z-block of the inverse of
-K = [[H, A^T], [A, 0]], H the Hessian (Gauss-Newton J^T J, the Fisher information, by default) and
-A = dg/dz. With Z a basis of the null space of A that block equals Z (Z^T H Z)^-1 Z^T, which is how
-it is computed: the collocation defects make every node after the first a function of the first
-node and the parameters, so Z = [-A_D^-1 A_I N; N] with A_D the (block-bidiagonal, sparse LU)
-defect Jacobian in the later nodes, A_I the rest, and N a basis of the null space of the
-quaternion-norm row. Z has as many columns as there are free directions (13 + parameters - 1), so
-marginal variances of every node state and every derived output cost a few small dense products.
-``tests/unit/test_covariance.py`` checks this against a dense inverse of K.
+K = [[H, A^T], [A, 0]], H the Gauss-Newton Hessian J^T J (the Fisher information) and A = dg/dz.
+With Z a basis of the null space of A that block equals Z (Z^T H Z)^-1 Z^T, which is how it is
+computed when the null space is small: the determining constraints (collocation defects) fix the
+``dependent`` columns given the others, so Z = [-A_D^-1 A_I N; N] with A_D their (sparse LU)
+Jacobian in the dependent columns, A_I the rest, and N a basis of the null space of the side
+constraints (unit norms) in the independent columns. Z has as many columns as there are free
+directions, so marginal variances of every node state and every derived output cost a few small
+dense products. ``tests/unit/test_covariance.py`` checks this against a dense inverse of K.
 
-With disturbance states (the weak-constraint option) every node carries independent unknowns, Z
-would have thousands of columns, and the z-block is instead read from sparse LU solves of K itself
+With latent process values at every node (``Nlp.latent``, the weak constraint) Z would have
+thousands of columns, and the z-block is instead read from sparse LU solves of K itself
 (:class:`KktCovariance`): the parameters' columns once, each requested node's columns on demand.
 
 Two covariances are reported: the absolute one (noise sigmas taken as given) and the one scaled
@@ -28,7 +28,7 @@ import scipy.sparse as sps
 from scipy.linalg import null_space
 from scipy.sparse.linalg import splu
 
-from casrecon.estimation.problem import FitNlp
+from casrecon.estimation.engine.nlp import Nlp
 
 #: A reduced Hessian with condition number above this is reported as singular.
 MAX_CONDITION = 1e13
@@ -164,16 +164,15 @@ class KktCovariance:
         return out
 
 
-def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_quat: int = 1) -> np.ndarray:
-    """Z with A Z = 0 for a fit's constraint Jacobian: defect rows first, then ``n_quat``
-    quaternion-norm rows; ``dep`` are the z indices the defects determine (every node but the
-    first of each drop)."""
+def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int) -> np.ndarray:
+    """Z with A Z = 0 for a constraint Jacobian whose first ``n_determining`` rows fix the
+    columns ``dep`` given the others (the rest are side constraints, e.g. unit norms)."""
     n_z = a.shape[1]
-    n_def = a.shape[0] - n_quat
+    n_def = n_determining
     indep = np.setdiff1d(np.arange(n_z), dep)
     a_def = a[:n_def]
     a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].toarray()
-    n_basis = null_space(a[n_def:, indep].toarray()) if n_quat else np.eye(indep.size)
+    n_basis = null_space(a[n_def:, indep].toarray()) if a.shape[0] > n_def else np.eye(indep.size)
     z_dep = -splu(a_d).solve(a_i @ n_basis)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
@@ -187,7 +186,7 @@ def _to_scipy(m: ca.DM) -> sps.csc_matrix:
                           shape=(m.size1(), m.size2()))
 
 
-def fisher_and_jacobian(nlp: FitNlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.csc_matrix]:
+def fisher_and_jacobian(nlp: Nlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.csc_matrix]:
     """(H, A) at ``z`` (scaled): the full symmetric Gauss-Newton Hessian J^T J and dg/dz."""
     d = nlp.derivatives
     a = _to_scipy(d.jacobian_g(z))
@@ -195,18 +194,18 @@ def fisher_and_jacobian(nlp: FitNlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps
     return h_upper + sps.triu(h_upper, 1).T, a
 
 
-def reduced_hessian(nlp: FitNlp, h: sps.csc_matrix, a: sps.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
+def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
     """(Z, Z^T H Z): a null-space basis of the constraint Jacobian and the reduced Hessian
-    (strong-constraint fits only: with disturbance states Z would have thousands of columns)."""
-    basis = null_space_basis(a, nlp.dependent_columns(), nlp.derivatives.quat_cols.shape[0])
+    (NLPs without latent process values: with them Z would have thousands of columns)."""
+    basis = null_space_basis(a, nlp.dependent, nlp.n_determining)
     hr = basis.T @ (h @ basis)
     return basis, 0.5 * (hr + hr.T)
 
 
-def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Covariance | KktCovariance:
+def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int) -> Covariance | KktCovariance:
     """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J."""
     h, a = fisher_and_jacobian(nlp, z)
-    if any(p.n_u for p in nlp.parts):
+    if nlp.latent:
         return _kkt_covariance(nlp, h, a, chi2, dof)
     basis, hr = reduced_hessian(nlp, h, a)
     eig, vec = np.linalg.eigh(hr)
@@ -217,10 +216,10 @@ def compute_covariance(nlp: FitNlp, z: np.ndarray, chi2: float, dof: int) -> Cov
     return Covariance(basis, cov_w, chi2 / max(dof, 1), cond)
 
 
-def _kkt_covariance(nlp: FitNlp, h, a, chi2: float, dof: int) -> KktCovariance:
+def _kkt_covariance(nlp: Nlp, h, a, chi2: float, dof: int) -> KktCovariance:
     kkt = sps.bmat([[h, a.T], [a, None]], format="csc")
     cov = KktCovariance(kkt, h.shape[0], chi2, dof)
-    cols = np.array(sorted(nlp.parameter_columns()))
+    cols = np.array(sorted(nlp.parameter_names))
     eig = np.linalg.eigvalsh(cov.covariance_of(cols))
     cov.condition = float(eig[-1] / max(eig[0], 1e-300))
     if eig[0] <= 0 or cov.condition > MAX_CONDITION:
@@ -229,9 +228,9 @@ def _kkt_covariance(nlp: FitNlp, h, a, chi2: float, dof: int) -> KktCovariance:
     return cov
 
 
-def _weakest_direction(nlp: FitNlp, basis: np.ndarray, v: np.ndarray, cond: float) -> str:
+def _weakest_direction(nlp: Nlp, basis: np.ndarray, v: np.ndarray, cond: float) -> str:
     dz = basis @ v
-    names = nlp.parameter_columns()
+    names = nlp.parameter_names
     cols = np.array(list(names))
     order = cols[np.argsort(-np.abs(dz[cols]))[:3]]
     combo = ", ".join(f"{names[int(c)]} ({dz[c]:+.2f})" for c in order)

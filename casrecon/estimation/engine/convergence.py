@@ -17,7 +17,7 @@ converged whatever Ipopt's dual infeasibility says. :class:`DecrementStop` appli
 Ipopt's iterates (as its iteration callback; variables on a bound are held, as in Ipopt's active
 set) and :func:`gauss_newton_decrement` once more after it returns.
 
-Strong-constraint fits only: with disturbance states the null space has thousands of directions
+NLPs without latent process values only (``Nlp.latent``): with them the null space has thousands of directions
 and the test is not made (Ipopt's own test stands).
 """
 
@@ -27,8 +27,8 @@ import casadi as ca
 import numpy as np
 from scipy.linalg import null_space
 
-from casrecon.estimation.covariance import fisher_and_jacobian, reduced_hessian
-from casrecon.estimation.problem import FitNlp
+from casrecon.estimation.engine.covariance import fisher_and_jacobian, reduced_hessian
+from casrecon.estimation.engine.nlp import Nlp
 
 #: Largest predicted chi-square decrease of a full Gauss-Newton step at a converged iterate: the
 #: iterate is then within sqrt(1e-3) = 0.03 sigma of the optimum.
@@ -40,9 +40,9 @@ FEASIBILITY_TOL = 1e-8
 OBJECTIVE_CHANGE = 1e-6
 
 
-def applies(nlp: FitNlp) -> bool:
-    """Whether the decrement test is made for ``nlp`` (no disturbance states)."""
-    return not any(p.n_u for p in nlp.parts)
+def applies(nlp: Nlp) -> bool:
+    """Whether the decrement test is made for ``nlp`` (no latent process values)."""
+    return not nlp.latent
 
 
 def at_bounds(z: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
@@ -57,7 +57,7 @@ def at_bounds(z: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None) -> np
     return np.flatnonzero(np.minimum(z - lo, hi - z) < 1e-4 * scale)
 
 
-def gauss_newton_decrement(nlp: FitNlp, z: np.ndarray, fixed: np.ndarray = ()) -> float:
+def gauss_newton_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = ()) -> float:
     """Predicted chi-square decrease of a full constrained Gauss-Newton step from ``z`` (scaled),
     holding the variables ``fixed`` (e.g. those on a bound, as Ipopt's active set does)."""
     h, a = fisher_and_jacobian(nlp, z)
@@ -73,7 +73,7 @@ def gauss_newton_decrement(nlp: FitNlp, z: np.ndarray, fixed: np.ndarray = ()) -
         return float("inf")
 
 
-def decrement_if_feasible(nlp: FitNlp, z: np.ndarray, g: np.ndarray,
+def decrement_if_feasible(nlp: Nlp, z: np.ndarray, g: np.ndarray,
                           bounds: tuple[np.ndarray, np.ndarray] | None) -> float | None:
     """The Gauss-Newton decrement at ``z`` with the variables on a bound held, or None when the
     constraint values ``g`` violate FEASIBILITY_TOL (the test is not made)."""
@@ -89,7 +89,7 @@ class DecrementStop(ca.Callback):
     reports User_Requested_Stop and the last iterate is the estimate.
     """
 
-    def __init__(self, nlp: FitNlp, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    def __init__(self, nlp: Nlp, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         ca.Callback.__init__(self)
         self.nlp, self.n_z, self.n_g, self.bounds = nlp, nlp.z.numel(), nlp.constraints.numel(), bounds
         self.previous_f: float | None = None

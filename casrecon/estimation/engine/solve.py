@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from casrecon.estimation import convergence
-from casrecon.estimation.problem import FitNlp
+from casrecon.estimation.engine import convergence
+from casrecon.estimation.engine.nlp import Nlp
 
 
 @dataclass(frozen=True)
@@ -62,7 +62,7 @@ class _Derivative(ca.Callback):
     NAMES = {"grad_f": (["x", "p"], ["f", "grad_f_x"]), "jac_g": (["x", "p"], ["g", "jac_g_x"]),
              "hess_lag": (["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])}
 
-    def __init__(self, which: str, nlp: FitNlp, value_fn: ca.Function | None) -> None:
+    def __init__(self, which: str, nlp: Nlp, value_fn: ca.Function | None) -> None:
         ca.Callback.__init__(self)
         self.which, self.nlp, self.value_fn = which, nlp, value_fn
         self.n_z, self.n_g = nlp.z.numel(), nlp.constraints.numel()
@@ -101,7 +101,7 @@ class _Derivative(ca.Callback):
         return [d.hessian_lagrangian(z, float(args[2]), np.asarray(args[3]).ravel())]
 
 
-def make_solver(nlp: FitNlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
+def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
                 print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[ca.Function, list]:
     """Build the Ipopt solver of ``nlp``; also returns the callbacks, which must outlive it (the
     last is the :class:`~casrecon.estimation.convergence.DecrementStop`, or None)."""
@@ -126,7 +126,7 @@ def make_solver(nlp: FitNlp, linear_solver: str = "mumps", max_iter: int = 200, 
     return solver, callbacks
 
 
-def solve(nlp: FitNlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
+def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
           print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> SolveResult:
     """Build the solver and run Ipopt from ``z0`` (scaled); ``bounds`` = (lbx, ubx), scaled."""
     t0 = time.perf_counter()
@@ -143,7 +143,7 @@ def solve(nlp: FitNlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: i
                        hessian=nlp.derivatives.hessian, linear_solver=linear_solver, decrement=decrement)
 
 
-def _judge(nlp: FitNlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) -> tuple[bool, str, float | None]:
+def _judge(nlp: Nlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) -> tuple[bool, str, float | None]:
     """(converged, status, Gauss-Newton decrement): Ipopt's verdict, or the decrement test's when
     it stopped Ipopt or when Ipopt ended unconverged at a feasible iterate."""
     status = str(stats["return_status"])

@@ -1,0 +1,124 @@
+"""A 6-DOF fit's NLP: one drop or several (a joint fit, whose drops share some parameter columns).
+
+Each drop has a :class:`~casrecon.estimation.layout.DropLayout` (where its nodes, parameters and
+latent disturbances sit in z) and a :class:`~casrecon.estimation.kinds.base.DropContext` (model,
+settings, data). Its residual groups come from the measurement kinds of :data:`MEASUREMENT_KINDS`
+(the IMU kind's interval blocks also carry the collocation defects), then the priors, then the
+disturbance process when the weak constraint is on; one unit-norm constraint per drop keeps its
+first quaternion normalised (the defects carry the norm along the mesh). Adding a kind of
+measurement means adding a module under :mod:`casrecon.estimation.kinds` and listing it here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from casrecon.estimation.engine.blocks import Term, unit_norm_term
+from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
+from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.kinds.base import DropContext, MeasurementKind
+from casrecon.estimation.kinds.disturbance import disturbance_terms
+from casrecon.estimation.kinds.gps import GpsKind
+from casrecon.estimation.kinds.imu import ImuKind
+from casrecon.estimation.kinds.priors import prior_terms
+from casrecon.estimation.layout import NS, DropLayout
+from casrecon.estimation.parameters import ParameterSet, model_parameters
+from casrecon.estimation.transcription import Mesh
+from casrecon.io.problem import ProblemConfig
+from casrecon.physics.dynamics import FlightModel
+
+#: The measurement kinds of a 6-DOF drop fit, in residual order (a kind whose ``load`` returns
+#: None for a problem contributes nothing to it).
+MEASUREMENT_KINDS: tuple[MeasurementKind, ...] = (ImuKind(), GpsKind())
+#: z columns of the first quaternion of a drop, relative to its first node.
+QUATERNION = np.arange(6, 10)
+
+
+def parameter_set(cfg: ProblemConfig, kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> ParameterSet:
+    """The parameters a per-drop fit estimates: the flight model's, then each kind's."""
+    specs = list(model_parameters(cfg))
+    for kind in kinds:
+        specs += kind.parameters(cfg)
+    return ParameterSet(tuple(specs))
+
+
+def load_measurements(cfg: ProblemConfig, data: FitData,
+                      kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> dict[str, object]:
+    """Each present kind's measurements for the fit window, by kind name."""
+    out = {}
+    for kind in kinds:
+        m = kind.load(cfg, data)
+        if m is not None:
+            out[kind.name] = m
+    return out
+
+
+def drop_terms(context: DropContext, kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> list[Term]:
+    """The residual terms of one drop: its present kinds, its priors and its disturbance process."""
+    terms: list[Term] = []
+    for kind in kinds:
+        if kind.name in context.measurements:
+            terms += kind.terms(context)
+    terms += prior_terms(context.layout.params, context.layout.theta_cols, lambda g: context.group(f"prior_{g}"))
+    return terms + disturbance_terms(context.layout, context.group)
+
+
+@dataclass(frozen=True)
+class FitNlp:
+    """A 6-DOF fit's NLP and its drops (one for a per-drop fit)."""
+
+    nlp: Nlp
+    contexts: tuple[DropContext, ...]
+
+    @property
+    def parts(self) -> tuple[DropLayout, ...]:
+        """Each drop's layout."""
+        return tuple(c.layout for c in self.contexts)
+
+    def pack(self, states: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """Per-drop fit: scaled z from node states (K, 13) and parameter values (SI)."""
+        return self.parts[0].pack(states, values, self.nlp.n_z)
+
+    def unpack(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per-drop fit: node states (K, 13) and parameter values, SI."""
+        return self.parts[0].states(z), self.parts[0].values(z)
+
+
+def parameter_names(layouts: list[DropLayout]) -> dict[int, str]:
+    """z column -> parameter name; parameters several drops share keep their plain name, a drop's
+    own parameters are ``drop.name`` when there is more than one drop."""
+    count: dict[int, int] = {}
+    for layout in layouts:
+        for col in layout.theta_cols:
+            count[int(col)] = count.get(int(col), 0) + 1
+    out = {}
+    for layout in layouts:
+        for name, col in zip(layout.params.names, layout.theta_cols):
+            own = len(layouts) > 1 and count[int(col)] == 1
+            out[int(col)] = f"{layout.name}.{name}" if own else name
+    return dict(sorted(out.items()))
+
+
+def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-newton") -> FitNlp:
+    """The NLP of every drop's terms, plus one unit-norm constraint on each drop's first quaternion."""
+    layouts = [c.layout for c in contexts]
+    terms = [t for c in contexts for t in drop_terms(c)]
+    terms.append(unit_norm_term(np.array([lay.node_offset + QUATERNION for lay in layouts])))
+    nlp = assemble_nlp(terms, n_z, dependent=np.concatenate([lay.dependent_cols for lay in layouts]),
+                       parameter_names=parameter_names(layouts), hessian=hessian,
+                       latent=any(lay.n_u for lay in layouts))
+    return FitNlp(nlp, tuple(contexts))
+
+
+def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg: ProblemConfig,
+              hessian: str = "gauss-newton", guess_clock_s: float | None = None) -> FitNlp:
+    """The NLP of one drop. GPS fixes are put on collocation intervals for the clock offset
+    ``guess_clock_s`` (default: the configured guess)."""
+    n_sv = NS * mesh.t_nodes.size
+    guess = cfg.estimation.clock_offset_guess_s if guess_clock_s is None else guess_clock_s
+    layout = DropLayout(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), guess_clock_s=guess,
+                        disturbance=cfg.estimation.disturbance, u_offset=n_sv + params.n)
+    context = DropContext(model, cfg, layout, data, load_measurements(cfg, data))
+    return assemble_drops([context], n_sv + params.n + layout.u_cols.size, hessian)

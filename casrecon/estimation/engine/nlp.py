@@ -1,0 +1,234 @@
+"""Assembly of a least-squares NLP, min 1/2 |r(z)|^2 s.t. g(z) = 0, from terms made of blocks.
+
+Every derivative Ipopt needs is assembled from the blocks (:mod:`.blocks`): a block sees a few
+entries of z (e.g. two neighbouring nodes and the parameters) and its SX functions are mapped over
+all blocks of its kind (two threads), so no large expression graph is ever differentiated.
+
+Residual rows stack the terms in the order given, each term's block sets one after another; the
+constraint rows are the *determining* constraints first (those that fix the ``dependent`` columns
+of z, e.g. collocation defects), in the order given, then the side constraints (e.g. unit norms).
+The Hessian given to Ipopt is the Gauss-Newton sigma J^T J or the exact Hessian of the Lagrangian,
+both summed from per-block pieces (see :class:`BlockDerivatives`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from casrecon.estimation.engine.blocks import BlockSet, SparseTarget, Term
+
+
+@dataclass(frozen=True)
+class Nlp:
+    """An assembled NLP: symbolic z, residuals and constraints, groups, and block derivatives.
+
+    Attributes
+    ----------
+    z : MX
+        Decision vector (every entry scaled to order one by whoever laid it out).
+    residuals, constraints : MX
+    groups : dict of str to slice
+        Residual rows of each group (groups with no rows are left out).
+    const_chi2 : dict of str to float
+        Per group, the chi-square part no unknown changes (see :class:`~.blocks.Term`).
+    n_measurements : dict of str to int
+        Per group, the measurements its rows stand for.
+    derivatives : BlockDerivatives
+    dependent : int array
+        z columns fixed by the determining constraints given the others (their Jacobian block is
+        square and nonsingular): used for the null-space covariance.
+    n_determining : int
+        Number of determining constraint rows (the first rows of g).
+    parameter_names : dict of int to str
+        z column -> name of the columns that are model or sensor parameters (used to name
+        undetermined combinations and to read parameter covariances).
+    latent : bool
+        Whether z holds latent process values with their own prior at every node (a weak
+        constraint): the null space is then large, the covariance comes from a sparse LU of the
+        KKT matrix and the Gauss-Newton-decrement stopping test is not made.
+    """
+
+    z: ca.MX
+    residuals: ca.MX
+    constraints: ca.MX
+    groups: dict[str, slice]
+    const_chi2: dict[str, float]
+    n_measurements: dict[str, int]
+    derivatives: BlockDerivatives
+    dependent: np.ndarray
+    n_determining: int
+    parameter_names: dict[int, str]
+    latent: bool = False
+
+    @property
+    def n_z(self) -> int:
+        return int(self.z.numel())
+
+    @property
+    def n_g(self) -> int:
+        return int(self.constraints.numel())
+
+    @property
+    def n_free(self) -> int:
+        """Unknowns minus constraints: the directions the data (and priors) must determine."""
+        return self.n_z - self.n_g
+
+    def group_chi2(self, r: np.ndarray, groups=None) -> dict[str, float]:
+        """chi-square of each group (of ``groups``, default all) at the residual vector ``r``,
+        constants included."""
+        names = self.groups if groups is None else groups
+        return {g: float(r[self.groups[g]] @ r[self.groups[g]]) + self.const_chi2.get(g, 0.0) for g in names}
+
+    def chi2(self, r: np.ndarray) -> float:
+        """Total chi-square at ``r``, constants included."""
+        return float(r @ r) + sum(self.const_chi2.values())
+
+    def dof(self) -> int:
+        """Measurements (priors included) minus free directions."""
+        return sum(self.n_measurements.values()) - self.n_free
+
+    def residual_function(self) -> ca.Function:
+        """``z -> r`` (scaled z, whitened residuals)."""
+        return ca.Function("residuals", [self.z], [self.residuals])
+
+
+class BlockDerivatives:
+    """Gradient, constraint Jacobian and Hessian of the NLP at z, from the block functions.
+
+    The three are computed together and cached for the last z, because Ipopt asks for all of them
+    at each new iterate. ``hessian="gauss-newton"`` gives sigma triu(J^T J) (the constraint
+    curvature is left out); ``"exact"`` the exact Hessian of the Lagrangian, block by block.
+
+    Parameters
+    ----------
+    sets : list of BlockSet
+    g_rows : list of int array or None
+        For each set with constraints, the global row of each block's first constraint.
+    n_z, n_g : int
+    hessian : {"gauss-newton", "exact"}
+    """
+
+    def __init__(self, sets: list[BlockSet], g_rows: list, n_z: int, n_g: int, hessian: str):
+        self.sets, self.g_rows, self.n_z, self.n_g, self.hessian = sets, g_rows, n_z, n_g, hessian
+        key = "jtj" if hessian == "gauss-newton" else "hess"
+        h_rows, h_cols = self._stack(key)
+        # a block's upper triangle maps to the global upper triangle once each pair is ordered
+        self.hess_target = SparseTarget((n_z, n_z), np.minimum(h_rows, h_cols), np.maximum(h_rows, h_cols))
+        if hessian == "gauss-newton":
+            self.jtj_target = self.hess_target
+        else:  # the covariance always uses J^T J, whatever Hessian Ipopt was given
+            g_rows_, g_cols = self._stack("jtj")
+            self.jtj_target = SparseTarget((n_z, n_z), np.minimum(g_rows_, g_cols), np.maximum(g_rows_, g_cols))
+        jg_rows, jg_cols = self._stack("jg")
+        self.jac_target = SparseTarget((n_g, n_z), jg_rows, jg_cols)
+        self._z = None
+
+    def _stack(self, key: str) -> tuple[np.ndarray, np.ndarray]:
+        rows, cols = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        for bs, g_rows in zip(self.sets, self.g_rows):
+            if key not in bs.kind.patterns:
+                continue
+            lr, lc = bs.kind.patterns[key]
+            rows.append((g_rows[:, None] + lr[None, :]).ravel() if key == "jg" else bs.cols[:, lr].ravel())
+            cols.append(bs.cols[:, lc].ravel())
+        return np.concatenate(rows), np.concatenate(cols)
+
+    def evaluate(self, z: np.ndarray) -> None:
+        """Compute and cache the gradient, J_g nonzeros and J^T J nonzeros at z (scaled)."""
+        z = np.asarray(z, float).ravel()
+        if self._z is not None and np.array_equal(z, self._z):
+            return
+        grad, jtj, jg = np.zeros(self.n_z), [np.zeros(0)], [np.zeros(0)]
+        for bs in self.sets:
+            out = [np.asarray(o) for o in bs.derivs(bs.local(z), *bs.data)]
+            grad += np.bincount(bs.cols.ravel(), weights=out[0].T.ravel(), minlength=self.n_z)
+            jtj.append(bs.kind.jtj_values(out[1].T).ravel())
+            if len(out) > 2:
+                jg.append(out[2].T.ravel())
+        self._z, self.grad, self._jtj, self._jg = z, grad, np.concatenate(jtj), np.concatenate(jg)
+
+    def gradient(self, z) -> np.ndarray:
+        self.evaluate(z)
+        return self.grad
+
+    def jacobian_g(self, z) -> ca.DM:
+        self.evaluate(z)
+        return self.jac_target.assemble(self._jg)
+
+    def gauss_newton(self, z) -> ca.DM:
+        """Upper triangle of J^T J at z (the Fisher information the covariance uses)."""
+        self.evaluate(z)
+        return self.jtj_target.assemble(self._jtj)
+
+    def hessian_lagrangian(self, z, sigma: float, lam_g: np.ndarray) -> ca.DM:
+        """Upper triangle of the Hessian of sigma f + lam_g^T g (Gauss-Newton or exact)."""
+        if self.hessian == "gauss-newton":
+            self.evaluate(z)
+            return self.hess_target.assemble(sigma * self._jtj)
+        z = np.asarray(z, float).ravel()
+        parts = [np.zeros(0)]
+        for bs, g_rows in zip(self.sets, self.g_rows):
+            n_c = bs.kind.n_constraints
+            lam = lam_g[g_rows[:, None] + np.arange(n_c)[None, :]].T if n_c else np.zeros((0, bs.n_blocks))
+            parts.append(np.asarray(bs.hess(bs.local(z), *bs.data, sigma, lam)).T.ravel())
+        return self.hess_target.assemble(np.concatenate(parts))
+
+
+def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, parameter_names: dict[int, str],
+                 hessian: str = "gauss-newton", latent: bool = False) -> Nlp:
+    """The NLP made of ``terms`` over a decision vector of ``n_z`` scaled entries.
+
+    Parameters
+    ----------
+    terms : list of Term
+        Residual groups in row order; a group name may appear in several terms (their rows are
+        then one group only if they are consecutive).
+    n_z : int
+    dependent : int array
+        Columns the determining constraints fix (see :class:`Nlp`).
+    parameter_names : dict of int to str
+    hessian : {"gauss-newton", "exact"}
+    latent : bool
+        See :class:`Nlp`.
+    """
+    z = ca.MX.sym("z", n_z)
+    residual_parts, groups, const, counts, start = [], {}, {}, {}, 0
+    determining, side = [], []
+    for term in terms:
+        rows = 0
+        for bs in term.sets:
+            local = ca.reshape(z[bs.cols.ravel().tolist()], bs.kind.n_local, bs.n_blocks)
+            out = bs.values(local, *bs.data)
+            out = out if isinstance(out, (list, tuple)) else [out]
+            r = ca.vec(out[0])
+            residual_parts.append(r)
+            rows += r.numel()
+            if bs.kind.n_constraints:
+                (determining if bs.determining else side).append((bs, ca.vec(out[1])))
+        if rows:
+            if term.group in groups:
+                raise ValueError(f"residual group {term.group!r} appears in two terms")
+            groups[term.group] = slice(start, start + rows)
+            const[term.group] = const.get(term.group, 0.0) + term.const_chi2
+            counts[term.group] = rows if term.n_measurements is None else term.n_measurements
+        start += rows
+    sets, g_rows, g_parts, row = [], [], [], 0
+    constrained = {id(bs) for bs, _ in determining + side}
+    for bs, g in determining + side:
+        sets.append(bs)
+        g_rows.append(row + bs.kind.n_constraints * np.arange(bs.n_blocks))
+        g_parts.append(g)
+        row += g.numel()
+    for term in terms:  # residual-only sets
+        for bs in term.sets:
+            if id(bs) not in constrained:
+                sets.append(bs)
+                g_rows.append(None)
+    n_determining = sum(g.numel() for _, g in determining)
+    constraints = ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
+    derivs = BlockDerivatives(sets, g_rows, n_z, constraints.numel(), hessian)
+    return Nlp(z, ca.vertcat(*residual_parts), constraints, groups, const, counts, derivs,
+               np.asarray(dependent, np.int64), n_determining, dict(sorted(parameter_names.items())), latent)

@@ -1,0 +1,64 @@
+"""The point-mass drag kind: the GPS-only fit's interval block (Hermite-Simpson defects of the
+point-mass model with a drag area, and optionally horizontal lift areas, that are B-spline
+functions of time; the fixes on the two nodes) and the smoothness and lift priors of the spline
+coefficients. The fixes sit on the nodes, so each interval carries the fix at its first node and
+the last interval also the one at its last node.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
+from casrecon.io.pointmass_problem import PointMassConfig
+from casrecon.physics.pointmass import PointMassModel
+
+#: Scale of the point-mass states (m, m/s): Ipopt sees state / scale.
+SCALE = np.array([100.0, 100.0, 100.0, 10.0, 10.0, 10.0])
+#: Scale of the drag and lift area coefficients, m^2.
+CDA_SCALE = 0.1
+
+
+def drag_interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: int, wind_scale: float) -> BlockKind:
+    """Block of one interval: locals [x_k, x_k+1 (scaled), area coefficients (n_coef x n_areas,
+    scaled), wind bias north/east (scaled by ``wind_scale``, m/s)]; data: the spline basis at the
+    two nodes and the midpoint, and the fixes (NED position, velocity) with inverse sigmas at the
+    two nodes. Residuals: the whitened fixes; constraints: the scaled defects."""
+    n_c = n_coef * n_areas
+    v = ca.SX.sym("v", 12 + n_c + 2)
+    xk, xk1 = v[:6] * ca.DM(SCALE), v[6:12] * ca.DM(SCALE)
+    coef, wind = ca.reshape(v[12:12 + n_c] * CDA_SCALE, n_coef, n_areas), v[12 + n_c:] * wind_scale
+    bk, bm, bk1 = (ca.SX.sym(n, n_coef) for n in ("bk", "bm", "bk1"))
+    yk, wk, yk1, wk1 = ca.SX.sym("yk", 6), ca.SX.sym("wk", 6), ca.SX.sym("yk1", 6), ca.SX.sym("wk1", 6)
+
+    def area(b):
+        a = coef.T @ b
+        return ca.vertcat(a, ca.DM.zeros(3 - n_areas)) if n_areas < 3 else a
+
+    fk, fk1 = model.rhs(xk, area(bk), wind), model.rhs(xk1, area(bk1), wind)
+    xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
+    defect = (xk1 - xk - h / 6 * (fk + 4 * model.rhs(xm, area(bm), wind) + fk1)) / ca.DM(SCALE)
+    residual = ca.vertcat((yk - xk) * wk, (yk1 - xk1) * wk1)
+    return BlockKind("pm_interval", v, [bk, bm, bk1, yk, wk, yk1, wk1], residual, defect)
+
+
+def drag_prior_terms(n_coef: int, n_areas: int, coef_cols: np.ndarray, cfg: PointMassConfig) -> list[Term]:
+    """Smoothness prior on the second differences of each area's spline coefficients (when there
+    are more than two), and the zero-mean prior of the lift-area coefficients (with lift).
+
+    ``coef_cols`` are the z columns of the n_coef * n_areas coefficients (area after area).
+    """
+    terms = []
+    if n_coef > 2:
+        v = ca.SX.sym("v", n_coef)
+        c = v * CDA_SCALE
+        rows = ca.vertcat(*[(c[i] - 2 * c[i + 1] + c[i + 2]) / cfg.drag.smoothness_sigma_m2 for i in range(n_coef - 2)])
+        kind = BlockKind("drag_smoothness", v, [], rows, None)
+        cols = np.asarray(coef_cols).reshape(n_areas, n_coef)
+        terms.append(Term("prior_smoothness", (BlockSet(kind, cols),)))
+    if n_areas > 1:
+        v = ca.SX.sym("v", n_coef * (n_areas - 1))
+        kind = BlockKind("lift_prior", v, [], v * CDA_SCALE / cfg.drag.lift_sigma_m2, None)
+        terms.append(Term("prior_lift", (BlockSet(kind, np.asarray(coef_cols)[None, n_coef:]),)))
+    return terms

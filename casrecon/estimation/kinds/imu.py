@@ -1,0 +1,109 @@
+"""The IMU kind: the collocation interval block, which carries the dynamics defects and the
+residuals of every IMU sample in the interval (see :mod:`casrecon.estimation.transcription`), and
+the accelerometer and gyro biases (IMU axes) it adds.
+
+The IMU sets the mesh and the fit window, so it is present in every 6-DOF fit; its interval
+blocks hold the collocation defects (the determining constraints of the NLP).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
+from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.kinds.base import DropContext
+from casrecon.estimation.layout import BlockLocals
+from casrecon.estimation.parameters import ParameterSpec
+from casrecon.estimation.transcription import (
+    D_OFFSETS,
+    R_OFFSETS,
+    channel_bases,
+    compress_imu,
+    interval_function,
+)
+from casrecon.io.problem import ProblemConfig
+from casrecon.physics.dynamics import PARAMETER_NAMES
+
+#: Names of the IMU bias parameters (accelerometer m/s^2, gyro rad/s; IMU axes).
+SENSOR_NAMES = tuple(f"{k}_bias_{a}" for k in ("accel", "gyro") for a in "xyz")
+#: The six IMU channels (specific force x, y, z; rate x, y, z), IMU axes.
+IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
+
+
+def imu_sigma(config: ProblemConfig) -> np.ndarray:
+    """1-sigma white noise of the six channels (m/s^2, rad/s)."""
+    return np.r_[np.full(3, config.imu.accel_noise_mps2), np.full(3, config.imu.gyro_noise_radps)]
+
+
+def measured_imu(data: FitData, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """Measured IMU output (n, 6; IMU axes, SI) and its validity mask for the first ``n_samples``
+    samples of the window."""
+    y = np.column_stack([data.accel_imu, data.gyro_imu])[:n_samples]
+    valid = np.column_stack([data.accel_valid, data.gyro_valid])[:n_samples]
+    return y, valid
+
+
+class ImuKind:
+    """Dynamics defects and IMU samples per collocation interval; accelerometer and gyro biases."""
+
+    name = "imu"
+
+    def parameters(self, config: ProblemConfig) -> tuple[ParameterSpec, ...]:
+        on = config.estimation.imu_bias_prior
+        specs = []
+        for name in SENSOR_NAMES:
+            accel = name.startswith("accel")
+            sigma = config.imu.accel_bias_sigma_mps2 if accel else config.imu.gyro_bias_sigma_radps
+            specs.append(ParameterSpec(name, "imu", sigma, sigma if on else None, "m/s^2" if accel else "rad/s"))
+        return tuple(specs)
+
+    def load(self, config: ProblemConfig, data: FitData) -> FitData:
+        return data
+
+    def terms(self, context: DropContext) -> list[Term]:
+        layout, model = context.layout, context.model
+        mesh = layout.mesh
+        n_int, k = mesh.n_intervals, mesh.samples_per_interval
+        y, valid = measured_imu(context.data, n_int * k)
+        blocks = compress_imu(mesh, y, valid, imu_sigma(context.config))
+        loc = BlockLocals(layout)
+        d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
+        xk, xk1, theta, uk, uk1 = loc.split()
+        defect, r_imu, _ = interval_function(model, mesh.h, layout.active)(
+            xk, xk1, loc.model_params(theta), loc.select(theta, SENSOR_NAMES), d, rr, uk, uk1)
+        kind = BlockKind("interval", loc.symbol, [d, rr], r_imu, defect)
+        blockset = BlockSet(kind, layout.two_node_columns(np.arange(n_int)), [ca.DM(blocks.d), ca.DM(blocks.R)])
+        return [Term(context.group(self.name), (blockset,), float(blocks.const_chi2.sum()), int(blocks.n_used.sum()))]
+
+    def residuals(self, result) -> dict[str, np.ndarray]:
+        """Measured minus predicted IMU output at every sample of the fit (IMU axes, SI), with sigma
+        and the validity mask (False where saturated and masked)."""
+        layout, data = result.part, result.data
+        mesh, model = layout.mesh, result.scenario.model
+        n, k = mesh.n_intervals, mesh.samples_per_interval
+        p, b = model_and_bias_values(result)
+        f = interval_function(model, mesh.h, layout.active).map(n, "thread", 2)
+        x = result.states.T
+        u = layout.disturbances(result.z)[:, list(layout.active)].T
+        coefs = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n),
+                             np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)),
+                             u[:, :-1], u[:, 1:])[2])
+        pred = np.zeros((n * k, 6))
+        for c, basis in enumerate(channel_bases(k)):
+            pred[:, c] = (basis @ coefs[D_OFFSETS[c]:D_OFFSETS[c + 1]]).T.ravel()
+        y, valid = measured_imu(data, n * k)
+        return {"time_imu_s": data.imu_time_s[:n * k], "residual": y - pred, "valid": valid,
+                "sigma": imu_sigma(result.scenario.config)}
+
+
+def model_and_bias_values(result) -> tuple[np.ndarray, np.ndarray]:
+    """FlightModel parameter vector and the 6 IMU biases (SI) of a fit's estimates (0 for what it
+    did not estimate)."""
+    names = result.params.names
+
+    def pick(wanted: tuple[str, ...]) -> np.ndarray:
+        return np.array([float(result.values[names.index(n)]) if n in names else 0.0 for n in wanted])
+
+    return pick(PARAMETER_NAMES), pick(SENSOR_NAMES)

@@ -1,0 +1,185 @@
+"""Where one drop's unknowns sit in the decision vector z, and how a block reads them.
+
+Decision vector of a drop (every entry scaled to order one): its node states, node after node
+(state / STATE_SCALE), its parameters (value / scale; in a joint fit shared parameters point at the
+same columns for every drop), and the latent disturbance values at the nodes (value / prior sigma)
+when the weak constraint is on. A *two-node block* (an interval, or a measurement between two
+nodes) sees the local vector [x_k, x_k+1, theta, u_k, u_k+1] in scaled units;
+:class:`BlockLocals` turns it into SI quantities and picks parameters by name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from casrecon.estimation.parameters import ParameterSet
+from casrecon.estimation.transcription import STATE_SCALE, Mesh
+from casrecon.physics.disturbance import N_DISTURBANCES, DisturbanceModel
+from casrecon.physics.dynamics import PARAMETER_NAMES
+
+#: Number of states of the 6-DOF model (position, velocity, quaternion, body rates).
+NS = 13
+
+
+@dataclass(frozen=True)
+class DropLayout:
+    """One drop inside an NLP: its mesh, parameters and the z columns they occupy.
+
+    Parameters
+    ----------
+    name : str
+        Drop (problem) name; prefixes its residual groups in a joint fit.
+    mesh : Mesh
+    params : ParameterSet
+    node_offset : int
+        z column of the first node's first state.
+    theta_cols : int array
+        z column of each parameter (``params`` order).
+    state_scale : (n_states,) array
+        Scale of each state (SI units per scaled unit).
+    guess_clock_s : float
+        Clock-offset guess used to put measurements on their intervals (s).
+    disturbance : DisturbanceModel or None
+        Weak-constraint disturbances estimated at the nodes (None: strong constraint).
+    u_offset : int
+        z column of the first latent disturbance value.
+    """
+
+    name: str
+    mesh: Mesh
+    params: ParameterSet
+    node_offset: int
+    theta_cols: np.ndarray
+    state_scale: np.ndarray = field(default_factory=STATE_SCALE.copy)
+    guess_clock_s: float = 0.0
+    disturbance: DisturbanceModel | None = None
+    u_offset: int = 0
+
+    @property
+    def active(self) -> tuple[int, ...]:
+        """Indices (in DISTURBANCE_NAMES) of the disturbance entries estimated at the nodes."""
+        return () if self.disturbance is None else tuple(int(i) for i in self.disturbance.active)
+
+    @property
+    def n_u(self) -> int:
+        return len(self.active)
+
+    @property
+    def u_scale(self) -> np.ndarray:
+        """Scale of the disturbance node values: their prior sigma (SI)."""
+        return np.asarray(self.disturbance.sigma)[list(self.active)] if self.n_u else np.zeros(0)
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.mesh.t_nodes.size)
+
+    @property
+    def u_cols(self) -> np.ndarray:
+        """z indices of the disturbance node values, (K, n_u)."""
+        return self.u_offset + np.arange(self.n_nodes * self.n_u).reshape(self.n_nodes, self.n_u)
+
+    @property
+    def n_states(self) -> int:
+        return self.state_scale.size
+
+    @property
+    def n_state_vars(self) -> int:
+        return self.n_states * self.n_nodes
+
+    @property
+    def node_cols(self) -> np.ndarray:
+        return self.node_offset + np.arange(self.n_state_vars)
+
+    @property
+    def dependent_cols(self) -> np.ndarray:
+        """Node columns the collocation defects fix given the first node and the parameters."""
+        return self.node_cols[self.n_states:]
+
+    def group(self, name: str, prefixed: bool) -> str:
+        """Residual group name of this drop (``drop/name`` in a joint fit)."""
+        return f"{self.name}/{name}" if prefixed else name
+
+    def states(self, z: np.ndarray) -> np.ndarray:
+        """Node states (K, n_states), SI."""
+        return np.asarray(z)[self.node_cols].reshape(-1, self.n_states) * self.state_scale
+
+    def values(self, z: np.ndarray) -> np.ndarray:
+        """The drop's parameter values (SI) in ``params`` order."""
+        return np.asarray(z)[self.theta_cols] * self.params.scales
+
+    def disturbances(self, z: np.ndarray) -> np.ndarray:
+        """Disturbance at the nodes (K, 9), SI, zero in the entries not estimated."""
+        out = np.zeros((self.n_nodes, N_DISTURBANCES))
+        if self.n_u:
+            out[:, list(self.active)] = np.asarray(z)[self.u_cols] * self.u_scale
+        return out
+
+    def pack(self, states: np.ndarray, values: np.ndarray, n_z: int) -> np.ndarray:
+        """Scaled z (length ``n_z``) holding this drop's node states (K, n_states) and parameter
+        values (SI); everything else (latent disturbances, other drops) zero."""
+        z = np.zeros(n_z)
+        z[self.node_cols] = (np.asarray(states) / self.state_scale).ravel()
+        z[self.theta_cols] = np.asarray(values) / self.params.scales
+        return z
+
+    def two_node_columns(self, k: np.ndarray) -> np.ndarray:
+        """Global columns (len(k), 2 n_states + n_params + 2 n_u) of the two-node blocks on
+        intervals ``k``: [x_k, x_k+1, theta, u_k, u_k+1]."""
+        k = np.asarray(k, np.int64)
+        first = self.node_offset + self.n_states * k[:, None] + np.arange(2 * self.n_states)[None, :]
+        return np.column_stack([first, np.tile(self.theta_cols, (k.size, 1)), self.u_cols[k], self.u_cols[k + 1]])
+
+    def interval_of(self, t_imu_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(interval index, fraction tau within it) of IMU-clock times (s) for measurements whose
+        time is ``t_imu_s + clock guess`` on the measurement's own clock: each lies on the interval
+        that holds it at the guessed clock offset (clipped to the mesh)."""
+        mesh = self.mesh
+        t = np.asarray(t_imu_s, float)
+        k = np.clip(((t - self.guess_clock_s - mesh.t_nodes[0]) // mesh.h).astype(int), 0, mesh.n_intervals - 1)
+        return k, (t - mesh.t_nodes[k]) / mesh.h
+
+
+class BlockLocals:
+    """SI quantities from the scaled local vector of a drop's two-node block.
+
+    Parameters
+    ----------
+    layout : DropLayout
+    """
+
+    def __init__(self, layout: DropLayout) -> None:
+        self.layout = layout
+        self.params = layout.params
+        self.n_s, self.n_p, self.n_u = layout.n_states, layout.params.n, layout.n_u
+        self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u)
+
+    @property
+    def n_local(self) -> int:
+        return int(self.symbol.numel())
+
+    def split(self, v: ca.SX | None = None):
+        """(x_k, x_k+1, theta, u_k, u_k+1) in SI from the scaled local vector (default: the
+        block symbol)."""
+        v = self.symbol if v is None else v
+        s = ca.DM(self.layout.state_scale)
+        xk, xk1 = v[:self.n_s] * s, v[self.n_s:2 * self.n_s] * s
+        end = 2 * self.n_s + self.n_p
+        theta = v[2 * self.n_s:end] * ca.DM(self.params.scales)
+        u_scale = ca.DM(self.layout.u_scale)
+        uk, uk1 = v[end:end + self.n_u] * u_scale, v[end + self.n_u:end + 2 * self.n_u] * u_scale
+        return xk, xk1, theta, uk, uk1
+
+    def theta_of(self, theta: ca.SX, name: str, default: float = 0.0):
+        """The parameter ``name`` from the SI parameter vector, or ``default`` when not estimated."""
+        return theta[self.params.index(name)] if name in self.params.names else default
+
+    def select(self, theta: ca.SX, names: tuple[str, ...]) -> ca.SX:
+        """Vector of the parameters ``names`` (0 for those not estimated)."""
+        return ca.vertcat(*[self.theta_of(theta, n) for n in names])
+
+    def model_params(self, theta: ca.SX) -> ca.SX:
+        """The FlightModel parameter vector (PARAMETER_NAMES order) from the estimated ones."""
+        return self.select(theta, PARAMETER_NAMES)
