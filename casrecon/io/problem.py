@@ -165,7 +165,7 @@ class EstimationConfig:
         with their Gauss-Markov prior (keys gust_sigma_mps, gust_time_s, force_error_sigma_n,
         moment_error_sigma_nm, model_error_time_s). None (every sigma zero): strong constraint.
     estimate_downwash : bool
-        Estimate the rotor-downwash magnitude (m/s, the hypothesis of DESIGN / the EES paper),
+        Estimate the rotor-downwash magnitude (m/s, a hypothesis of the EES paper),
         with a N(0, downwash_sigma_mps^2) prior.
     downwash_sigma_mps : float
         1-sigma prior of the downwash magnitude.

@@ -1,5 +1,5 @@
 """Whole-model checks of the 6-DOF equations and the RK4 simulator against closed forms and
-conservation laws (DESIGN 3.1)."""
+conservation laws (docs/design.md: Equations of motion)."""
 
 from __future__ import annotations
 
