@@ -1,4 +1,4 @@
-"""Dispersed Monte Carlo of a drop (DESIGN 3.4; the DAVINCI team ran 8000 such cases).
+"""Dispersed Monte Carlo of a drop (the DAVINCI team ran 8000 such cases).
 
 Each case perturbs the problem's release state and its truth parameters (the nominal ones,
 zeros, when the problem has no ``[truth]``, or with ``center="nominal"``) by Gaussian draws

@@ -15,7 +15,7 @@ Saturation rule: a decimated sample is flagged saturated on an axis when the sat
 samples feeding it carry at least ``SATURATION_WEIGHT`` = 0.1 % of the filter's total
 absolute weight (``sum |h|`` over the saturated taps / ``sum |h|``). A clipped raw sample's
 unknown lost part is then at most about full scale times that weight, 0.1 % of full scale,
-well below the 2 % of full scale IMU accuracy of DESIGN.md section 4; any more and the
+well below the 2 % of full scale accuracy of the EES drops' IMU; any more and the
 output is flagged. In practice one saturated raw sample flags the output samples whose main
 lobe reaches it, and a saturated burst flags its span plus about half the filter length.
 

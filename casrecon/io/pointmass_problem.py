@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from casrecon.io.problem import _dynamics, _site, _utc
+from casrecon.io.problem import parse_dynamics, parse_site, parse_utc
 from casrecon.io.toml_fields import Fields, load_toml
 from casrecon.physics.dynamics import DynamicsOptions, Site
 
@@ -90,8 +90,8 @@ def problem_kind(path: str | Path) -> str:
 
 def _segment(t: Fields) -> SegmentConfig:
     d = SegmentConfig()
-    start = _utc(t, "start_utc").timestamp() if t.has("start_utc") else None
-    end = _utc(t, "end_utc").timestamp() if t.has("end_utc") else None
+    start = parse_utc(t, "start_utc").timestamp() if t.has("start_utc") else None
+    end = parse_utc(t, "end_utc").timestamp() if t.has("end_utc") else None
     if start is not None and end is not None and end <= start:
         raise t.error("end_utc", "must be after start_utc")
     cfg = SegmentConfig(start, end, t.number("min_speed_mps", d.min_speed_mps, positive=True),
@@ -119,7 +119,7 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
     sounding = atm.string("sounding", required=True)
     cfg = PointMassConfig(
         path=path.resolve(), name=head.string("name", required=True), description=head.string("description", ""),
-        site=_site(f.table("site", required=True)),
+        site=parse_site(f.table("site", required=True)),
         sounding=None if sounding == "standard" else atm.path_of("sounding"),
         wind_3sigma_mps=atm.number("wind_3sigma_mps", 3.0, positive=True),
         mass_kg=veh.number("mass_kg", required=True, positive=True),
@@ -131,7 +131,7 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
         quality=GpsQuality(gps.number("max_h_acc_m", 10.0, positive=True),
                            gps.number("max_v_acc_m", 10.0, positive=True),
                            gps.number("max_s_acc_mps", 1.0, positive=True), gps.integer("min_num_sv", 6, 0)),
-        segment=_segment(seg), dynamics=_dynamics(f.table("dynamics") or empty["dynamics"]),
+        segment=_segment(seg), dynamics=parse_dynamics(f.table("dynamics") or empty["dynamics"]),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
         max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True))
     for t in (head, atm, veh, gps, drag, est, f):

@@ -5,10 +5,31 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from casrecon.io.errors import InputError
+
+_RECORDERS: list[set[tuple[Path, str, str]]] = []
+
+
+@contextmanager
+def record_keys() -> Iterator[set[tuple[Path, str, str]]]:
+    """Collect the keys every :class:`Fields` getter reads inside the ``with`` block.
+
+    Yields a set that fills with ``(file, table, key)``: the TOML file's path, the dotted table
+    name ("" for the top level) and the key; sub-tables are recorded as tables, not as keys.
+    Parsing behaves exactly as without the recorder (used by the test that keeps the key
+    reference ``docs/problem-toml.md`` complete).
+    """
+    keys: set[tuple[Path, str, str]] = set()
+    _RECORDERS.append(keys)
+    try:
+        yield keys
+    finally:
+        _RECORDERS.remove(keys)
 
 
 def load_toml(path: str | Path) -> Fields:
@@ -49,8 +70,18 @@ class Fields:
     def has(self, key: str) -> bool:
         return key in self.data
 
+    def keys_read(self) -> frozenset[str]:
+        """Keys of this table that a getter has asked for so far."""
+        return frozenset(self._used)
+
     def raw(self, key: str, default: Any = None, required: bool = False) -> Any:
+        return self._get(key, default, required, leaf=True)
+
+    def _get(self, key: str, default: Any, required: bool, leaf: bool) -> Any:
         self._used.add(key)
+        if leaf:
+            for keys in _RECORDERS:
+                keys.add((self.path, self.prefix.rstrip("."), key))
         if key not in self.data:
             if required:
                 raise self.error(key, "is required but missing")
@@ -58,7 +89,7 @@ class Fields:
         return self.data[key]
 
     def table(self, key: str, required: bool = False) -> Fields | None:
-        value = self.raw(key, required=required)
+        value = self._get(key, None, required, leaf=False)
         if value is None:
             return None
         if not isinstance(value, dict):

@@ -1,4 +1,4 @@
-"""Axisymmetric aerodynamics with the EES dispersion factors (DESIGN 3.2 to 3.4).
+"""Axisymmetric aerodynamics with the EES dispersion factors (docs/design.md: Aerodynamics).
 
 Sign conventions (body axes x out of the nose, z completing the triad):
 
@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-#: Dispersion factor names, in the order of the dispersion vector (DESIGN 3.4). Each is normalised:
+#: Dispersion factor names, in the order of the dispersion vector (the EES paper's set, extended). Each is normalised:
 #: nominal 0, database 3-sigma = 1. ``CLa_mult`` multiplies the spin-vane lift-curve slope;
 #: ``Cmq_add`` adds a constant to C_mq and ``Cmq_a2_add`` adds a term in sin^2(alpha_T), the two
 #: pieces of an amplitude-dependent (nonlinear) pitch damping that can sustain a limit cycle.
@@ -34,7 +34,7 @@ CROSSFLOW_GUARD_MPS = 1e-6
 
 @dataclass(frozen=True)
 class DispersionSizes:
-    """3-sigma sizes U of each dispersion factor (DESIGN 3.4). Multipliers are fractions of the
+    """3-sigma sizes U of each dispersion factor (see :func:`aero_force_moment`). Multipliers are fractions of the
     coefficient, adders are coefficient units. A size of 0 disables the factor."""
 
     CA_mult: float = 0.0
@@ -121,7 +121,7 @@ class TableCoefficients:
 
 @dataclass(frozen=True)
 class SpinVanes:
-    """Spin-vane roll model (DAVINCI paper Eqs. 2 to 5, DESIGN 3.3).
+    """Spin-vane roll model (DAVINCI paper Eqs. 2 to 5).
 
     Each of ``count`` vanes at radius ``radius_m`` with area ``area_m2`` and incidence
     ``incidence_deg`` gives F_k = qbar (alpha_k - atan(p R / V)) C_La S_k, and the roll moment is
@@ -182,7 +182,8 @@ class FlowAngles:
 
 
 def flow_angles(v_air_body) -> FlowAngles:
-    """Flow angles of the air-relative velocity (u, v, w) in body axes (DESIGN section 2)."""
+    """Flow angles of the air-relative velocity (u, v, w) in body axes: alpha = atan2(w, u),
+    beta = asin(v / V), alpha_T = atan2(sqrt(v^2 + w^2), u) (crossflow guarded at alpha_T = 0)."""
     u, v, w = v_air_body[0], v_air_body[1], v_air_body[2]
     speed = ca.sqrt(u * u + v * v + w * w)
     cross = ca.sqrt(v * v + w * w + CROSSFLOW_GUARD_MPS**2)

@@ -1,4 +1,4 @@
-"""Atmosphere from a balloon sounding: smooth CasADi interpolants in altitude (DESIGN 1, 2, 4).
+"""Atmosphere from a balloon sounding: smooth CasADi interpolants in altitude (docs/design.md: Atmosphere).
 
 Pressure and density are interpolated in their logarithms, temperature and the wind components
 linearly in value, all by cubic B-splines (``casadi.interpolant(..., 'bspline')``) so that Ipopt

@@ -1,4 +1,5 @@
-"""First-order Gauss-Markov disturbances: gusts and model-error force and moment (DESIGN 1, issue 5).
+"""First-order Gauss-Markov disturbances: gusts and model-error force and moment (issue 5;
+docs/design.md: Weak-constraint disturbances).
 
 Each active entry of the disturbance input d (:data:`casrecon.physics.dynamics.DISTURBANCE_NAMES`)
 is a stationary first-order Gauss-Markov process of standard deviation sigma and correlation time

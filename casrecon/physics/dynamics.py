@@ -1,4 +1,5 @@
-"""The 6-DOF equations of motion (DESIGN 3.1) as CasADi functions shared by simulator and estimator.
+"""The 6-DOF equations of motion as CasADi functions shared by simulator and estimator
+(docs/design.md: Equations of motion).
 
 State x (13): NED position of the centre of mass relative to the site's ground reference point (m),
 NED velocity (m/s), quaternion body to NED (scalar first), body angular rate (rad/s).

@@ -1,4 +1,4 @@
-"""WGS-84 normal gravity and the Earth's rotation in the local NED frame (DESIGN section 2).
+"""WGS-84 normal gravity and the Earth's rotation in the local NED frame (docs/design.md: Gravity and Earth rotation).
 
 The NED frame is tangent at the reference point (lat0, lon0) on the ground; its down axis is
 taken along the local normal gravity, and curvature over a drop's few kilometres is neglected.

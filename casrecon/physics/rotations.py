@@ -1,4 +1,4 @@
-"""Quaternion, direction-cosine and Euler-angle helpers (DESIGN section 2).
+"""Quaternion, direction-cosine and Euler-angle helpers (docs/design.md: Frames and angles).
 
 Quaternions are scalar first, q = (q0, q1, q2, q3), and rotate body vectors into NED:
 ``v_ned = C_nb(q) @ v_body``. Euler angles are yaw-pitch-roll (ZYX): ``q = qz(psi) qy(theta) qx(phi)``.

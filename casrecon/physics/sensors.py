@@ -1,4 +1,4 @@
-"""IMU and GPS measurement models (DESIGN section 4); pure CasADi, SI units.
+"""IMU and GPS measurement models (docs/design.md: Sensors); pure CasADi, SI units.
 
 Biases, scale factors and noise are the estimator's and the simulator's business; these functions
 give the noise-free quantity each sensor senses.

@@ -1,4 +1,4 @@
-"""Vehicle mass properties, reference quantities and sensor mounts (DESIGN 2, 3.1, 4, 5).
+"""Vehicle mass properties, reference quantities and sensor mounts (docs/design.md: Frames and angles; Physics).
 
 All positions are in body axes (x out of the nose), metres, measured from one vehicle reference
 point of the user's choice (the EES uses the nose, the Zephyr its centroid). A vehicle whose native

@@ -1,6 +1,6 @@
 """EES drops 1-4 from Table 3 initial conditions reproduce Table 1 (flight time within 1 s) and
 the reported impact speeds (41.5-42.0 m/s, accepted band [41.0, 42.5] for the representative
-aero model, DESIGN section 5); drop 1 saturates the gyro as it did in the test."""
+aero model of problems/aero/ees-sphere-cone.toml); drop 1 saturates the gyro as it did in the test."""
 
 from __future__ import annotations
 

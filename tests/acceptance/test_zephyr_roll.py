@@ -1,5 +1,5 @@
 """The Zephyr's 18 spin vanes at 11 deg spin it up towards p_eq = V tan(alpha_k) / R, where the
-vanes' angle of attack alpha_k - atan(p R / V) vanishes (DAVINCI paper Eqs. 2-5, DESIGN 3.3).
+vanes' angle of attack alpha_k - atan(p R / V) vanishes (DAVINCI paper Eqs. 2-5).
 
 Roll time constant, by hand: dM/dp = -K qbar C_La S_k R^2 / V = -K rho V C_La S_k R^2 / 2; with
 rho ~ 0.85 kg/m^3, V ~ 58 m/s, C_La = 1.48 * 2 pi / 5 (truth CLa_mult 0.8 of U = 0.6):

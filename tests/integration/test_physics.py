@@ -1,5 +1,5 @@
 """Whole-model checks of the 6-DOF equations and the RK4 simulator against closed forms and
-conservation laws (DESIGN 3.1)."""
+conservation laws (docs/design.md: Equations of motion)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from conftest import PROBLEMS, UTTR, simple_vehicle, still_air
 
 from casrecon.analysis.simulate import Simulator
-from casrecon.io.problem import load_aero, load_vehicle
+from casrecon.io.vehicle_files import load_aero, load_vehicle
 from casrecon.physics.aero import AeroDatabase, AnalyticCoefficients, DispersionSizes
 from casrecon.physics.dynamics import DynamicsOptions, FlightModel, default_parameters
 from casrecon.physics.earth import EARTH_RATE, normal_gravity

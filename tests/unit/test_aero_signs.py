@@ -1,4 +1,4 @@
-"""Aerodynamic signs and magnitudes of DESIGN 3.2 to 3.4, on hand-computed cases.
+"""Aerodynamic signs and magnitudes (docs/design.md: Aerodynamics), on hand-computed cases.
 
 Common numbers: rho = 1.0 kg/m^3, S = 1.2 m^2, d = 1.0 m, airspeed V = 5 m/s, so
 qbar = rho V^2 / 2 = 12.5 Pa, qbar S = 15 N and qbar S d = 15 N m. The (4, 0, 3) and (4, 3, 0)

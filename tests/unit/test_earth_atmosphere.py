@@ -1,4 +1,5 @@
-"""WGS-84 gravity, Coriolis sign, and the sounding atmosphere (DESIGN sections 2 and 4)."""
+"""WGS-84 gravity, Coriolis sign, and the sounding atmosphere (docs/design.md: Gravity and
+Earth rotation; Atmosphere)."""
 
 from __future__ import annotations
 

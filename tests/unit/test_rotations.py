@@ -1,4 +1,4 @@
-"""Quaternion, DCM and Euler conventions of DESIGN section 2 (scalar-first q, body to NED, ZYX)."""
+"""Quaternion, DCM and Euler conventions (docs/design.md: Frames and angles; scalar-first q, body to NED, ZYX)."""
 
 from __future__ import annotations
 

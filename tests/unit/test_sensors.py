@@ -1,4 +1,4 @@
-"""IMU and GPS measurement models of DESIGN section 4, hand cases with lever arms and axes."""
+"""IMU and GPS measurement models (docs/design.md: Sensors), hand cases with lever arms and axes."""
 
 from __future__ import annotations
 
