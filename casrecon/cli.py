@@ -26,12 +26,12 @@ def _inspect(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from casrecon.analysis.simulate import Simulator
-    from casrecon.analysis.synthetic import make_synthetic
     from casrecon.io.flysight import write_flysight1
     from casrecon.io.imu import write_imu_csv
     from casrecon.io.results import atomic_folder, write_columns, write_json
     from casrecon.scenario import Scenario
+    from casrecon.simulation.simulate import Simulator
+    from casrecon.simulation.synthetic import make_synthetic
 
     if args.every < 1:
         raise SystemExit("casrecon: --every must be a positive integer")

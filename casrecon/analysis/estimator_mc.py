@@ -68,8 +68,8 @@ def parameter_errors(result, truth: dict[str, float]) -> tuple[np.ndarray, float
 def run_case(problem: str, seed: int, index: int) -> dict:
     """Draw a truth, simulate, fit; returns the errors, sigmas and NEES of case ``index``."""
     from casrecon.analysis.observability import _with_data
-    from casrecon.analysis.synthetic import truth_parameters_by_name
     from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.simulation.synthetic import truth_parameters_by_name
 
     rng = np.random.default_rng([seed, index])
     scenario = draw_truth(Scenario.load(problem), rng)

@@ -25,10 +25,10 @@ import numpy as np
 
 from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
 from casrecon.analysis.observability import _with_data
-from casrecon.analysis.synthetic import truth_disturbance, truth_parameters_by_name
 from casrecon.estimation.fit import FitResult, fit_drop
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import truth_disturbance, truth_parameters_by_name
 
 #: Gauss-Markov gusts of the study: sigma 0.5, 0.5, 0.25 m/s (N, E, D), correlation time 3 s.
 GUSTS = DisturbanceModel((0.5, 0.5, 0.25) + (0.0,) * 6, (3.0,) * 9)

@@ -3,7 +3,7 @@
 Each case perturbs the problem's release state and its truth parameters (the nominal ones,
 zeros, when the problem has no ``[truth]``, or with ``center="nominal"``) by Gaussian draws
 whose sizes a :class:`Dispersions` states, and is flown to ground impact by the
-:class:`~casrecon.analysis.batch.BatchSimulator`.
+:class:`~casrecon.simulation.batch.BatchSimulator`.
 
 Reproducibility: case ``i`` of seed ``s`` draws its inputs from ``numpy.random.default_rng([s, i])``
 only, always the same :data:`N_DRAWS` standard normals in the same order (scaled afterwards, so a
@@ -36,9 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.batch import DEFAULT_DT_S, BatchSimulator, euler_deg_from_quats, quats_from_euler_deg
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import PARAMETER_NAMES
+from casrecon.simulation.batch import DEFAULT_DT_S, BatchSimulator, euler_deg_from_quats, quats_from_euler_deg
 
 #: Standard normals drawn per case: h_agl, vel NED (3), Euler (3), rates (3), wind bias N/E,
 #: density factor, then the aero factors (last, so that a new factor changes no other draw).

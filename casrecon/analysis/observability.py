@@ -13,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.synthetic import make_synthetic, simulate_truth, truth_parameters_by_name
 from casrecon.estimation.covariance import compute_covariance
 from casrecon.estimation.fit import FitResult, clock_bounds, prepare_drop
 from casrecon.estimation.parameters import parameter_set
@@ -22,6 +21,7 @@ from casrecon.estimation.solve import SolveResult, solve
 from casrecon.io.flysight import write_flysight1
 from casrecon.io.imu import write_imu_csv
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import make_synthetic, simulate_truth, truth_parameters_by_name
 
 
 @dataclass(frozen=True)

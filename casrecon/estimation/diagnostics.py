@@ -11,10 +11,10 @@ import casadi as ca
 import numpy as np
 from scipy.signal import savgol_filter
 
-from casrecon.analysis.simulate import Simulator
 from casrecon.estimation.problem import _imu_sigma, _Unscale
 from casrecon.estimation.transcription import D_OFFSETS, R_OFFSETS, channel_bases, interval_function
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment
+from casrecon.simulation.simulate import Simulator
 
 IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
 

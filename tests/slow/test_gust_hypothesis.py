@@ -18,10 +18,10 @@ import pytest
 from conftest import PROBLEMS
 
 from casrecon.analysis.observability import _with_data
-from casrecon.analysis.synthetic import truth_disturbance, truth_parameters_by_name
 from casrecon.estimation.fit import FitError, fit_drop
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import truth_disturbance, truth_parameters_by_name
 
 pytestmark = pytest.mark.slow
 GUSTS = DisturbanceModel((0.5, 0.5, 0.25) + (0.0,) * 6, (3.0,) * 9)

@@ -26,13 +26,13 @@ from dataclasses import dataclass
 import numpy as np
 import pymap3d
 
-from casrecon.analysis.simulate import Simulator, Trajectory
 from casrecon.io.flysight import GpsTrack
 from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.scenario import Scenario
+from casrecon.simulation.simulate import Simulator, Trajectory
 
 COLD_START_FIXES = 12
 IMPACT_PULSE_S = 0.02   # half-sine ground-reaction pulse at impact, s
