@@ -8,6 +8,7 @@ leaving any earlier results folder untouched.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -94,8 +95,9 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _joint(args: argparse.Namespace) -> int:
+    from casrecon.analysis.single_sigmas import single_drop_sigmas
     from casrecon.estimation.fit import FitError
-    from casrecon.estimation.joint import JointConfig, fit_joint, load_joint, single_drop_sigmas
+    from casrecon.estimation.joint import JointConfig, fit_joint, load_joint
     from casrecon.io.joint_results import write_joint_results
     from casrecon.io.results import atomic_folder
     from casrecon.scenario import Scenario
@@ -153,12 +155,76 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
 
 
 def _montecarlo(args: argparse.Namespace) -> int:
-    from casrecon.analysis.montecarlo import run_montecarlo_command
-
     if args.estimator:
         return _estimator_montecarlo(args)
     return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
                                   args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures)
+
+
+def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
+                           *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
+                           figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
+    """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
+    ``figures/*.png``). Returns 0, or 2 after printing one located line on bad input."""
+    from casrecon.analysis.montecarlo import Dispersions, run_montecarlo, write_cases_csv
+    from casrecon.io.results import atomic_folder, write_json
+    from casrecon.parallel import import_distributed
+    from casrecon.report.montecarlo_plots import plot_montecarlo
+    from casrecon.scenario import Scenario
+
+    def bad(msg: str) -> int:
+        print(f"casrecon montecarlo: {msg}", file=sys.stderr)
+        return 2
+
+    if not isinstance(cases, int) or cases < 1:
+        return bad(f"--cases: must be a positive integer, got {cases!r}")
+    if not isinstance(seed, int) or seed < 0:
+        return bad(f"--seed: must be an integer >= 0, got {seed!r}")
+    if not isinstance(workers, int) or workers < 1:
+        return bad(f"--workers: must be a positive integer, got {workers!r}")
+    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
+        return bad(f"--dt: must lie in (0, 0.05] s, got {dt_s!r}")
+    if chunk_size is not None and chunk_size < 1:
+        return bad(f"--chunk-size: must be a positive integer, got {chunk_size!r}")
+    try:
+        disp = Dispersions(center=center)
+    except ValueError as err:
+        return bad(str(err))
+    if scheduler is not None:
+        try:
+            import_distributed()
+        except ImportError as err:
+            return bad(f"--scheduler {scheduler}: {err}")
+    try:
+        sc = Scenario.load(problem)
+    except InputError as err:
+        print(str(err), file=sys.stderr)
+        return 2
+    except FileNotFoundError as err:
+        return bad(f"{problem}: {err.strerror or err}")
+    if sc.config.release.h_agl_m <= 0:
+        return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
+    try:
+        result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
+                                chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
+    except OSError as err:
+        if scheduler is not None:
+            return bad(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})")
+        raise
+    stats = result.statistics()
+    stats.update(workers=workers, scheduler=scheduler, wall_s=result.wall_s,
+                 cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
+    with atomic_folder(out) as tmp:
+        write_cases_csv(tmp / "cases.csv", result)
+        write_json(tmp / "statistics.json", stats)
+        if figures:
+            plot_montecarlo(result, tmp / "figures")
+    ft, sp = stats["flight_time_s"], stats["impact_speed_mps"]
+    print(f"{result.n_cases} cases ({stats['n_impacted']} impacted) in {result.wall_s:.1f} s -> {out}")
+    if ft is not None:
+        print(f"flight time   {ft['mean']:.3f} s    sd {ft['sd']:.3f}   p1 {ft['p1']:.3f}   p99 {ft['p99']:.3f}")
+        print(f"impact speed  {sp['mean']:.3f} m/s  sd {sp['sd']:.3f}   p1 {sp['p1']:.3f}   p99 {sp['p99']:.3f}")
+    return 0
 
 
 def _estimator_montecarlo(args: argparse.Namespace) -> int:

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from casrecon.estimation.parameters import parameter_set
+from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
 
 
@@ -67,14 +68,13 @@ def parameter_errors(result, truth: dict[str, float]) -> tuple[np.ndarray, float
 
 def run_case(problem: str, seed: int, index: int) -> dict:
     """Draw a truth, simulate, fit; returns the errors, sigmas and NEES of case ``index``."""
-    from casrecon.analysis.observability import _with_data
     from casrecon.estimation.fit import FitError, fit_drop
-    from casrecon.simulation.synthetic import truth_parameters_by_name
+    from casrecon.simulation.synthetic import truth_parameters_by_name, with_synthetic_data
 
     rng = np.random.default_rng([seed, index])
     scenario = draw_truth(Scenario.load(problem), rng)
     with tempfile.TemporaryDirectory() as tmp:
-        sc = _with_data(scenario, Path(tmp), seed=int(rng.integers(2**31)))
+        sc = with_synthetic_data(scenario, Path(tmp), seed=int(rng.integers(2**31)))
         try:
             r = fit_drop(sc)
         except FitError as err:
@@ -111,11 +111,8 @@ def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: in
     Local spawn processes (``workers``) or, given a Dask scheduler address, that cluster; case i
     is reproducible from (seed, i) alone.
     """
-    from casrecon.analysis.montecarlo import _Progress, map_with_progress
-
-    bar = _Progress(n_cases, progress, label="estimator montecarlo")
-    cases = map_with_progress(partial(run_case, str(Path(problem).resolve()), seed), list(range(n_cases)),
-                              workers=workers, scheduler=scheduler, bar=bar)
+    cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed), range(n_cases), workers=workers,
+                         scheduler=scheduler, progress="estimator montecarlo" if progress else None)
     ok = [c for c in cases if "nees" in c]
     n_params = len(ok[0]["names"]) if ok else 0
     dof = n_params * len(ok)

@@ -17,8 +17,8 @@ from casrecon.analysis.montecarlo import (
     draw_case,
     run_cases,
     run_montecarlo,
-    run_montecarlo_command,
 )
+from casrecon.cli import run_montecarlo_command
 from casrecon.scenario import Scenario
 from casrecon.simulation.batch import BatchSimulator
 from casrecon.simulation.simulate import Simulator
