@@ -29,7 +29,7 @@ def _inspect(args: argparse.Namespace) -> int:
 def _simulate(args: argparse.Namespace) -> int:
     from casrecon.io.flysight import write_flysight1
     from casrecon.io.imu import write_imu_csv
-    from casrecon.io.results import atomic_folder, write_columns, write_json
+    from casrecon.output.results import atomic_folder, write_columns, write_json
     from casrecon.scenario import Scenario
     from casrecon.simulation.simulate import Simulator
     from casrecon.simulation.synthetic import make_synthetic
@@ -64,12 +64,13 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _fit(args: argparse.Namespace) -> int:
+    from casrecon.analysis.fit_products import fit_products
     from casrecon.estimation.fit import FitError, fit_drop
-    from casrecon.io.fit_results import write_fit_results
     from casrecon.io.pointmass_problem import problem_kind
-    from casrecon.io.results import atomic_folder
+    from casrecon.output.fit_results import write_fit_results
+    from casrecon.output.results import atomic_folder
     from casrecon.report.fit_report import fit_report
-    from casrecon.report.tables import fit_tables
+    from casrecon.report.tables import drop_tables
     from casrecon.scenario import Scenario
 
     t0 = time.perf_counter()
@@ -85,7 +86,8 @@ def _fit(args: argparse.Namespace) -> int:
     report = fit_report(result)
     with atomic_folder(args.out) as out:
         result.timings["total_s"] = time.perf_counter() - t0
-        write_fit_results(out, result, report, fit_tables(result))
+        products = fit_products(result)
+        write_fit_results(out, result, products, report, drop_tables(result, products))
         if not args.no_figures:
             _figures(out)
     if not args.quiet:
@@ -95,11 +97,12 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _joint(args: argparse.Namespace) -> int:
+    from casrecon.analysis.fit_products import fit_products
     from casrecon.analysis.single_sigmas import single_drop_sigmas
     from casrecon.estimation.fit import FitError
     from casrecon.estimation.joint import JointConfig, fit_joint, load_joint
-    from casrecon.io.joint_results import write_joint_results
-    from casrecon.io.results import atomic_folder
+    from casrecon.output.joint_results import write_joint_results
+    from casrecon.output.results import atomic_folder
     from casrecon.scenario import Scenario
 
     t0 = time.perf_counter()
@@ -121,7 +124,8 @@ def _joint(args: argparse.Namespace) -> int:
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
     with atomic_folder(args.out) as out:
         result.timings["total_s"] = time.perf_counter() - t0
-        write_joint_results(out, result, single)
+        products = {d.scenario.config.name: fit_products(d) for d in result.drops}
+        write_joint_results(out, result, single, products)
         if not args.no_figures:
             _figures(out)
         print((out / "tables.md").read_text())
@@ -133,9 +137,10 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     from casrecon.estimation.fit import FitError
     from casrecon.estimation.pointmass_fit import fit_point_mass
     from casrecon.io.pointmass_problem import load_point_mass
-    from casrecon.io.pointmass_results import pointmass_report, write_pointmass_results
-    from casrecon.io.results import atomic_folder
+    from casrecon.output.pointmass_results import write_pointmass_results
+    from casrecon.output.results import atomic_folder
     from casrecon.report.pointmass_plots import plot_track_fit
+    from casrecon.report.pointmass_report import pointmass_report
 
     cfg = load_point_mass(args.problem)
     try:
@@ -144,12 +149,13 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     except FitError as err:
         print(f"casrecon: fit of {cfg.name} failed: {err}", file=sys.stderr)
         return 3
+    report = pointmass_report(main, constant)
     with atomic_folder(args.out) as out:
-        write_pointmass_results(out, main, constant)
+        write_pointmass_results(out, main, constant, report)
         if not args.no_figures:
             plot_track_fit(out)
     if not args.quiet:
-        print(pointmass_report(main, constant))
+        print(report)
     print(f"results -> {args.out}")
     return 0
 
@@ -166,8 +172,9 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
                            figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
     """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
     ``figures/*.png``). Returns 0, or 2 after printing one located line on bad input."""
-    from casrecon.analysis.montecarlo import Dispersions, run_montecarlo, write_cases_csv
-    from casrecon.io.results import atomic_folder, write_json
+    from casrecon.analysis.montecarlo import Dispersions, run_montecarlo
+    from casrecon.output.montecarlo_results import write_cases_csv
+    from casrecon.output.results import atomic_folder, write_json
     from casrecon.parallel import import_distributed
     from casrecon.report.montecarlo_plots import plot_montecarlo
     from casrecon.scenario import Scenario
@@ -228,8 +235,9 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
 
 
 def _estimator_montecarlo(args: argparse.Namespace) -> int:
-    from casrecon.analysis.estimator_mc import estimator_montecarlo, write_consistency
-    from casrecon.io.results import atomic_folder
+    from casrecon.analysis.estimator_mc import estimator_montecarlo
+    from casrecon.output.consistency import write_consistency
+    from casrecon.output.results import atomic_folder
     from casrecon.scenario import Scenario
 
     if args.cases < 2 or args.workers < 1 or args.seed < 0:
@@ -251,7 +259,7 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
 def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
     from casrecon.estimation.fit import FitError, fit_drop
-    from casrecon.io.results import atomic_folder, write_json
+    from casrecon.output.results import atomic_folder, write_json
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario
 

@@ -317,10 +317,3 @@ def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions
                                    float(dt_s), float(t_max_s), 1, backend))
     nominal = {k: float(nom[k][0]) for k in OUTPUT_COLUMNS}
     return MonteCarloResult(cols, int(seed), resolved, float(dt_s), wall, nominal, sc.config.name)
-
-
-def write_cases_csv(path: str | Path, result: MonteCarloResult) -> None:
-    """``cases.csv``: one row per case, ``case`` first, then drawn inputs and outputs."""
-    names, data = result.table()
-    fmt = ["%d"] + ["%.10g"] * (len(names) - 1)
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
