@@ -1,5 +1,8 @@
-"""The ``casrecon`` command: ``inspect``, ``simulate``, ``fit``, ``joint`` and ``report``.
+"""The ``casrecon`` command (also ``python -m casrecon``): ``inspect``, ``simulate``, ``fit``, ``joint``,
+``montecarlo``, ``sensitivity`` and ``report``.
 
+Each command computes through the estimation and analysis layers and hands the results to the
+writers of :mod:`casrecon.output` and the reports of :mod:`casrecon.report`.
 Bad input ends with one line ``casrecon: FILE:LINE: field 'F': MESSAGE`` and exit status 2,
 never a traceback; a fit that fails (no convergence, singular KKT matrix) says why and exits 3,
 leaving any earlier results folder untouched.
@@ -171,7 +174,9 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
                            *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
                            figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
     """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
-    ``figures/*.png``). Returns 0, or 2 after printing one located line on bad input."""
+    ``figures/*.png``); ``dt_s`` is the RK4 step, s (the Monte Carlo default,
+    :data:`casrecon.simulation.batch.DEFAULT_DT_S`).
+    Returns 0, or 2 after printing one located line on bad input."""
     from casrecon.analysis.montecarlo import Dispersions, run_montecarlo
     from casrecon.output.montecarlo_results import write_cases_csv
     from casrecon.output.results import atomic_folder, write_json
