@@ -9,9 +9,9 @@ import statistics
 import time
 from pathlib import Path
 
-from casrecon.analysis.simulate import Simulator
-from casrecon.analysis.synthetic import make_synthetic
 from casrecon.scenario import Scenario
+from casrecon.simulation.simulate import Simulator
+from casrecon.simulation.synthetic import make_synthetic
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "ees-drop-1"
 REPEATS = 7

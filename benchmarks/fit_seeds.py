@@ -28,11 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.synthetic import make_synthetic, simulate_truth, truth_parameters_by_name
 from casrecon.estimation.fit import fit_drop
 from casrecon.io.flysight import write_flysight1
 from casrecon.io.imu import write_imu_csv
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import make_synthetic, simulate_truth, truth_parameters_by_name
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 BAND_COLUMNS = ("pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps", "vel_d_mps")

@@ -23,7 +23,7 @@ import numpy as np
 
 from casrecon.analysis.estimator_mc import chi2_interval
 from casrecon.analysis.gust_calibration import AXES, GustCase, run_gust_case
-from casrecon.analysis.montecarlo import map_with_progress
+from casrecon.parallel import parallel_map
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
@@ -72,7 +72,7 @@ def main() -> None:
     t0 = time.perf_counter()
     tasks = [GustCase(PROBLEMS / "ees-drop-3", s, a.start, truth_gusts=not a.no_truth_gusts)
              for s in range(a.first, a.first + a.seeds)]
-    cases = map_with_progress(run_gust_case, tasks, workers=a.workers)
+    cases = parallel_map(run_gust_case, tasks, workers=a.workers)
     print(f"wall {time.perf_counter() - t0:.0f} s with {a.workers} workers")
     for c in cases:
         _print_case(c)

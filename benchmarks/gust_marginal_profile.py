@@ -16,7 +16,7 @@ from functools import partial
 from pathlib import Path
 
 from casrecon.analysis.gust_calibration import GustCase, marginal_profile_case
-from casrecon.analysis.montecarlo import map_with_progress
+from casrecon.parallel import parallel_map
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "ees-drop-3"
 
@@ -28,8 +28,8 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     a = ap.parse_args()
     t0 = time.perf_counter()
-    rows = map_with_progress(partial(marginal_profile_case, name=a.parameter),
-                             [GustCase(PROBLEM, s, start_s=34.0) for s in a.seeds], workers=a.workers)
+    rows = parallel_map(partial(marginal_profile_case, name=a.parameter),
+                        [GustCase(PROBLEM, s, start_s=34.0) for s in a.seeds], workers=a.workers)
     print(f"wall {time.perf_counter() - t0:.0f} s with {a.workers} workers")
     for r in rows:
         z = {k: (r[k] - r["truth"]) / r["sigma"] for k in ("estimate", "joint_minimum", "marginal_minimum")}

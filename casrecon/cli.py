@@ -1,5 +1,8 @@
-"""The ``casrecon`` command: ``inspect``, ``simulate``, ``fit``, ``joint`` and ``report``.
+"""The ``casrecon`` command (also ``python -m casrecon``): ``inspect``, ``simulate``, ``fit``, ``joint``,
+``montecarlo``, ``sensitivity`` and ``report``.
 
+Each command computes through the estimation and analysis layers and hands the results to the
+writers of :mod:`casrecon.output` and the reports of :mod:`casrecon.report`.
 Bad input ends with one line ``casrecon: FILE:LINE: field 'F': MESSAGE`` and exit status 2,
 never a traceback; a fit that fails (no convergence, singular KKT matrix) says why and exits 3,
 leaving any earlier results folder untouched.
@@ -8,6 +11,7 @@ leaving any earlier results folder untouched.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -26,12 +30,12 @@ def _inspect(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from casrecon.analysis.simulate import Simulator
-    from casrecon.analysis.synthetic import make_synthetic
     from casrecon.io.flysight import write_flysight1
     from casrecon.io.imu import write_imu_csv
-    from casrecon.io.results import atomic_folder, write_columns, write_json
+    from casrecon.output.results import atomic_folder, write_columns, write_json
     from casrecon.scenario import Scenario
+    from casrecon.simulation.simulate import Simulator
+    from casrecon.simulation.synthetic import make_synthetic
 
     if args.every < 1:
         raise SystemExit("casrecon: --every must be a positive integer")
@@ -63,12 +67,13 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _fit(args: argparse.Namespace) -> int:
+    from casrecon.analysis.fit_products import fit_products
     from casrecon.estimation.fit import FitError, fit_drop
-    from casrecon.io.fit_results import write_fit_results
     from casrecon.io.pointmass_problem import problem_kind
-    from casrecon.io.results import atomic_folder
+    from casrecon.output.fit_results import write_fit_results
+    from casrecon.output.results import atomic_folder
     from casrecon.report.fit_report import fit_report
-    from casrecon.report.tables import fit_tables
+    from casrecon.report.tables import drop_tables
     from casrecon.scenario import Scenario
 
     t0 = time.perf_counter()
@@ -84,7 +89,8 @@ def _fit(args: argparse.Namespace) -> int:
     report = fit_report(result)
     with atomic_folder(args.out) as out:
         result.timings["total_s"] = time.perf_counter() - t0
-        write_fit_results(out, result, report, fit_tables(result))
+        products = fit_products(result)
+        write_fit_results(out, result, products, report, drop_tables(result, products))
         if not args.no_figures:
             _figures(out)
     if not args.quiet:
@@ -94,10 +100,12 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _joint(args: argparse.Namespace) -> int:
+    from casrecon.analysis.fit_products import fit_products
+    from casrecon.analysis.single_sigmas import single_drop_sigmas
     from casrecon.estimation.fit import FitError
-    from casrecon.estimation.joint import JointConfig, fit_joint, load_joint, single_drop_sigmas
-    from casrecon.io.joint_results import write_joint_results
-    from casrecon.io.results import atomic_folder
+    from casrecon.estimation.joint import JointConfig, fit_joint, load_joint
+    from casrecon.output.joint_results import write_joint_results
+    from casrecon.output.results import atomic_folder
     from casrecon.scenario import Scenario
 
     t0 = time.perf_counter()
@@ -119,7 +127,8 @@ def _joint(args: argparse.Namespace) -> int:
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
     with atomic_folder(args.out) as out:
         result.timings["total_s"] = time.perf_counter() - t0
-        write_joint_results(out, result, single)
+        products = {d.scenario.config.name: fit_products(d) for d in result.drops}
+        write_joint_results(out, result, single, products)
         if not args.no_figures:
             _figures(out)
         print((out / "tables.md").read_text())
@@ -131,9 +140,10 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     from casrecon.estimation.fit import FitError
     from casrecon.estimation.pointmass_fit import fit_point_mass
     from casrecon.io.pointmass_problem import load_point_mass
-    from casrecon.io.pointmass_results import pointmass_report, write_pointmass_results
-    from casrecon.io.results import atomic_folder
+    from casrecon.output.pointmass_results import write_pointmass_results
+    from casrecon.output.results import atomic_folder
     from casrecon.report.pointmass_plots import plot_track_fit
+    from casrecon.report.pointmass_report import pointmass_report
 
     cfg = load_point_mass(args.problem)
     try:
@@ -142,28 +152,97 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     except FitError as err:
         print(f"casrecon: fit of {cfg.name} failed: {err}", file=sys.stderr)
         return 3
+    report = pointmass_report(main, constant)
     with atomic_folder(args.out) as out:
-        write_pointmass_results(out, main, constant)
+        write_pointmass_results(out, main, constant, report)
         if not args.no_figures:
             plot_track_fit(out)
     if not args.quiet:
-        print(pointmass_report(main, constant))
+        print(report)
     print(f"results -> {args.out}")
     return 0
 
 
 def _montecarlo(args: argparse.Namespace) -> int:
-    from casrecon.analysis.montecarlo import run_montecarlo_command
-
     if args.estimator:
         return _estimator_montecarlo(args)
     return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
                                   args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures)
 
 
+def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
+                           *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
+                           figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
+    """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
+    ``figures/*.png``); ``dt_s`` is the RK4 step, s (the Monte Carlo default,
+    :data:`casrecon.simulation.batch.DEFAULT_DT_S`).
+    Returns 0, or 2 after printing one located line on bad input."""
+    from casrecon.analysis.montecarlo import Dispersions, run_montecarlo
+    from casrecon.output.montecarlo_results import write_cases_csv
+    from casrecon.output.results import atomic_folder, write_json
+    from casrecon.parallel import import_distributed
+    from casrecon.report.montecarlo_plots import plot_montecarlo
+    from casrecon.scenario import Scenario
+
+    def bad(msg: str) -> int:
+        print(f"casrecon montecarlo: {msg}", file=sys.stderr)
+        return 2
+
+    if not isinstance(cases, int) or cases < 1:
+        return bad(f"--cases: must be a positive integer, got {cases!r}")
+    if not isinstance(seed, int) or seed < 0:
+        return bad(f"--seed: must be an integer >= 0, got {seed!r}")
+    if not isinstance(workers, int) or workers < 1:
+        return bad(f"--workers: must be a positive integer, got {workers!r}")
+    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
+        return bad(f"--dt: must lie in (0, 0.05] s, got {dt_s!r}")
+    if chunk_size is not None and chunk_size < 1:
+        return bad(f"--chunk-size: must be a positive integer, got {chunk_size!r}")
+    try:
+        disp = Dispersions(center=center)
+    except ValueError as err:
+        return bad(str(err))
+    if scheduler is not None:
+        try:
+            import_distributed()
+        except ImportError as err:
+            return bad(f"--scheduler {scheduler}: {err}")
+    try:
+        sc = Scenario.load(problem)
+    except InputError as err:
+        print(str(err), file=sys.stderr)
+        return 2
+    except FileNotFoundError as err:
+        return bad(f"{problem}: {err.strerror or err}")
+    if sc.config.release.h_agl_m <= 0:
+        return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
+    try:
+        result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
+                                chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
+    except OSError as err:
+        if scheduler is not None:
+            return bad(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})")
+        raise
+    stats = result.statistics()
+    stats.update(workers=workers, scheduler=scheduler, wall_s=result.wall_s,
+                 cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
+    with atomic_folder(out) as tmp:
+        write_cases_csv(tmp / "cases.csv", result)
+        write_json(tmp / "statistics.json", stats)
+        if figures:
+            plot_montecarlo(result, tmp / "figures")
+    ft, sp = stats["flight_time_s"], stats["impact_speed_mps"]
+    print(f"{result.n_cases} cases ({stats['n_impacted']} impacted) in {result.wall_s:.1f} s -> {out}")
+    if ft is not None:
+        print(f"flight time   {ft['mean']:.3f} s    sd {ft['sd']:.3f}   p1 {ft['p1']:.3f}   p99 {ft['p99']:.3f}")
+        print(f"impact speed  {sp['mean']:.3f} m/s  sd {sp['sd']:.3f}   p1 {sp['p1']:.3f}   p99 {sp['p99']:.3f}")
+    return 0
+
+
 def _estimator_montecarlo(args: argparse.Namespace) -> int:
-    from casrecon.analysis.estimator_mc import estimator_montecarlo, write_consistency
-    from casrecon.io.results import atomic_folder
+    from casrecon.analysis.estimator_mc import estimator_montecarlo
+    from casrecon.output.consistency import write_consistency
+    from casrecon.output.results import atomic_folder
     from casrecon.scenario import Scenario
 
     if args.cases < 2 or args.workers < 1 or args.seed < 0:
@@ -185,7 +264,7 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
 def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
     from casrecon.estimation.fit import FitError, fit_drop
-    from casrecon.io.results import atomic_folder, write_json
+    from casrecon.output.results import atomic_folder, write_json
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario
 

@@ -13,8 +13,9 @@ Asserts that
 import json
 from pathlib import Path
 
+from casrecon.analysis.single_sigmas import single_drop_sigmas
 from casrecon.estimation.diagnostics import reconciled_simulation
-from casrecon.estimation.joint import JointConfig, fit_joint, single_drop_sigmas
+from casrecon.estimation.joint import JointConfig, fit_joint
 from casrecon.scenario import Scenario
 
 ROOT = Path(__file__).resolve().parents[1] / "problems"

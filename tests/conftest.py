@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from casrecon.analysis.simulate import Simulator
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import Site
 from casrecon.physics.vehicle import Vehicle
 from casrecon.scenario import Scenario
+from casrecon.simulation.simulate import Simulator
 
 REPO = Path(__file__).resolve().parents[1]
 PROBLEMS = REPO / "problems"

@@ -1,1 +1,1 @@
-"""Forward simulation, synthetic data and (later) sensitivity and Monte Carlo analyses."""
+"""Analyses built on the estimator: observability, Monte Carlo, estimator consistency, fit products."""

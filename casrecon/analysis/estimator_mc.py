@@ -25,6 +25,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from casrecon.estimation.drop import parameter_set
+from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
 
 
@@ -67,14 +68,13 @@ def parameter_errors(result, truth: dict[str, float]) -> tuple[np.ndarray, float
 
 def run_case(problem: str, seed: int, index: int) -> dict:
     """Draw a truth, simulate, fit; returns the errors, sigmas and NEES of case ``index``."""
-    from casrecon.analysis.observability import _with_data
-    from casrecon.analysis.synthetic import truth_parameters_by_name
     from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.simulation.synthetic import truth_parameters_by_name, with_synthetic_data
 
     rng = np.random.default_rng([seed, index])
     scenario = draw_truth(Scenario.load(problem), rng)
     with tempfile.TemporaryDirectory() as tmp:
-        sc = _with_data(scenario, Path(tmp), seed=int(rng.integers(2**31)))
+        sc = with_synthetic_data(scenario, Path(tmp), seed=int(rng.integers(2**31)))
         try:
             r = fit_drop(sc)
         except FitError as err:
@@ -111,31 +111,10 @@ def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: in
     Local spawn processes (``workers``) or, given a Dask scheduler address, that cluster; case i
     is reproducible from (seed, i) alone.
     """
-    from casrecon.analysis.montecarlo import _Progress, map_with_progress
-
-    bar = _Progress(n_cases, progress, label="estimator montecarlo")
-    cases = map_with_progress(partial(run_case, str(Path(problem).resolve()), seed), list(range(n_cases)),
-                              workers=workers, scheduler=scheduler, bar=bar)
+    cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed), range(n_cases), workers=workers,
+                         scheduler=scheduler, progress="estimator montecarlo" if progress else None)
     ok = [c for c in cases if "nees" in c]
     n_params = len(ok[0]["names"]) if ok else 0
     dof = n_params * len(ok)
     total = float(sum(c["nees"] for c in ok))
     return ConsistencyResult(cases, n_params, total, chi2_interval(dof))
-
-
-def write_consistency(out: Path, res: ConsistencyResult, wall_s: float) -> None:
-    """``nees.json`` (the test and per-parameter RMS of the normalised errors) and ``cases.csv``."""
-    from casrecon.io.results import write_columns, write_json
-
-    ok = [c for c in res.cases if "nees" in c]
-    doc = {"n_cases": len(res.cases), "n_converged": len(ok), "n_params": res.n_params, "nees_sum": res.nees_sum,
-           "chi2_95_interval": list(res.interval), "consistent": res.consistent, "wall_s": wall_s,
-           "failed": [{"index": c["index"], "reason": c["failed"]} for c in res.failed]}
-    if ok:
-        z = np.array([np.array(c["error"]) / np.array(c["sigma"]) for c in ok])
-        doc["normalised_error"] = {n: {"mean": float(m), "rms": float(r)} for n, m, r in
-                                   zip(ok[0]["names"], z.mean(0), np.sqrt((z**2).mean(0)))}
-        write_columns(out / "cases.csv", ["index", "nees", "reduced_chi2"] + [f"z_{n}" for n in ok[0]["names"]],
-                      np.column_stack([[c["index"] for c in ok], [c["nees"] for c in ok],
-                                       [c["reduced_chi2"] for c in ok], z]))
-    write_json(out / "nees.json", doc)

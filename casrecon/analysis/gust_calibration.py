@@ -24,11 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
-from casrecon.analysis.observability import _with_data
-from casrecon.analysis.synthetic import truth_disturbance, truth_parameters_by_name
 from casrecon.estimation.fit import FitResult, fit_drop
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import truth_disturbance, truth_parameters_by_name, with_synthetic_data
 
 #: Gauss-Markov gusts of the study: sigma 0.5, 0.5, 0.25 m/s (N, E, D), correlation time 3 s.
 GUSTS = DisturbanceModel((0.5, 0.5, 0.25) + (0.0,) * 6, (3.0,) * 9)
@@ -74,7 +73,7 @@ def case_scenario(case: GustCase, folder: Path) -> Scenario:
         estimation=dataclasses.replace(cfg.estimation, start_after_release_s=case.start_s,
                                        disturbance=case.gusts))
     drawn = draw_truth(Scenario.from_config(cfg), np.random.default_rng([case.seed, 2]))
-    return _with_data(drawn, folder, seed=case.seed)
+    return with_synthetic_data(drawn, folder, seed=case.seed)
 
 
 def _axis_errors(r: FitResult, truth: np.ndarray, j: int, subsample_s: float) -> dict:

@@ -3,14 +3,15 @@
 Each case perturbs the problem's release state and its truth parameters (the nominal ones,
 zeros, when the problem has no ``[truth]``, or with ``center="nominal"``) by Gaussian draws
 whose sizes a :class:`Dispersions` states, and is flown to ground impact by the
-:class:`~casrecon.analysis.batch.BatchSimulator`.
+:class:`~casrecon.simulation.batch.BatchSimulator`.
 
 Reproducibility: case ``i`` of seed ``s`` draws its inputs from ``numpy.random.default_rng([s, i])``
 only, always the same :data:`N_DRAWS` standard normals in the same order (scaled afterwards, so a
 zero size leaves the other inputs unchanged). A case is thus the same whether it is run alone,
 in any chunk, on any number of local processes or on a Dask cluster.
 
-Runners: chunks of cases are the unit of work. ``workers == 1`` runs them in this process,
+Runners: chunks of cases (one vectorised batch each) are the unit of work, mapped by
+:func:`casrecon.parallel.parallel_map`: ``workers == 1`` runs them in this process,
 ``workers > 1`` in a spawn-context :class:`~concurrent.futures.ProcessPoolExecutor`, and a
 ``scheduler`` address (``"tcp://host:8786"``) sends them to a Dask distributed cluster; the
 workers load the problem from its path, so they must see the same file system.
@@ -25,20 +26,17 @@ Typical use::
 from __future__ import annotations
 
 import math
-import multiprocessing
-import sys
 import threading
 import time
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.batch import DEFAULT_DT_S, BatchSimulator, euler_deg_from_quats, quats_from_euler_deg
+from casrecon.parallel import parallel_map
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import PARAMETER_NAMES
+from casrecon.simulation.batch import DEFAULT_DT_S, BatchSimulator, euler_deg_from_quats, quats_from_euler_deg
 
 #: Standard normals drawn per case: h_agl, vel NED (3), Euler (3), rates (3), wind bias N/E,
 #: density factor, then the aero factors (last, so that a new factor changes no other draw).
@@ -265,64 +263,8 @@ class MonteCarloResult:
         return out
 
 
-class _Progress:
-    """A one-line stderr progress bar, rewritten as chunks finish."""
-
-    def __init__(self, total: int, enabled: bool, label: str = "montecarlo") -> None:
-        self.total, self.done, self.enabled, self.label = total, 0, enabled, label
-        self.t0 = time.perf_counter()
-
-    def update(self, n: int) -> None:
-        self.done += n
-        if not self.enabled:
-            return
-        el = time.perf_counter() - self.t0
-        frac = self.done / max(self.total, 1)
-        eta = el * (1 - frac) / frac if frac > 0 else float("nan")
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r{self.label} [{bar:<30s}] {self.done}/{self.total} cases  {el:6.1f} s  "
-                         f"ETA {eta:5.1f} s")
-        if self.done >= self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
-
-
 def _chunks(indices: list[int], chunk_size: int) -> list[tuple[int, ...]]:
     return [tuple(indices[s:s + chunk_size]) for s in range(0, len(indices), chunk_size)]
-
-
-def map_with_progress(fn: Callable, tasks: list, *, workers: int = 1, scheduler: str | None = None,
-                      bar: _Progress | None = None, weight: Callable = lambda task: 1) -> list:
-    """``[fn(t) for t in tasks]`` on a Dask cluster, local spawn processes, or in this process.
-
-    ``scheduler`` (a Dask distributed address) takes precedence over ``workers``; results come back
-    in the order of ``tasks`` whatever order they finish in, and each finished task advances ``bar``
-    by ``weight(task)`` cases. ``fn`` must be importable (picklable) for the first two.
-    """
-    results: dict[int, object] = {}
-
-    def done(k: int, value) -> None:
-        results[k] = value
-        if bar is not None:
-            bar.update(weight(tasks[k]))
-
-    if scheduler is not None:
-        Client, dask_as_completed = _import_distributed()
-        with Client(scheduler) as client:
-            futures = client.map(fn, tasks, pure=False)
-            where = {f.key: k for k, f in enumerate(futures)}
-            for fut in dask_as_completed(futures):
-                done(where[fut.key], fut.result())
-    elif workers <= 1 or len(tasks) <= 1:
-        for k, task in enumerate(tasks):
-            done(k, fn(task))
-    else:
-        ctx = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx) as pool:
-            futs = {pool.submit(fn, task): k for k, task in enumerate(tasks)}
-            for fut in as_completed(futs):
-                done(futs[fut], fut.result())
-    return [results[k] for k in range(len(tasks))]
 
 
 def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions = Dispersions(), *,
@@ -341,21 +283,11 @@ def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions 
     batch = min(chunk_size, 250)
     tasks = [ChunkTask(problem, int(seed), c, dispersions, float(dt_s), float(t_max_s), batch, backend)
              for c in _chunks(indices, chunk_size)]
-    bar = _Progress(len(indices), progress)
-    parts = map_with_progress(simulate_chunk, tasks, workers=workers, scheduler=scheduler,
-                              bar=bar, weight=lambda t: len(t.indices))
+    parts = parallel_map(simulate_chunk, tasks, workers=workers, scheduler=scheduler,
+                         progress="montecarlo" if progress else None, weight=lambda t: len(t.indices))
     if not parts:
         return {}
     return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
-
-
-def _import_distributed():
-    try:
-        from distributed import Client, as_completed
-    except ImportError as err:
-        raise ImportError("a Dask scheduler was given but dask.distributed is not installed: "
-                          "pip install 'casrecon[dask]' (or 'dask[distributed]')") from err
-    return Client, as_completed
 
 
 def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions: Dispersions = Dispersions(), *,
@@ -385,77 +317,3 @@ def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions
                                    float(dt_s), float(t_max_s), 1, backend))
     nominal = {k: float(nom[k][0]) for k in OUTPUT_COLUMNS}
     return MonteCarloResult(cols, int(seed), resolved, float(dt_s), wall, nominal, sc.config.name)
-
-
-def write_cases_csv(path: str | Path, result: MonteCarloResult) -> None:
-    """``cases.csv``: one row per case, ``case`` first, then drawn inputs and outputs."""
-    names, data = result.table()
-    fmt = ["%d"] + ["%.10g"] * (len(names) - 1)
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
-
-
-def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
-                           *, dt_s: float = DEFAULT_DT_S, chunk_size: int | None = None, center: str = "truth",
-                           figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
-    """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
-    ``figures/*.png``). Returns 0, or 2 after printing one located line on bad input."""
-    from casrecon.io.errors import InputError
-    from casrecon.io.results import atomic_folder, write_json
-
-    def bad(msg: str) -> int:
-        print(f"casrecon montecarlo: {msg}", file=sys.stderr)
-        return 2
-
-    if not isinstance(cases, int) or cases < 1:
-        return bad(f"--cases: must be a positive integer, got {cases!r}")
-    if not isinstance(seed, int) or seed < 0:
-        return bad(f"--seed: must be an integer >= 0, got {seed!r}")
-    if not isinstance(workers, int) or workers < 1:
-        return bad(f"--workers: must be a positive integer, got {workers!r}")
-    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
-        return bad(f"--dt: must lie in (0, 0.05] s, got {dt_s!r}")
-    if chunk_size is not None and chunk_size < 1:
-        return bad(f"--chunk-size: must be a positive integer, got {chunk_size!r}")
-    try:
-        disp = Dispersions(center=center)
-    except ValueError as err:
-        return bad(str(err))
-    if scheduler is not None:
-        try:
-            _import_distributed()
-        except ImportError as err:
-            return bad(f"--scheduler {scheduler}: {err}")
-    try:
-        from casrecon.scenario import Scenario
-
-        sc = Scenario.load(problem)
-    except InputError as err:
-        print(str(err), file=sys.stderr)
-        return 2
-    except FileNotFoundError as err:
-        return bad(f"{problem}: {err.strerror or err}")
-    if sc.config.release.h_agl_m <= 0:
-        return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
-    try:
-        result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
-                                chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
-    except OSError as err:
-        if scheduler is not None:
-            return bad(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})")
-        raise
-    stats = result.statistics()
-    stats.update(workers=workers, scheduler=scheduler, wall_s=result.wall_s,
-                 cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
-    with atomic_folder(out) as tmp:
-        write_cases_csv(tmp / "cases.csv", result)
-        write_json(tmp / "statistics.json", stats)
-        if figures:
-            from casrecon.report.montecarlo_plots import plot_montecarlo
-
-            plot_montecarlo(result, tmp / "figures")
-    ft, sp = stats["flight_time_s"], stats["impact_speed_mps"]
-    print(f"{result.n_cases} cases ({stats['n_impacted']} impacted) in {result.wall_s:.1f} s -> {out}")
-    if ft is not None:
-        print(f"flight time   {ft['mean']:.3f} s    sd {ft['sd']:.3f}   p1 {ft['p1']:.3f}   p99 {ft['p99']:.3f}")
-        print(f"impact speed  {sp['mean']:.3f} m/s  sd {sp['sd']:.3f}   p1 {sp['p1']:.3f}   p99 {sp['p99']:.3f}")
-    return 0

@@ -13,15 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.synthetic import make_synthetic, simulate_truth, truth_parameters_by_name
 from casrecon.estimation.continuation import clock_bounds
 from casrecon.estimation.drop import build_nlp, parameter_set
 from casrecon.estimation.engine.covariance import compute_covariance
 from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.fit import FitResult, prepare_drop
-from casrecon.io.flysight import write_flysight1
-from casrecon.io.imu import write_imu_csv
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import simulate_truth, truth_parameters_by_name, with_synthetic_data
 
 
 @dataclass(frozen=True)
@@ -110,21 +108,11 @@ def profile_likelihood(result: FitResult, name: str, n_points: int = 9, span_sig
     return Profile(name, grid, delta, value, 3 * sigma, (lo, hi))
 
 
-def _with_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scenario:
-    """The scenario with fresh synthetic data (written to ``folder``)."""
-    cfg = scenario.config
-    data = make_synthetic(scenario, seed=seed)
-    write_imu_csv(folder / "imu.csv", data.imu_time_s, data.imu_accel_mps2, data.imu_gyro_radps, cfg.imu.spec)
-    write_flysight1(folder / "gps.csv", data.gps)
-    return Scenario.from_config(dataclasses.replace(cfg, imu=dataclasses.replace(cfg.imu, file=folder / "imu.csv"),
-                                                    gps=dataclasses.replace(cfg.gps, file=folder / "gps.csv")))
-
-
 def predicted_covariance(scenario: Scenario) -> tuple[tuple[str, ...], np.ndarray]:
     """Parameter covariance a fit of this (simulated) drop would report: the KKT covariance with the
     Gauss-Newton Hessian evaluated at the truth, without solving (design of experiments)."""
     with tempfile.TemporaryDirectory() as tmp:
-        sc = _with_data(scenario, Path(tmp))
+        sc = with_synthetic_data(scenario, Path(tmp))
         data, mesh = prepare_drop(sc)
         params = parameter_set(sc.config)
         fit_nlp = build_nlp(sc.model, data, mesh, params, sc.config)

@@ -11,10 +11,10 @@ import casadi as ca
 import numpy as np
 from scipy.signal import savgol_filter
 
-from casrecon.analysis.simulate import Simulator
 from casrecon.estimation.kinds.gps import GpsKind
 from casrecon.estimation.kinds.imu import IMU_CHANNELS, ImuKind, model_and_bias_values
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment
+from casrecon.simulation.simulate import Simulator
 
 __all__ = ["IMU_CHANNELS", "imu_residuals", "gps_residuals", "pitching_moment", "reconciled_simulation"]
 

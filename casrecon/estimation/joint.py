@@ -217,20 +217,3 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     return JointResult(cfg, drops, tuple(columns.values()), sol.z[cols] * scales[cols], sigma,
                        c / np.outer(sigma, sigma), shared, nlp.chi2(r), nlp.dof(), cov.reduced_chi2, timings,
                        sol.iterations, sol.status, settings)
-
-
-def _single_sigma(problem: str) -> tuple[str, dict[str, float]]:
-    from casrecon.estimation.fit import fit_drop
-
-    result = fit_drop(Scenario.load(problem))
-    return result.scenario.config.name, dict(zip(result.params.names, map(float, result.sigma)))
-
-
-def single_drop_sigmas(problems: list[Path], workers: int = 2) -> dict[str, dict[str, float]]:
-    """1-sigma of every parameter in each drop's own fit, fitted in parallel processes."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-        return dict(pool.map(_single_sigma, [str(p) for p in problems]))

@@ -74,3 +74,29 @@ def fit_tables(result) -> str:
     name = result.scenario.config.name
     return "\n".join([f"# {name}: reconstruction tables\n", initial_conditions_table(result),
                       impact_conditions_table(result), dispersion_table(result)])
+
+
+def roll_rate_table(rows: list[dict], cla_mult: tuple[float, float] | None) -> str:
+    """Markdown table of :func:`casrecon.analysis.fit_products.roll_rate_comparison` rows (deg/s);
+    ``cla_mult`` is the fitted (value, 1-sigma) of the vane lift-curve slope multiplier, if estimated."""
+    fit = "" if cla_mult is None else f" (CLa_mult {cla_mult[0]:.4f} +/- {3 * cla_mult[1]:.4f}, 3-sigma)"
+    lines = ["### Roll rate: reconstruction vs spin-vane model", "",
+             f"Forward simulations from the reconstructed first state with the fitted C_La{fit} and the nominal "
+             "(2 pi / 5) vane lift-curve slope.", "",
+             "| flight time, s | reconstructed, deg/s | 3-sigma | model, fitted C_La | model, nominal C_La |",
+             "|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['flight_time_s']:.1f} | {r['reconstructed_dps']:.2f} | "
+                     f"{r['reconstructed_3sigma_dps']:.3f} | "
+                     f"{r['model_fitted_dps']:.2f} | {r['model_nominal_dps']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def drop_tables(result, products) -> str:
+    """``tables.md`` of a per-drop fit: :func:`fit_tables`, and the roll-rate table when the
+    :class:`~casrecon.analysis.fit_products.FitProducts` have roll-rate rows (a vehicle with spin vanes)."""
+    text = fit_tables(result)
+    if products.roll_rate is not None:
+        cla = result.parameter("CLa_mult") if "CLa_mult" in result.params.names else None
+        text += "\n" + roll_rate_table(products.roll_rate, cla)
+    return text

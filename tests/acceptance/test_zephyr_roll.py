@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS, UTTR, sim_problem, still_air
 
-from casrecon.analysis.simulate import Simulator
 from casrecon.physics.dynamics import DynamicsOptions, FlightModel
 from casrecon.scenario import Scenario
+from casrecon.simulation.simulate import Simulator
 
 ALPHA_K = math.radians(11.0)
 R = 0.696

@@ -9,7 +9,8 @@ import json
 import numpy as np
 from scipy.stats import chi2
 
-from casrecon.analysis.estimator_mc import estimator_montecarlo, run_case, write_consistency
+from casrecon.analysis.estimator_mc import estimator_montecarlo, run_case
+from casrecon.output.consistency import write_consistency
 
 
 def test_cases_reproducible_and_written(problem_copy, tmp_path):

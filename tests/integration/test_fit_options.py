@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.analysis.synthetic import truth_parameters_by_name
 from casrecon.estimation.fit import FitError, fit_drop
 from casrecon.io.imu import read_imu_csv
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import truth_parameters_by_name
 
 
 def with_estimation(scenario: Scenario, **changes) -> Scenario:

@@ -27,11 +27,11 @@ import numpy as np
 import pytest
 from conftest import EES_DROPS, PROBLEMS
 
-from casrecon.analysis.synthetic import simulate_truth, truth_parameters_by_name
 from casrecon.estimation.fit import fit_drop
 from casrecon.estimation.layout import NS
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import simulate_truth, truth_parameters_by_name
 
 POS = ("pos_n_m", "pos_e_m", "pos_d_m")
 VEL = ("vel_n_mps", "vel_e_mps", "vel_d_mps")

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.analysis.batch import BatchSimulator
 from casrecon.analysis.montecarlo import (
     INPUT_NAMES,
     OUTPUT_COLUMNS,
@@ -18,10 +17,11 @@ from casrecon.analysis.montecarlo import (
     draw_case,
     run_cases,
     run_montecarlo,
-    run_montecarlo_command,
 )
-from casrecon.analysis.simulate import Simulator
+from casrecon.cli import run_montecarlo_command
 from casrecon.scenario import Scenario
+from casrecon.simulation.batch import BatchSimulator
+from casrecon.simulation.simulate import Simulator
 
 DROP1 = PROBLEMS / "ees-drop-1"
 #: Batch RK4 (dt 0.02 s) against the 500 Hz Simulator (observed: 2e-6 s and 2e-7 m/s).

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS, UTTR, simple_vehicle, still_air
 
-from casrecon.analysis.simulate import Simulator
 from casrecon.io.vehicle_files import load_aero, load_vehicle
 from casrecon.physics.aero import AeroDatabase, AnalyticCoefficients, DispersionSizes
 from casrecon.physics.dynamics import DynamicsOptions, FlightModel, default_parameters
 from casrecon.physics.earth import EARTH_RATE, normal_gravity
 from casrecon.physics.rotations import dcm_body_to_ned, euler_deg_to_quat
+from casrecon.simulation.simulate import Simulator
 
 DRAG = AeroDatabase("drag", AnalyticCoefficients(CA0=0.8, CA2=0.1, CNa=0.5, Cma=-0.1, Cmq0=-0.2),
                     DispersionSizes())

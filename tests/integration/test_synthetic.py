@@ -10,11 +10,11 @@ import pymap3d
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.analysis.synthetic import make_synthetic
 from casrecon.cli import main
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import make_synthetic
 
 
 def dcm_numpy(q: np.ndarray) -> np.ndarray:

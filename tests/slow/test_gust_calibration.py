@@ -15,7 +15,7 @@ from conftest import PROBLEMS
 from scipy import stats
 
 from casrecon.analysis.gust_calibration import GustCase, marginal_profile_case, run_gust_case
-from casrecon.analysis.montecarlo import map_with_progress
+from casrecon.parallel import parallel_map
 
 pytestmark = pytest.mark.slow
 SEEDS = (2, 3, 4, 5)
@@ -23,7 +23,7 @@ SEEDS = (2, 3, 4, 5)
 
 def _cases(truth_gusts: bool) -> list[dict]:
     tasks = [GustCase(PROBLEMS / "ees-drop-3", s, start_s=34.0, truth_gusts=truth_gusts) for s in SEEDS]
-    cases = map_with_progress(run_gust_case, tasks, workers=2)
+    cases = parallel_map(run_gust_case, tasks, workers=2)
     assert all(c["converged"] for c in cases)
     return cases
 
@@ -49,8 +49,8 @@ def test_laplace_marginal_profile_removes_most_of_the_bias():
     """The diagnosis: adding 1/2 log det of the latent Hessian to the profile moves Cmn_mult's
     minimum to within 3 sigma of the truth on each seed (measured -0.01, -0.03, +2.17 sigma against
     +5.1 to +5.4 for the fit), while the joint profile's minimum reproduces the fit's estimate."""
-    rows = map_with_progress(marginal_profile_case, [GustCase(PROBLEMS / "ees-drop-3", s, start_s=34.0)
-                                                     for s in SEEDS[:3]], workers=2)
+    rows = parallel_map(marginal_profile_case, [GustCase(PROBLEMS / "ees-drop-3", s, start_s=34.0)
+                                                for s in SEEDS[:3]], workers=2)
     for r in rows:
         print(r)
         assert abs(r["joint_minimum"] - r["estimate"]) < 0.2 * r["sigma"]

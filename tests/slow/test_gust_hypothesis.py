@@ -17,11 +17,10 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.analysis.observability import _with_data
-from casrecon.analysis.synthetic import truth_disturbance, truth_parameters_by_name
 from casrecon.estimation.fit import FitError, fit_drop
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import truth_disturbance, truth_parameters_by_name, with_synthetic_data
 
 pytestmark = pytest.mark.slow
 GUSTS = DisturbanceModel((0.5, 0.5, 0.25) + (0.0,) * 6, (3.0,) * 9)
@@ -34,7 +33,7 @@ def gusty(tmp_path_factory):
     cfg = sc.config
     cfg = dataclasses.replace(cfg, truth=dataclasses.replace(cfg.truth, disturbance=GUSTS),
                               estimation=dataclasses.replace(cfg.estimation, start_after_release_s=15.0))
-    return _with_data(Scenario.from_config(cfg), tmp_path_factory.mktemp("gusty"), seed=SEED)
+    return with_synthetic_data(Scenario.from_config(cfg), tmp_path_factory.mktemp("gusty"), seed=SEED)
 
 
 def test_strong_constraint_cannot_explain_gusts(gusty):

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.analysis.simulate import Simulator
 from casrecon.estimation.fit import fit_drop
 from casrecon.io.errors import InputError
 from casrecon.io.problem import load_problem
@@ -19,6 +18,7 @@ from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.physics.dynamics import DISTURBANCE_NAMES, default_parameters
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.scenario import Scenario
+from casrecon.simulation.simulate import Simulator
 
 GUSTS_AND_ERRORS = DisturbanceModel((0.5, 0.5, 0.3, 2.0, 2.0, 2.0, 0.5, 0.5, 0.5), (3.0,) * 3 + (1.0,) * 6)
 

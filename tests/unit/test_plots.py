@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from casrecon.report import plots
+from casrecon.report import figure_style
 from casrecon.report.plots import draw_figures
 
 RELEASE_IMU_S = 2.0
@@ -89,7 +89,7 @@ def make_drop_folder(folder: Path, name: str = "synthetic-drop", n: int = 200) -
 def no_render(monkeypatch):
     """Build the figures but skip the ~1 s of rendering each (the plumbing tests only need the
     files); a figure saved under a folder in the returned list is still rendered for real."""
-    real_save = plots._save
+    real_save = figure_style.save_figure
     rendered: list[Path] = []
 
     def fast_save(fig, path: Path) -> Path:
@@ -100,7 +100,7 @@ def no_render(monkeypatch):
         fig.clear()
         return path
 
-    monkeypatch.setattr(plots, "_save", fast_save)
+    monkeypatch.setattr(figure_style, "save_figure", fast_save)
     return rendered
 
 

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from casrecon.io.results import atomic_folder, write_columns, write_json
+from casrecon.output.results import atomic_folder, write_columns, write_json
 
 
 def leftovers(parent):

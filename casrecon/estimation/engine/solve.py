@@ -12,7 +12,7 @@ Hessian choices
     from per-block exact Hessians.
 
 Stopping: Ipopt's own test (``tol``), or, for strong-constraint fits, the statistical test of
-:mod:`casrecon.estimation.convergence` (a full Gauss-Newton step would lower chi-square by less
+:mod:`casrecon.estimation.engine.convergence` (a full Gauss-Newton step would lower chi-square by less
 than 1e-3), made at Ipopt's iterates and once more on an unconverged return; ``SolveResult.status``
 says which test stopped the fit.
 """
@@ -104,7 +104,7 @@ class _Derivative(ca.Callback):
 def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
                 print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[ca.Function, list]:
     """Build the Ipopt solver of ``nlp``; also returns the callbacks, which must outlive it (the
-    last is the :class:`~casrecon.estimation.convergence.DecrementStop`, or None)."""
+    last is the :class:`~casrecon.estimation.engine.convergence.DecrementStop`, or None)."""
     f = 0.5 * ca.sumsqr(nlp.residuals)
     f_fn = ca.Function("f", [nlp.z], [f])
     g_fn = ca.Function("g", [nlp.z], [nlp.constraints])

@@ -20,19 +20,21 @@ What is made, and the simplifications kept (documented for whoever fits it):
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pymap3d
 
-from casrecon.analysis.simulate import Simulator, Trajectory
-from casrecon.io.flysight import GpsTrack
-from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE
+from casrecon.io.flysight import GpsTrack, write_flysight1
+from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, write_imu_csv
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.scenario import Scenario
+from casrecon.simulation.simulate import Simulator, Trajectory
 
 COLD_START_FIXES = 12
 IMPACT_PULSE_S = 0.02   # half-sine ground-reaction pulse at impact, s
@@ -213,3 +215,29 @@ def make_synthetic(scenario: Scenario, seed: int | None = None) -> SyntheticData
              "release_imu_time_s": t_zero, "release_utc": cfg.release.time_utc.isoformat(),
              "summary": traj.summary()}
     return SyntheticData(traj, imu_t, accel, gyro, gps, truth)
+
+
+def with_synthetic_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scenario:
+    """The scenario with fresh synthetic sensor data in place of its own.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The drop to simulate (its ``[truth]`` and sensor specifications).
+    folder : Path
+        Existing folder that receives ``imu.csv`` and ``gps.csv`` (FlySight 1); it must outlive
+        the use of the returned scenario.
+    seed : int
+        Noise seed of :func:`make_synthetic`.
+
+    Returns
+    -------
+    Scenario
+        A copy whose IMU and GPS files are the ones written to ``folder``.
+    """
+    cfg = scenario.config
+    data = make_synthetic(scenario, seed=seed)
+    write_imu_csv(folder / "imu.csv", data.imu_time_s, data.imu_accel_mps2, data.imu_gyro_radps, cfg.imu.spec)
+    write_flysight1(folder / "gps.csv", data.gps)
+    return Scenario.from_config(dataclasses.replace(cfg, imu=dataclasses.replace(cfg.imu, file=folder / "imu.csv"),
+                                                    gps=dataclasses.replace(cfg.gps, file=folder / "gps.csv")))

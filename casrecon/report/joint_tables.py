@@ -1,27 +1,9 @@
-"""The results folder of a joint fit: global parameters and correlations, a Table 5, per-drop
-summary and a sigma comparison with single-drop fits at the top; one per-drop results folder (the
-same files as a per-drop fit) under ``drops/<name>/``."""
+"""Markdown tables of a joint fit: the shared factors (EES Table 5 style), a per-drop summary, and
+the joint against the single-drop sigmas."""
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import numpy as np
-
-from casrecon.io.fit_results import write_fit_results
-from casrecon.io.results import write_json
-from casrecon.report.fit_report import fit_report
-from casrecon.report.tables import fit_tables
-
-
-def joint_parameters_document(result) -> dict:
-    params = {n: {"value": float(v), "sigma": float(s), "three_sigma": 3 * float(s),
-                  "sigma_chi2_scaled": float(s * np.sqrt(result.reduced_chi2)), "shared": n in result.shared}
-              for n, v, s in zip(result.names, result.values, result.sigma)}
-    return {"parameters": params,
-            "correlation": {"names": list(result.names), "matrix": np.round(result.correlation, 6).tolist()},
-            "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix"}}
 
 
 def _table5(result) -> list[str]:
@@ -71,28 +53,9 @@ def _sigma_comparison(result, single: dict[str, dict[str, float]]) -> list[str]:
 
 
 def joint_tables(result, single: dict, reconciled: dict) -> str:
+    """``tables.md`` of a joint fit: ``single`` maps drop -> parameter -> single-drop 1-sigma (may be
+    empty), ``reconciled`` maps drop -> reconciled-simulation summary (s, m/s)."""
     head = [f"# {result.config.name}: joint aero fit of {len(result.drops)} drops", "",
             f"{result.status} in {result.iterations} iterations; reduced chi-square {result.reduced_chi2:.4f}.", ""]
     return "\n".join(head + _table5(result) + [""] + _per_drop(result, reconciled) + [""]
                      + _sigma_comparison(result, single)) + "\n"
-
-
-def write_joint_results(out: Path, result, single: dict[str, dict[str, float]]) -> None:
-    """Write the joint results folder into ``out`` (an atomic temporary folder)."""
-    out = Path(out)
-    reconciled = {}
-    for d in result.drops:
-        name = d.scenario.config.name
-        sub = out / "drops" / name
-        sub.mkdir(parents=True)
-        write_fit_results(sub, d, fit_report(d), fit_tables(d))
-        reconciled[name] = json.loads((sub / "summary.json").read_text())["reconciled"]
-    write_json(out / "parameters.json", joint_parameters_document(result))
-    write_json(out / "summary.json", {
-        "name": result.config.name, "converged": True, "status": result.status, "iterations": result.iterations,
-        "drops": [d.scenario.config.name for d in result.drops], "shared": list(result.shared),
-        "chi2": result.chi2, "dof": result.dof, "reduced_chi2": result.reduced_chi2, "timings": result.timings,
-        **{k: result.timings[k] for k in ("build_s", "solve_s", "covariance_s", "total_s")},
-        "chi2_per_drop": {d.scenario.config.name: d.chi2 for d in result.drops},
-        "single_drop_sigma": single, "reconciled": reconciled})
-    (out / "tables.md").write_text(joint_tables(result, single, reconciled))

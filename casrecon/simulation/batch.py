@@ -1,4 +1,4 @@
-"""Many flights at once: the RK4 step of :class:`~casrecon.analysis.simulate.Simulator` mapped
+"""Many flights at once: the RK4 step of :class:`~casrecon.simulation.simulate.Simulator` mapped
 across a batch of cases, for Monte Carlo statistics.
 
 One CasADi function advances one case by one RK4 step (quaternion renormalised, as in the
@@ -31,8 +31,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from casrecon.analysis.simulate import _rk4
 from casrecon.physics.dynamics import DISTURBANCE_NAMES, OUTPUT_NAMES, FlightModel
+from casrecon.simulation.simulate import rk4_step
 
 #: Default Monte Carlo step, s. Checked against the 500 Hz :class:`Simulator` (tests/integration/
 #: test_montecarlo.py): flight time and impact speed agree within 1e-3 s and 1e-3 m/s.
@@ -140,7 +140,7 @@ class BatchSimulator:
         p = ca.SX.sym("p", model.n_params)
         h = ca.SX.sym("h")
         no_disturbance = ca.DM.zeros(len(DISTURBANCE_NAMES))
-        xn = _rk4(model.rhs_d, x, p, h, no_disturbance, no_disturbance)
+        xn = rk4_step(model.rhs_d, x, p, h, no_disturbance, no_disturbance)
         xn = ca.vertcat(xn[:6], xn[6:10] / ca.norm_2(xn[6:10]), xn[10:])
         alpha_t = model.outputs(xn, p)[OUTPUT_NAMES.index("alpha_t")]
         step = ca.Function("casrecon_mc_step", [x, p, h], [xn, alpha_t])

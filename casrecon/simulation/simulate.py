@@ -107,7 +107,7 @@ class Simulator:
         d0, d1 = ca.SX.sym("d0", len(DISTURBANCE_NAMES)), ca.SX.sym("d1", len(DISTURBANCE_NAMES))
         xn, n = x, self.substeps
         for i in range(n):
-            xn = _rk4(model.rhs_d, xn, p, h / n, d0 + (d1 - d0) * i / n, d0 + (d1 - d0) * (i + 1) / n)
+            xn = rk4_step(model.rhs_d, xn, p, h / n, d0 + (d1 - d0) * i / n, d0 + (d1 - d0) * (i + 1) / n)
         xn = ca.vertcat(xn[:6], xn[6:10] / ca.norm_2(xn[6:10]), xn[10:])
         self.step = ca.Function("rk4_step", [x, p, h, d0, d1], [xn])
         self._run = self.step.mapaccum("rk4_chunk", self.chunk, [0], [0])
@@ -201,8 +201,25 @@ class _Disturbance:
         return d[:, :-1], d[:, 1:]
 
 
-def _rk4(f: ca.Function, x, p, h, d0, d1):
-    """One classical RK4 step of dx/dt = f(x, p, d) with d linear from d0 to d1 over the step."""
+def rk4_step(f: ca.Function, x, p, h, d0, d1):
+    """One classical Runge-Kutta (RK4) step of dx/dt = f(x, p, d).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        Right-hand side ``(x, p, d) -> dx/dt`` (SI units of the state per s).
+    x, p : casadi expression or array
+        State at the start of the step and parameters (held constant over the step).
+    h : float or casadi expression
+        Step length, s.
+    d0, d1 : casadi expression or array
+        Disturbance input at the start and at the end of the step; linear in between.
+
+    Returns
+    -------
+    casadi expression or array
+        The state after the step (same type as ``x``); the quaternion is not renormalised.
+    """
     dm = 0.5 * (d0 + d1)
     k1 = f(x, p, d0)
     k2 = f(x + h / 2 * k1, p, dm)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.io.results import write_columns, write_json
+from casrecon.output.results import write_columns, write_json
 
 NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
 
@@ -26,30 +26,18 @@ def _model_summary(r) -> dict:
             "timings": r.timings}
 
 
-def pointmass_report(main, constant) -> str:
-    """Text report: both models' fit quality and the main model's parameters."""
-    cfg = main.config
-    lines = [f"[[GPS-only fit: {cfg.name}]] point mass {cfg.mass_kg:g} kg, atmosphere "
-             f"{'ICAO standard (no wind)' if cfg.sounding is None else cfg.sounding.name}"]
-    for r in (main, constant):
-        stats = r.residual_stats()
-        worst = max(stats, key=lambda k: stats[k]["rms"])
-        lines.append(f"    {r.model_name:8s} drag: {r.solver.status} in {r.solver.iterations} iterations, reduced chi2 "
-                     f"{r.reduced_chi2:.3f}; normalised residual RMS " + ", ".join(
-                         f"{k} {v['rms']:.2f}" for k, v in stats.items())
-                     + f" (worst {worst}, lag-1 autocorrelation {stats[worst]['lag1_autocorrelation']:.2f})")
-    lines.append("[[Parameters]] (fitted model; 3-sigma absolute; spline coefficients in parameters.json)")
-    for spec, v, s in zip(main.params.specs, main.values, main.sigma):
-        if spec.group != "drag" or spec.name == "CdA":
-            lines.append(f"    {spec.name:12s} = {v: .5g} +/- {3 * s:.3g} [{spec.unit}]")
-    lines.append(f"    drag area CdA(t): {main.cda.min():.3f} to {main.cda.max():.3f} m^2 "
-                 f"(median 3-sigma {3 * np.median(main.cda_sigma):.3g} m^2)")
-    lines += ["[[Data notes]]", *[f"    {n}" for n in main.notes]]
-    return "\n".join(lines)
+def write_pointmass_results(out: Path, main, constant, report_text: str) -> None:
+    """Write the folder into ``out`` (an atomic temporary folder).
 
-
-def write_pointmass_results(out: Path, main, constant) -> None:
-    """Write the folder into ``out`` (an atomic temporary folder)."""
+    Parameters
+    ----------
+    out : Path
+        Existing (empty) folder.
+    main, constant : casrecon.estimation.pointmass_fit.PointMassResult
+        The fitted model and the constant-drag model (the same object when the model is constant).
+    report_text : str
+        Written as ``report.txt`` (:func:`casrecon.report.pointmass_report.pointmass_report`).
+    """
     out = Path(out)
     t0 = main.t_unix[0]
     cols, data = ["time_utc_unix_s", "time_s"], [main.t_unix, main.t_unix - t0]
@@ -77,7 +65,7 @@ def write_pointmass_results(out: Path, main, constant) -> None:
         "fit": _model_summary(main), "constant_drag": _model_summary(constant),
         "segment_utc_unix_s": [float(main.t_unix[0]), float(main.t_unix[-1])], "notes": list(main.notes),
         "mass_kg": main.config.mass_kg, "total_s": main.timings["total_s"] + constant.timings["total_s"]})
-    (out / "report.txt").write_text(pointmass_report(main, constant) + "\n")
+    (out / "report.txt").write_text(report_text + "\n")
     config_dir = out / "config"
     config_dir.mkdir()
     shutil.copy2(main.config.path, config_dir / "problem.toml")

@@ -1,0 +1,141 @@
+"""What a per-drop fit leaves for its results folder besides the fit itself: sensor residuals, the
+reconstructed pitching moment, and the reconciled forward simulations (EES paper VI).
+
+:func:`fit_products` runs the computations of :mod:`casrecon.estimation.diagnostics` (CasADi and
+two forward simulations) once and returns them as named columns, so that the writers in
+:mod:`casrecon.output` only serialise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from casrecon.estimation import diagnostics as dg
+
+#: GPS residual components (antenna position NED, m; velocity NED, m/s).
+GPS_COMPONENTS = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
+#: Columns kept of the reconciled and nominal simulations.
+SIMULATION_COLUMNS = ("flight_time_s", "h_agl_m", "speed_mps", "alpha_t_deg", "p_dps")
+
+Columns = dict[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class FitProducts:
+    """Residuals, pitching moment and reconciled simulations of one fit, as named columns.
+
+    Every ``Columns`` field maps a column name to a 1-D array, all of one length, in file order.
+
+    Attributes
+    ----------
+    imu_residuals : Columns
+        ``time_imu_s`` (s, IMU clock), measured minus predicted ``<ch>_residual`` (m/s^2 for
+        ax, ay, az; rad/s for wx, wy, wz; IMU axes) and ``<ch>_used`` (1 where fitted, 0 where masked).
+    imu_sigma : dict of str to float
+        Noise 1-sigma of each IMU channel (m/s^2, rad/s).
+    gps_residuals : Columns
+        ``time_imu_s`` (s), ``<c>_residual`` and ``<c>_sigma`` for :data:`GPS_COMPONENTS` (m, m/s).
+    gps_fixes : Columns
+        ``time_imu_s`` (s) and the measured antenna ``pos_n_m`` .. ``vel_d_mps`` (NED, m and m/s).
+    pitching_moment : Columns
+        ``time_imu_s`` (s), ``alpha_deg`` (deg), ``qbar_pa`` (Pa) and ``cm_recon`` (-) at the nodes.
+    cm_curves : Columns
+        ``alpha_deg`` (deg), ``cm_nominal`` and ``cm_fitted`` (-): the database curves at beta = 0.
+    reconciled, nominal : Columns
+        :data:`SIMULATION_COLUMNS` (s, m, m/s, deg, deg/s) of the forward simulation from the first
+        reconstructed state with the fitted dispersions, and with the nominal database.
+    summary : dict
+        Simulated minus reconstructed flight time (s) and impact speed (m/s) of the reconciled
+        simulation, with the nominal one's under ``nominal_database``.
+    roll_rate : list of dict or None
+        :func:`roll_rate_comparison` rows (deg/s) for a vehicle with spin vanes, else None.
+    """
+
+    imu_residuals: Columns
+    imu_sigma: dict[str, float]
+    gps_residuals: Columns
+    gps_fixes: Columns
+    pitching_moment: Columns
+    cm_curves: Columns
+    reconciled: Columns
+    nominal: Columns
+    summary: dict
+    roll_rate: list[dict] | None = None
+
+    @property
+    def reconciled_summary(self) -> dict:
+        """:attr:`summary` with the roll-rate rows under ``roll_rate`` when there are any."""
+        return self.summary if self.roll_rate is None else {**self.summary, "roll_rate": self.roll_rate}
+
+
+def roll_rate_comparison(result, rec: dict, nom: dict, n: int = 6) -> list[dict]:
+    """Reconstructed roll rate (with 3-sigma) against the spin-vane model.
+
+    Parameters
+    ----------
+    result : casrecon.estimation.fit.FitResult
+        The fit.
+    rec, nom : dict
+        Forward simulations with the fitted and the nominal lift-curve slope: ``flight_time_s`` (s)
+        and ``p_dps`` (deg/s) arrays, as :func:`casrecon.estimation.diagnostics.reconciled_simulation`
+        returns them.
+    n : int
+        Number of times, evenly spaced through the fit window.
+
+    Returns
+    -------
+    list of dict
+        Per time: ``flight_time_s`` (s), ``reconstructed_dps``, ``reconstructed_3sigma_dps``,
+        ``model_fitted_dps`` and ``model_nominal_dps`` (deg/s).
+    """
+    p, p_sigma = result.column("p_dps")
+    t = result.flight_time_s
+    out = []
+    for tt in np.linspace(t[0], t[-1], n):
+        out.append({"flight_time_s": float(tt), "reconstructed_dps": float(np.interp(tt, t, p)),
+                    "reconstructed_3sigma_dps": float(3 * np.interp(tt, t, p_sigma)),
+                    "model_fitted_dps": float(np.interp(tt, rec["flight_time_s"], rec["p_dps"])),
+                    "model_nominal_dps": float(np.interp(tt, nom["flight_time_s"], nom["p_dps"]))})
+    return out
+
+
+def fit_products(result) -> FitProducts:
+    """Residuals, pitching moment and reconciled simulations of a fit.
+
+    Parameters
+    ----------
+    result : casrecon.estimation.fit.FitResult
+        A converged per-drop fit.
+
+    Returns
+    -------
+    FitProducts
+    """
+    imu = dg.imu_residuals(result)
+    imu_cols = {"time_imu_s": imu["time_imu_s"]}
+    imu_cols.update({f"{c}_residual": imu["residual"][:, k] for k, c in enumerate(dg.IMU_CHANNELS)})
+    imu_cols.update({f"{c}_used": imu["valid"][:, k] for k, c in enumerate(dg.IMU_CHANNELS)})
+    gps = dg.gps_residuals(result)
+    gps_cols = {"time_imu_s": gps["time_imu_s"]}
+    gps_cols.update({f"{c}_residual": gps["residual"][:, k] for k, c in enumerate(GPS_COMPONENTS)})
+    gps_cols.update({f"{c}_sigma": gps["sigma"][:, k] for k, c in enumerate(GPS_COMPONENTS)})
+    d = result.data
+    fix_names = ("pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps", "vel_d_mps")
+    fixes = np.column_stack([d.gps_pos_ned, d.gps_vel_ned])
+    pm = dg.pitching_moment(result)
+    rec = dg.reconciled_simulation(result)
+    nom = dg.reconciled_simulation(result, nominal=True)
+    vanes = result.scenario.config.aero.vanes is not None
+    return FitProducts(
+        imu_residuals=imu_cols,
+        imu_sigma=dict(zip(dg.IMU_CHANNELS, imu["sigma"].tolist())),
+        gps_residuals=gps_cols,
+        gps_fixes={"time_imu_s": gps["time_imu_s"], **{n: fixes[:, k] for k, n in enumerate(fix_names)}},
+        pitching_moment={k: pm[k] for k in ("time_imu_s", "alpha_deg", "qbar_pa", "cm_recon")},
+        cm_curves={"alpha_deg": pm["alpha_grid_deg"], "cm_nominal": pm["cm_nominal"], "cm_fitted": pm["cm_fitted"]},
+        reconciled={k: rec[k] for k in SIMULATION_COLUMNS},
+        nominal={k: nom[k] for k in SIMULATION_COLUMNS},
+        summary={**rec["summary"], "nominal_database": nom["summary"]},
+        roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None)

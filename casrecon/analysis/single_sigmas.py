@@ -1,0 +1,49 @@
+"""1-sigma of every parameter in each drop's own fit: the single-drop column of a joint fit's sigma comparison."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from casrecon.estimation.fit import fit_drop
+from casrecon.parallel import parallel_map
+from casrecon.scenario import Scenario
+
+
+def single_drop_sigma(problem: str | Path) -> tuple[str, dict[str, float]]:
+    """Fit one drop on its own.
+
+    Parameters
+    ----------
+    problem : str or Path
+        Problem folder or ``problem.toml``.
+
+    Returns
+    -------
+    tuple of (str, dict of str to float)
+        The problem name and the absolute 1-sigma of each estimated parameter (SI, as fitted).
+
+    Raises
+    ------
+    casrecon.estimation.fit.FitError
+        When the fit fails.
+    """
+    result = fit_drop(Scenario.load(problem))
+    return result.scenario.config.name, dict(zip(result.params.names, map(float, result.sigma)))
+
+
+def single_drop_sigmas(problems: list[Path], workers: int = 2) -> dict[str, dict[str, float]]:
+    """1-sigma of every parameter in each drop's own fit, the drops fitted in parallel processes.
+
+    Parameters
+    ----------
+    problems : list of Path
+        Problem folders or ``problem.toml`` files.
+    workers : int
+        Local (spawned) processes.
+
+    Returns
+    -------
+    dict of str to dict of str to float
+        Problem name -> parameter name -> absolute 1-sigma (SI), in the order of ``problems``.
+    """
+    return dict(parallel_map(single_drop_sigma, [str(p) for p in problems], workers=workers))

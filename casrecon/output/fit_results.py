@@ -1,0 +1,113 @@
+"""The results folder of a per-drop fit (written atomically by the caller's ``atomic_folder``).
+
+Files: ``trajectory.csv`` (time history with 3-sigma columns), ``parameters.json`` (values,
+1- and 3-sigma absolute and chi-square-scaled, correlations), ``summary.json`` (convergence,
+chi-square per group, timings, reconciled-simulation differences), ``tables.md`` (EES Tables 3,
+4, 5 style), ``report.txt`` (the console report), ``config/`` (the exact input files and the
+resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv``,
+``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv`` (forward simulation with the fitted
+dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.output.results import write_columns, write_json
+
+
+def parameters_document(result) -> dict:
+    """``parameters.json`` content; names match truth.json."""
+    scale = float(np.sqrt(result.reduced_chi2))
+    params = {}
+    for i, spec in enumerate(result.params.specs):
+        s = float(result.sigma[i])
+        params[spec.name] = {"value": float(result.values[i]), "sigma": s, "three_sigma": 3 * s,
+                             "sigma_chi2_scaled": s * scale, "unit": spec.unit, "group": spec.group,
+                             "prior_sigma": spec.prior_sigma}
+    return {"parameters": params,
+            "correlation": {"names": list(result.params.names), "matrix": np.round(result.correlation, 6).tolist()},
+            "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix",
+                           "sigma": "absolute (noise sigmas as given)",
+                           "sigma_chi2_scaled": f"absolute times sqrt(reduced chi2) = {scale:.5f}"}}
+
+
+def summary_document(result) -> dict:
+    sol, d = result.solver, result.data
+    return {"problem": result.scenario.config.name, "converged": sol.converged, "status": sol.status,
+            "iterations": sol.iterations, "objective": sol.objective, "hessian": sol.hessian,
+            "linear_solver": sol.linear_solver, "chi2": result.chi2, "n_measurements": result.n_measurements,
+            "dof": result.dof, "reduced_chi2": result.reduced_chi2, "condition": result.condition,
+            "timings": result.timings, **{k: result.timings[k] for k in ("build_s", "solve_s", "covariance_s",
+                                                                          "total_s")},
+            "release_imu_s": d.release_imu_s, "impact_imu_s": d.impact_imu_s, "window_imu_s": list(d.window),
+            "mesh": {"intervals": int(result.node_time_s.size - 1),
+                     "h_s": float(result.node_time_s[1] - result.node_time_s[0])},
+            "notes": list(result.notes)}
+
+
+def trajectory_table(result) -> tuple[list[str], np.ndarray]:
+    cols = ["time_imu_s", "flight_time_s"]
+    data = [result.node_time_s, result.flight_time_s]
+    for i, name in enumerate(result.columns):
+        cols += [name, f"{name}_3sigma"]
+        data += [result.table[:, i], 3 * result.table_sigma[:, i]]
+    return cols, np.column_stack(data)
+
+
+def write_table(path: Path, columns: dict[str, np.ndarray], every: int = 1) -> None:
+    """Write named columns (1-D arrays of one length) as CSV, keeping every ``every``-th row."""
+    write_columns(path, list(columns), np.column_stack(list(columns.values()))[::every])
+
+
+def write_diagnostics(out: Path, products) -> None:
+    """Residual, GPS-fix, pitching-moment and reconciled-simulation files of a
+    :class:`~casrecon.analysis.fit_products.FitProducts` (the simulations at every 5th sample)."""
+    write_table(out / "residuals_imu.csv", products.imu_residuals)
+    write_json(out / "imu_sigma.json", products.imu_sigma)
+    write_table(out / "residuals_gps.csv", products.gps_residuals)
+    write_table(out / "gps_fixes.csv", products.gps_fixes)
+    write_table(out / "pitching_moment.csv", products.pitching_moment)
+    write_table(out / "cm_curves.csv", products.cm_curves)
+    write_table(out / "reconciled.csv", products.reconciled, every=5)
+    write_table(out / "nominal.csv", products.nominal, every=5)
+
+
+def write_fit_results(out: Path, result, products, report_text: str, tables_md: str) -> None:
+    """Write every file of the results folder into ``out`` (an atomic temporary folder).
+
+    Parameters
+    ----------
+    out : Path
+        Existing (empty) folder.
+    result : casrecon.estimation.fit.FitResult
+        The fit.
+    products : casrecon.analysis.fit_products.FitProducts
+        Its residuals, pitching moment and reconciled simulations.
+    report_text : str
+        Written as ``report.txt``.
+    tables_md : str
+        Written as ``tables.md``.
+    """
+    out = Path(out)
+    write_columns(out / "trajectory.csv", *trajectory_table(result))
+    write_json(out / "parameters.json", parameters_document(result))
+    write_diagnostics(out, products)
+    write_json(out / "summary.json", {**summary_document(result), "reconciled": products.reconciled_summary})
+    (out / "tables.md").write_text(tables_md)
+    (out / "report.txt").write_text(report_text + "\n")
+    cfg = result.scenario.config
+    config_dir = out / "config"
+    config_dir.mkdir()
+    for key, src in cfg.sources.items():
+        shutil.copy2(src, config_dir / f"{key}{Path(src).suffix}")
+    for src in cfg.aero.source_files[1:]:
+        shutil.copy2(src, config_dir / Path(src).name)
+    write_json(config_dir / "resolved.json", {"estimation": dataclasses.asdict(cfg.estimation),
+                                              "dynamics": dataclasses.asdict(cfg.dynamics),
+                                              "site": dataclasses.asdict(cfg.site),
+                                              "parameters": [dataclasses.asdict(s) for s in result.params.specs]})

@@ -1,0 +1,118 @@
+"""Figures of a fit's quality: IMU and GPS residuals with their sigma lines, and the parameter
+correlation matrix."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.report import figure_style as style
+from casrecon.report.results_folder import DropFolder, MissingInput
+
+log = logging.getLogger(__name__)
+
+IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
+GPS_CHANNELS = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
+
+
+def plot_residuals_imu(drop: DropFolder, out: Path) -> Path:
+    """IMU residuals (measured - model) against flight time (s): specific force in m/s^2, angular
+    rate in deg/s; masked samples (used = 0) in another colour; +-1/3 sigma from imu_sigma.json."""
+    res = drop.csv("residuals_imu.csv")
+    try:
+        sigma = drop.json("imu_sigma.json")
+    except MissingInput as exc:
+        log.info("residuals_imu: no sigma lines (%s)", exc)
+        sigma = {}
+    t = drop.flight_time(res["time_imu_s"])
+    fig, axes = style.new_figure(3, 2, (13, 9))
+    for k, ch in enumerate(IMU_CHANNELS):
+        ax = axes[k % 3, k // 3]
+        gyro = ch.startswith("w")
+        scale, unit = (np.degrees(1.0), "deg/s") if gyro else (1.0, "m/s^2")
+        r = res[f"{ch}_residual"] * scale
+        used = res.get(f"{ch}_used", np.ones_like(r)) > 0.5
+        sig = float(sigma[ch]) * scale if ch in sigma else None
+        lim = _residual_limit(r[used], sig)
+        ax.plot(t[used], r[used], ".", ms=1.5, color="C0", alpha=0.6,
+                label=f"used in the fit ({used.sum()})")
+        beyond = int((np.abs(r[~used]) > lim).sum())
+        ax.plot(t[~used], np.clip(r[~used], -lim, lim), "x", ms=3, color=style.MASK_COLOR,
+                label=f"masked, not fitted ({(~used).sum()}"
+                      + (f"; {beyond} beyond the axis, drawn at its edge)" if beyond else ")"))
+        if sig is not None:
+            style.sigma_lines(ax, t[[0, -1]] if t.size else t, sig)
+        ax.set_ylim(-lim, lim)
+        ax.set_ylabel(f"{ch} residual, {unit}")
+        ax.legend(fontsize=7, loc="upper right", markerscale=3)
+    for ax in axes[-1]:
+        ax.set_xlabel("flight time since release, s")
+    axes[0, 0].set_title("specific force (accelerometers)")
+    axes[0, 1].set_title("angular rate (gyros)")
+    fig.suptitle(f"{drop.name}: IMU residuals, measured minus model")
+    return style.save_figure(fig, out / "residuals_imu.png")
+
+
+def _residual_limit(used: np.ndarray, sigma: float | None) -> float:
+    """Symmetric y-limit of a residual panel from the fitted samples only (so masked outliers such
+    as clipped gyro samples do not squash the scale): 10 % above max(|used|, 3.5 sigma)."""
+    big = float(np.max(np.abs(used))) if used.size else 0.0
+    big = max(big, 3.5 * sigma if sigma else 0.0)
+    return 1.1 * big if big > 0 else 1.0
+
+
+def plot_residuals_gps(drop: DropFolder, out: Path) -> Path:
+    """GPS residuals (measured - model) against flight time (s): NED position (m) and velocity (m/s)
+    with the receiver's own +-1 and +-3 sigma per fix."""
+    res = drop.csv("residuals_gps.csv")
+    t = drop.flight_time(res["time_imu_s"])
+    fig, axes = style.new_figure(3, 2, (13, 9))
+    for k, ch in enumerate(GPS_CHANNELS):
+        ax = axes[k % 3, k // 3]
+        unit = "m" if ch.startswith("pos") else "m/s"
+        ax.plot(t, res[f"{ch}_residual"], "o", ms=3, color="C0", label="residual")
+        if f"{ch}_sigma" in res:
+            style.sigma_lines(ax, t, res[f"{ch}_sigma"])
+        ax.set_ylabel(f"{ch} residual, {unit}")
+        ax.legend(fontsize=7, loc="upper right")
+    for ax in axes[-1]:
+        ax.set_xlabel("flight time since release, s")
+    axes[0, 0].set_title("position (antenna, NED)")
+    axes[0, 1].set_title("velocity (NED)")
+    fig.suptitle(f"{drop.name}: GPS residuals, measured minus model")
+    return style.save_figure(fig, out / "residuals_gps.png")
+
+
+def plot_correlation(parameters: dict, title: str, out: Path) -> Path:
+    """The parameter correlation matrix of parameters.json (``correlation`` {names, matrix}) as an
+    image, names on both axes, colour scale -1..1; values printed when there are few parameters,
+    black lines between the blocks of a joint fit (shared, then ``<drop>.<name>`` per drop)."""
+    corr = parameters.get("correlation")
+    if not corr or "names" not in corr or "matrix" not in corr:
+        raise MissingInput("parameters.json has no correlation {names, matrix}")
+    names = list(corr["names"])
+    mat = np.asarray(corr["matrix"], dtype=float)
+    n = len(names)
+    side = float(np.clip(3.0 + 0.32 * n, 6.0, 24.0))
+    fig, axes = style.new_figure(1, 1, (side + 1.5, side), sharex=False)
+    ax = axes[0, 0]
+    ax.grid(False)
+    img = ax.imshow(mat, cmap="RdBu_r", vmin=-1.0, vmax=1.0, interpolation="nearest")
+    fig.colorbar(img, ax=ax, label="correlation coefficient, -", shrink=0.8)
+    font = 9 if n <= 25 else 7 if n <= 50 else 5
+    ax.set_xticks(range(n), names, rotation=90, fontsize=font)
+    ax.set_yticks(range(n), names, fontsize=font)
+    groups = [name.split(".", 1)[0] if "." in name else "" for name in names]
+    for k in range(1, n):
+        if groups[k] != groups[k - 1]:
+            ax.axhline(k - 0.5, color="k", lw=1.0)
+            ax.axvline(k - 0.5, color="k", lw=1.0)
+    if n <= 25:
+        for i in range(n):
+            for j in range(n):
+                ax.text(j, i, f"{mat[i, j]:.2f}", ha="center", va="center", fontsize=6,
+                        color="white" if abs(mat[i, j]) > 0.6 else "black")
+    ax.set_title(f"{title}: parameter correlation matrix ({n} parameters)")
+    return style.save_figure(fig, out / "correlation.png")
