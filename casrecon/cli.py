@@ -30,6 +30,7 @@ def _inspect(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
+    from casrecon.io.baro import write_baro_csv
     from casrecon.io.flysight import write_flysight1
     from casrecon.io.imu import write_imu_csv
     from casrecon.output.results import atomic_folder, write_columns, write_json
@@ -58,6 +59,8 @@ def _simulate(args: argparse.Namespace) -> int:
         if args.data:
             write_imu_csv(out / "imu.csv", data.imu_time_s, data.imu_accel_mps2, data.imu_gyro_radps, cfg.imu.spec)
             write_flysight1(out / "gps.csv", data.gps)
+            if data.baro_time_unix_s is not None:
+                write_baro_csv(out / "baro.csv", data.baro_time_unix_s, data.baro_pressure_pa)
             write_json(out / "truth.json", data.truth)
             (out / "sounding.csv").write_bytes(Path(cfg.atmosphere.sounding).read_bytes())
     print(f"{cfg.name}: flight time {summary['flight_time_s']:.3f} s, impact speed "

@@ -8,11 +8,12 @@ two forward simulations) once and returns them as named columns, so that the wri
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from casrecon.estimation import diagnostics as dg
+from casrecon.estimation.drop import MEASUREMENT_KINDS
 
 #: GPS residual components (antenna position NED, m; velocity NED, m/s).
 GPS_COMPONENTS = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
@@ -51,6 +52,9 @@ class FitProducts:
         simulation, with the nominal one's under ``nominal_database``.
     roll_rate : list of dict or None
         :func:`roll_rate_comparison` rows (deg/s) for a vehicle with spin vanes, else None.
+    kind_residuals : dict of str to Columns
+        Residual columns of every other measurement kind present (e.g. ``"baro"``), as the kind's
+        ``residuals`` names them (units in the column names).
     """
 
     imu_residuals: Columns
@@ -63,6 +67,7 @@ class FitProducts:
     nominal: Columns
     summary: dict
     roll_rate: list[dict] | None = None
+    kind_residuals: dict[str, Columns] = field(default_factory=dict)
 
     @property
     def reconciled_summary(self) -> dict:
@@ -138,4 +143,16 @@ def fit_products(result) -> FitProducts:
         reconciled={k: rec[k] for k in SIMULATION_COLUMNS},
         nominal={k: nom[k] for k in SIMULATION_COLUMNS},
         summary={**rec["summary"], "nominal_database": nom["summary"]},
+        kind_residuals=other_kind_residuals(result),
         roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None)
+
+
+def other_kind_residuals(result) -> dict[str, Columns]:
+    """Residual columns of the measurement kinds other than the IMU and GPS that the fit used."""
+    out = {}
+    for kind in MEASUREMENT_KINDS:
+        if kind.name not in ("imu", "gps") and kind.name in result.measurements:
+            columns = kind.residuals(result)
+            if columns is not None:
+                out[kind.name] = columns
+    return out

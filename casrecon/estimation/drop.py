@@ -18,6 +18,7 @@ import numpy as np
 from casrecon.estimation.engine.blocks import Term, unit_norm_term
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.kinds.baro import BaroKind
 from casrecon.estimation.kinds.base import DropContext, MeasurementKind
 from casrecon.estimation.kinds.disturbance import disturbance_terms
 from casrecon.estimation.kinds.gps import GpsKind
@@ -31,7 +32,7 @@ from casrecon.physics.dynamics import FlightModel
 
 #: The measurement kinds of a 6-DOF drop fit, in residual order (a kind whose ``load`` returns
 #: None for a problem contributes nothing to it).
-MEASUREMENT_KINDS: tuple[MeasurementKind, ...] = (ImuKind(), GpsKind())
+MEASUREMENT_KINDS: tuple[MeasurementKind, ...] = (ImuKind(), GpsKind(), BaroKind())
 #: z columns of the first quaternion of a drop, relative to its first node.
 QUATERNION = np.arange(6, 10)
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 
+from casrecon.io.baro import BaroConfig
 from casrecon.io.config_records import FROM_FIELD, REQUIRED, FileKind, Key, Table
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.pointmass_problem import DragConfig, GpsQuality, PointMassConfig, SegmentConfig
@@ -162,6 +163,20 @@ SIX_DOF = FileKind(
                source=GpsConfig, attr="gps.s_acc_mps"),
         ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc).",
             required=True),
+        Table("sensors.baro", (
+            _k("file", "path", "", "FlySight 2 SENSOR.CSV (its BARO rows, on UTC) or a plain CSV with a time column "
+               "(time_unix_s: UTC; time_s: IMU clock) and pressure_pa or pressure_hpa (need not exist for "
+               "`casrecon simulate --data`)", None, attr="baro.file"),
+            _k("noise_pa", "float", "Pa", "1-sigma white noise of one pressure sample", source=BaroConfig,
+               attr="baro.noise_pa"),
+            _k("bias_sigma_pa", "float", "Pa", "1-sigma of the constant pressure bias (estimated as baro_bias_pa)",
+               source=BaroConfig, attr="baro.bias_sigma_pa"),
+            _k("bias_prior", "bool", "", "Give the bias its zero-mean prior", source=BaroConfig,
+               attr="baro.bias_prior"),
+            _k("rate_hz", "float", "Hz", "Sample rate of the synthetic barometer", source=BaroConfig,
+               attr="baro.rate_hz"),
+        ), note="Optional. A barometer adds static-pressure residuals against the sounding's pressure at the "
+                "reconstructed altitude; the static-port position error is not modelled."),
         Table("truth", (
             _k("seed", "int", "", "Seed of the synthetic data's noise", 0, attr="truth.seed"),
             _k("wind_bias_mps", "[float; 2]", "m/s", "True wind bias north, east added to the sounding",
@@ -174,6 +189,8 @@ SIX_DOF = FileKind(
             _k("clock_offset_s", "float", "s", "True IMU-to-GPS clock offset", 0.0, attr="truth.clock_offset_s"),
             _k("downwash_mps", "float", "m/s", "True rotor downwash at release (decays with the distance fallen)",
                source=TruthConfig, attr="truth.downwash_mps"),
+            _k("baro_bias_pa", "float", "Pa", "True barometer bias (with [sensors.baro])", source=TruthConfig,
+               attr="truth.baro_bias_pa"),
         ) + _disturbance_keys("what the simulator flies"),
             note="Optional: what `casrecon simulate` uses to make synthetic data, and what the tests "
                  "compare the fit with. A real drop has no [truth]."),

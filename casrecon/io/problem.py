@@ -12,6 +12,7 @@ Layout of a problem folder (see ``problems/ees-drop-1/problem.toml`` for a comme
     [release]     time_utc, h_agl_m, vel_ned_mps, euler_deg, rates_dps, pos_ne_m
     [sensors.imu] file, columns, units, limits, noise and bias sigmas, clock
     [sensors.gps] file, rate_hz, accuracy levels of the synthetic receiver
+    [sensors.baro] optional barometer: file, noise, bias prior, synthetic rate
     [truth]       what the simulator uses to make synthetic data (dispersions, biases, seed)
     [simulation]  dt_s, substeps, t_max_s, pre_release_s, post_impact_s
     [estimation]  fit window, mesh, Hessian, linear solver, priors, GPS quality rules
@@ -25,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.io.baro import BaroConfig, parse_baro
 from casrecon.io.errors import InputError
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.toml_fields import Fields, load_toml
@@ -104,6 +106,7 @@ class TruthConfig:
     clock_offset_s: float
     downwash_mps: float = 0.0
     disturbance: DisturbanceModel | None = None
+    baro_bias_pa: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -237,6 +240,7 @@ class ProblemConfig:
     simulation: SimulationConfig
     estimation: EstimationConfig = EstimationConfig()
     sources: dict[str, str] = field(default_factory=dict)
+    baro: BaroConfig | None = None
 
     @property
     def folder(self) -> Path:
@@ -268,6 +272,7 @@ def load_problem(path: str | Path) -> ProblemConfig:
         simulation=_simulation(f.table("simulation") or Fields({}, path, "simulation.")),
         estimation=_estimation(f.table("estimation") or Fields({}, path, "estimation.")),
         sources={"problem": str(path.resolve()), "vehicle": str(vehicle_path), "aero": str(aero_path)},
+        baro=parse_baro(sensors.table("baro")),
     )
     for t in (head, sensors, f):
         t.reject_unknown()
@@ -396,7 +401,7 @@ def _truth(t: Fields | None) -> TruthConfig | None:
         accel_bias_mps2=t.vector("accel_bias_mps2", 3, (0.0, 0.0, 0.0)),
         gyro_bias_radps=tuple(np.radians(t.vector("gyro_bias_dps", 3, (0.0, 0.0, 0.0)))),
         clock_offset_s=t.number("clock_offset_s", 0.0), downwash_mps=t.number("downwash_mps", 0.0),
-        disturbance=_disturbance(t))
+        disturbance=_disturbance(t), baro_bias_pa=t.number("baro_bias_pa", 0.0))
     t.reject_unknown()
     return cfg
 

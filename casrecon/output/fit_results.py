@@ -4,7 +4,8 @@ Files: ``trajectory.csv`` (time history with 3-sigma columns), ``parameters.json
 1- and 3-sigma absolute and chi-square-scaled, correlations), ``summary.json`` (convergence,
 chi-square per group, timings, reconciled-simulation differences), ``tables.md`` (EES Tables 3,
 4, 5 style), ``report.txt`` (the console report), ``config/`` (the exact input files and the
-resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv``,
+resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv`` (and
+``residuals_<kind>.csv`` of every other measurement kind, e.g. ``residuals_baro.csv``),
 ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv`` (forward simulation with the fitted
 dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``.
 """
@@ -70,6 +71,8 @@ def write_diagnostics(out: Path, products) -> None:
     write_table(out / "residuals_imu.csv", products.imu_residuals)
     write_json(out / "imu_sigma.json", products.imu_sigma)
     write_table(out / "residuals_gps.csv", products.gps_residuals)
+    for kind, columns in products.kind_residuals.items():
+        write_table(out / f"residuals_{kind}.csv", columns)
     write_table(out / "gps_fixes.csv", products.gps_fixes)
     write_table(out / "pitching_moment.csv", products.pitching_moment)
     write_table(out / "cm_curves.csv", products.cm_curves)

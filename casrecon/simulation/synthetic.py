@@ -25,9 +25,11 @@ import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 import pymap3d
 
+from casrecon.io.baro import write_baro_csv
 from casrecon.io.flysight import GpsTrack, write_flysight1
 from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, write_imu_csv
 from casrecon.physics.aero import DISPERSION_NAMES
@@ -52,6 +54,8 @@ class SyntheticData:
     imu_gyro_radps: np.ndarray
     gps: GpsTrack
     truth: dict
+    baro_time_unix_s: np.ndarray | None = None   # UTC of the barometer samples (with [sensors.baro])
+    baro_pressure_pa: np.ndarray | None = None
 
 
 def _unix(t: dt.datetime) -> float:
@@ -175,6 +179,25 @@ def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator) -
                     h_acc_m=h_acc, v_acc_m=v_acc, s_acc_mps=s_acc, num_sv=num_sv)
 
 
+def _baro_samples(scenario: Scenario, traj: Trajectory, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Barometer samples on UTC at ``[sensors.baro] rate_hz`` from pre-release to post-impact: the
+    sounding's pressure at the true centre-of-mass altitude, plus the true bias and white noise
+    (own random stream (seed, 2), so the IMU and GPS data do not depend on whether there is one)."""
+    cfg = scenario.config
+    period = 1.0 / cfg.baro.rate_hz
+    t_rel = _unix(cfg.release.time_utc)
+    start = np.ceil((t_rel - cfg.simulation.pre_release_s) / period) * period
+    utc = np.arange(start, t_rel + traj.flight_time_s + cfg.simulation.post_impact_s, period)
+    t = np.clip(utc - t_rel, 0.0, traj.flight_time_s)
+    h_msl = cfg.site.ground_alt_msl_m + np.interp(t, traj.time_s, traj.output("h_agl"))
+    h = ca.SX.sym("h")
+    pressure = ca.Function("pressure", [h], [scenario.atmosphere.at(h).pressure]).map(utc.size)
+    rng = np.random.default_rng((seed, 2))
+    p = np.asarray(pressure(h_msl[None, :])).ravel() + cfg.truth.baro_bias_pa + cfg.baro.noise_pa * rng.normal(
+        size=utc.size)
+    return np.round(utc, 3), p
+
+
 def _accuracies(gps, t: np.ndarray, t_impact: float, rng: np.random.Generator):
     """Reported 1-sigma accuracies per fix: cold start, nominal with jitter, poor after impact."""
     jitter = 1 + 0.1 * rng.uniform(-1, 1, t.size)
@@ -198,6 +221,8 @@ def truth_parameters_by_name(scenario: Scenario) -> dict[str, float]:
     for axis, a, g in zip("xyz", truth.accel_bias_mps2, truth.gyro_bias_radps):
         out[f"accel_bias_{axis}"] = float(a)
         out[f"gyro_bias_{axis}"] = float(g)
+    if scenario.config.baro is not None:
+        out["baro_bias_pa"] = truth.baro_bias_pa
     return out
 
 
@@ -206,15 +231,17 @@ def make_synthetic(scenario: Scenario, seed: int | None = None) -> SyntheticData
     cfg = scenario.config
     if cfg.truth is None:
         raise ValueError(f"{cfg.path}: synthetic data need a [truth] table")
-    rng = np.random.default_rng(cfg.truth.seed if seed is None else seed)
+    seed = cfg.truth.seed if seed is None else seed
+    rng = np.random.default_rng(seed)
     traj, t_zero = simulate_truth(scenario, seed)
     imu_t, accel, gyro = _noisy_imu(scenario, traj, t_zero, rng)
     gps = _gps_track(scenario, traj, rng)
-    truth = {"problem": cfg.name, "seed": cfg.truth.seed if seed is None else seed,
+    truth = {"problem": cfg.name, "seed": seed,
              "parameters": truth_parameters_by_name(scenario),
              "release_imu_time_s": t_zero, "release_utc": cfg.release.time_utc.isoformat(),
              "summary": traj.summary()}
-    return SyntheticData(traj, imu_t, accel, gyro, gps, truth)
+    baro = _baro_samples(scenario, traj, seed) if cfg.baro is not None else (None, None)
+    return SyntheticData(traj, imu_t, accel, gyro, gps, truth, *baro)
 
 
 def with_synthetic_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scenario:
@@ -239,5 +266,10 @@ def with_synthetic_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scen
     data = make_synthetic(scenario, seed=seed)
     write_imu_csv(folder / "imu.csv", data.imu_time_s, data.imu_accel_mps2, data.imu_gyro_radps, cfg.imu.spec)
     write_flysight1(folder / "gps.csv", data.gps)
+    baro = cfg.baro
+    if baro is not None:
+        write_baro_csv(folder / "baro.csv", data.baro_time_unix_s, data.baro_pressure_pa)
+        baro = dataclasses.replace(baro, file=folder / "baro.csv")
     return Scenario.from_config(dataclasses.replace(cfg, imu=dataclasses.replace(cfg.imu, file=folder / "imu.csv"),
-                                                    gps=dataclasses.replace(cfg.gps, file=folder / "gps.csv")))
+                                                    gps=dataclasses.replace(cfg.gps, file=folder / "gps.csv"),
+                                                    baro=baro))

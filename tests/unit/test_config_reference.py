@@ -192,7 +192,8 @@ def test_six_dof_problem_without_optional_keys_loads_to_listed_defaults(tmp_path
     (tmp_path / "aero.toml").write_text(_dump_toml(aero))
     data["problem"].update(vehicle="vehicle.toml", aero="aero.toml")
     data["atmosphere"]["sounding"] = str((src / data["atmosphere"]["sounding"]).resolve())
-    minimal = _required_only(ref.SIX_DOF, data, ("truth",))
+    data["sensors"]["baro"] = {}                             # an optional table present but empty
+    minimal = _required_only(ref.SIX_DOF, data, ("truth", "sensors.baro"))
     assert "estimation" not in minimal and "dynamics" not in minimal and minimal["truth"] == {}
     (tmp_path / "problem.toml").write_text(_dump_toml(minimal))
     cfg = load_problem(tmp_path)

@@ -1,0 +1,116 @@
+"""The barometer kind: each static-pressure sample compared with the sounding's pressure at the
+vehicle's altitude on the collocation polynomial at the sample's own time, plus a constant sensor
+bias (``baro_bias_pa``, with a zero-mean prior), whitened by the sensor's white-noise sigma:
+
+    r = (p_measured - p_sounding(h_msl(t)) - bias) / noise.
+
+Samples stamped on the receiver's clock (UTC: FlySight 2 SENSOR.CSV, or a plain CSV with
+``time_unix_s``) are placed at ``t - clock_offset`` on the IMU clock like GPS fixes; samples on
+the IMU clock (``time_s``) at ``t``. The altitude is the centre of mass's (a sensor a few cm away
+is off by well under 1 Pa); the static-port position error (a pressure change proportional to the
+dynamic pressure where the flow passes the port) is not modelled: on a fast capsule it can reach
+hundreds of Pa, so compare the residuals against qbar before trusting a barometer-aided fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
+from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.kinds.base import DropContext
+from casrecon.estimation.kinds.gps import CLOCK
+from casrecon.estimation.layout import BlockLocals
+from casrecon.estimation.parameters import ParameterSpec
+from casrecon.estimation.transcription import disturbance_selection, hermite
+from casrecon.io.baro import read_baro
+from casrecon.io.problem import ProblemConfig
+
+#: Name of the barometer bias parameter (Pa).
+BIAS = "baro_bias_pa"
+
+
+@dataclass(frozen=True)
+class BaroData:
+    """Barometer samples in the fit window.
+
+    Attributes
+    ----------
+    time_s : (N,) array
+        On the IMU clock when ``receiver_clock`` is False; UTC minus the IMU clock's UTC at zero
+        (the clock offset still to subtract) when True.
+    pressure_pa : (N,) array
+    noise_pa : float
+        1-sigma white noise of a sample.
+    receiver_clock : bool
+    """
+
+    time_s: np.ndarray
+    pressure_pa: np.ndarray
+    noise_pa: float
+    receiver_clock: bool
+
+
+class BaroKind:
+    """Static pressure samples; the barometer bias."""
+
+    name = "baro"
+
+    def parameters(self, config: ProblemConfig) -> tuple[ParameterSpec, ...]:
+        baro = config.baro
+        if baro is None or baro.file is None:
+            return ()
+        sigma = baro.bias_sigma_pa
+        return (ParameterSpec(BIAS, "baro", sigma, sigma if baro.bias_prior else None, "Pa"),)
+
+    def load(self, config: ProblemConfig, data: FitData) -> BaroData | None:
+        baro = config.baro
+        if baro is None or baro.file is None:
+            return None
+        log = read_baro(baro.file)
+        receiver = log.clock == "utc"
+        t = log.time_s - config.imu.clock_utc_at_zero.timestamp() if receiver else log.time_s
+        # the clock offset moves receiver-clock samples by a fraction of a second at most: keep a
+        # margin of one second inside the window so none falls off the mesh
+        margin = 1.0 if receiver else 0.0
+        keep = (t >= data.window[0] + margin) & (t <= data.window[1] - margin)
+        if keep.sum() < 2:
+            raise ValueError(f"{baro.file}: only {int(keep.sum())} barometer samples in the fit window "
+                             f"{data.window[0]:.2f} to {data.window[1]:.2f} s (IMU clock)")
+        return BaroData(t[keep], log.pressure_pa[keep], baro.noise_pa, receiver)
+
+    def terms(self, context: DropContext) -> list[Term]:
+        layout, model = context.layout, context.model
+        samples: BaroData = context.measurements[self.name]
+        loc = BlockLocals(layout)
+        tau0, y = ca.SX.sym("tau0"), ca.SX.sym("p")
+        xk, xk1, theta, uk, uk1 = loc.split()
+        p = loc.model_params(theta)
+        clock = loc.theta_of(theta, CLOCK, layout.guess_clock_s) if samples.receiver_clock else 0.0
+        tau = tau0 - clock / layout.mesh.h
+        sel = disturbance_selection(layout.active)
+        x = hermite(tau, layout.mesh.h, xk, model.rhs_d(xk, p, sel @ uk), xk1, model.rhs_d(xk1, p, sel @ uk1))
+        pressure = model.atmosphere.at(model.altitude_msl(x)).pressure
+        r = (y - pressure - loc.theta_of(theta, BIAS)) / samples.noise_pa
+        kind = BlockKind("baro", loc.symbol, [tau0, y], r, None)
+        shift = 0.0 if samples.receiver_clock else layout.guess_clock_s
+        k, tau_sample = layout.interval_of(samples.time_s + shift)
+        block_data = [ca.DM(tau_sample).T, ca.DM(samples.pressure_pa).T]
+        return [Term(context.group(self.name), (BlockSet(kind, layout.two_node_columns(k), block_data),))]
+
+    def residuals(self, result) -> dict[str, np.ndarray] | None:
+        """Named columns at every sample used: ``time_imu_s`` (s, IMU clock), measured minus
+        predicted ``pressure_residual_pa`` and its ``pressure_sigma_pa`` (Pa); None without a
+        barometer."""
+        samples: BaroData | None = result.measurements.get(self.name)
+        if samples is None:
+            return None
+        whitened = result.residuals[result.nlp.groups[result.group(self.name)]]
+        clock = 0.0
+        if samples.receiver_clock:
+            clock = result.parameter(CLOCK)[0] if CLOCK in result.params.names else result.part.guess_clock_s
+        return {"time_imu_s": samples.time_s - clock, "pressure_residual_pa": whitened * samples.noise_pa,
+                "pressure_sigma_pa": np.full(samples.time_s.size, samples.noise_pa)}

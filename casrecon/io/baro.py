@@ -1,0 +1,130 @@
+"""Barometer: its ``[sensors.baro]`` settings, and its files (static pressure against time, from a
+FlySight 2 ``SENSOR.CSV`` or a plain CSV).
+
+Plain CSV (``write_baro_csv`` writes it): a header line, then one sample per line, columns found
+by name (others ignored):
+
+- time: ``time_unix_s`` (UTC, Unix seconds: the receiver's clock, like GPS fixes) or ``time_s``
+  (seconds on the IMU clock);
+- pressure: ``pressure_pa`` (Pa) or ``pressure_hpa`` (hPa = mbar).
+
+Rules (violations raise a located :class:`~casrecon.io.errors.InputError`): every cell used is a
+finite number; times strictly increase; pressure lies in (0, 120000] Pa; at least two samples.
+A FlySight 2 ``SENSOR.CSV`` is recognised by its ``$FLYS`` layout and read with
+:func:`casrecon.io.sensor.read_flysight2_sensor` (its ``BARO`` rows, on UTC).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.io._csvtools import check_increasing, find_columns, parse_floats, read_lines, split_rows
+from casrecon.io.errors import InputError
+from casrecon.io.sensor import is_flysight2_sensor, read_flysight2_sensor
+from casrecon.io.toml_fields import Fields
+
+#: Highest plausible static pressure, Pa (sea level is 101325 Pa; the Dead Sea about 107000 Pa).
+MAX_PRESSURE_PA = 120000.0
+#: Time columns of a plain CSV and the clock each one is on.
+TIME_COLUMNS = {"time_unix_s": "utc", "time_s": "imu"}
+#: Pressure columns of a plain CSV and their factor to Pa.
+PRESSURE_COLUMNS = {"pressure_pa": 1.0, "pressure_hpa": 100.0}
+
+
+@dataclass(frozen=True)
+class BaroConfig:
+    """A barometer (``[sensors.baro]``; the table absent: no barometer).
+
+    Parameters
+    ----------
+    file : Path or None
+        FlySight 2 SENSOR.CSV or plain barometer CSV (None: only for synthetic data).
+    noise_pa : float
+        1-sigma white noise of one sample, Pa.
+    bias_sigma_pa : float
+        1-sigma of the sensor's constant pressure bias (its prior when ``bias_prior``), Pa.
+    bias_prior : bool
+        Whether the bias has its zero-mean prior.
+    rate_hz : float
+        Sample rate of the synthetic barometer, Hz.
+    """
+
+    file: Path | None
+    noise_pa: float = 3.0
+    bias_sigma_pa: float = 50.0
+    bias_prior: bool = True
+    rate_hz: float = 25.0
+
+
+def parse_baro(t: Fields | None) -> BaroConfig | None:
+    """The ``[sensors.baro]`` table, or None when absent."""
+    if t is None:
+        return None
+    cfg = BaroConfig(file=t.path_of("file", must_exist=False), noise_pa=t.number("noise_pa", 3.0, positive=True),
+                     bias_sigma_pa=t.number("bias_sigma_pa", 50.0, positive=True),
+                     bias_prior=t.boolean("bias_prior", True), rate_hz=t.number("rate_hz", 25.0, positive=True))
+    t.reject_unknown()
+    return cfg
+
+
+@dataclass(frozen=True)
+class BaroLog:
+    """Barometer samples.
+
+    Attributes
+    ----------
+    path : Path
+    time_s : (N,) array
+        Sample times: UTC Unix seconds when ``clock == "utc"``, IMU-clock seconds when ``"imu"``.
+    pressure_pa : (N,) array
+        Static pressure, Pa.
+    clock : {"utc", "imu"}
+    """
+
+    path: Path
+    time_s: np.ndarray
+    pressure_pa: np.ndarray
+    clock: str
+
+
+def read_baro(path: str | Path) -> BaroLog:
+    """Read a barometer file (FlySight 2 SENSOR.CSV or the plain CSV of the module docstring)."""
+    path = Path(path)
+    lines = read_lines(path)
+    if is_flysight2_sensor(lines):
+        log = read_flysight2_sensor(path)
+        if log.baro_time_unix_s.size < 2:
+            raise InputError(path, f"holds {log.baro_time_unix_s.size} BARO rows; a barometer fit needs at least 2")
+        return BaroLog(path, log.baro_time_unix_s, log.baro_pressure_pa, "utc")
+    header = [h.strip() for h in lines[0].split(",")]
+    time_col = next((c for c in TIME_COLUMNS if c in header), None)
+    pressure_col = next((c for c in PRESSURE_COLUMNS if c in header), None)
+    if time_col is None or pressure_col is None:
+        raise InputError(path, "a barometer CSV needs a time column (time_unix_s for UTC or time_s for the IMU "
+                         "clock) and a pressure column (pressure_pa or pressure_hpa); header has "
+                         f"{', '.join(header)[:200]}", line=1)
+    cols = find_columns(path, header, (time_col, pressure_col), line=1)
+    body = [ln for ln in lines[1:] if ln.strip()]
+    numbers = [k + 2 for k, ln in enumerate(lines[1:]) if ln.strip()]
+    if len(body) < 2:
+        raise InputError(path, f"holds {len(body)} samples; a barometer fit needs at least 2")
+    rows = split_rows(path, body, numbers, len(header))
+    t = parse_floats(path, [r[cols[time_col]] for r in rows], numbers, time_col)
+    p = parse_floats(path, [r[cols[pressure_col]] for r in rows], numbers, pressure_col)
+    p = p * PRESSURE_COLUMNS[pressure_col]
+    check_increasing(path, t, numbers, time_col)
+    bad = np.flatnonzero((p <= 0) | (p > MAX_PRESSURE_PA))
+    if bad.size:
+        k = int(bad[0])
+        raise InputError(path, f"pressure {p[k]:g} Pa is outside (0, {MAX_PRESSURE_PA:g}] Pa (is the unit right? "
+                         f"{pressure_col})", line=numbers[k], field=pressure_col)
+    return BaroLog(path, t, p, TIME_COLUMNS[time_col])
+
+
+def write_baro_csv(path: str | Path, time_unix_s: np.ndarray, pressure_pa: np.ndarray) -> None:
+    """Write a plain barometer CSV on UTC (``time_unix_s,pressure_pa``; ms and mPa resolution)."""
+    data = np.column_stack([time_unix_s, pressure_pa])
+    np.savetxt(path, data, delimiter=",", header="time_unix_s,pressure_pa", comments="", fmt=["%.3f", "%.3f"])
