@@ -85,13 +85,13 @@ class FitResult:
         return prefixed if prefixed in self.nlp.groups else name
 
 
-def drop_statistics(nlp: Nlp, fit_nlp: FitNlp, part: DropLayout, r: np.ndarray) -> tuple[dict, dict, int]:
+def drop_statistics(fit_nlp: FitNlp, part: DropLayout, r: np.ndarray) -> tuple[dict, dict, int]:
     """chi-square and measurement count per residual group of one drop (group names without the
     drop prefix; IMU counts samples, and includes its compression constant), and the drop's dof:
     its measurements minus the free directions of the columns it sees (its nodes, latent values
     and parameters, shared ones included) less its constraints. For a per-drop fit this is the
     fit's dof; in a joint fit the drops' dofs add up to less than the joint dof."""
-    prefix = f"{part.name}/"
+    nlp, prefix = fit_nlp.nlp, f"{part.name}/"
     mine = [g for g in nlp.groups if g.startswith(prefix)] if len(fit_nlp.parts) > 1 else list(nlp.groups)
     chi2 = {g.removeprefix(prefix): v for g, v in nlp.group_chi2(r, mine).items()}
     counts = {g.removeprefix(prefix): nlp.n_measurements[g] for g in mine}
@@ -107,7 +107,7 @@ def drop_result(scenario: Scenario, data: FitData, fit_nlp: FitNlp, index: int, 
     cov_theta = cov.covariance_of(part.theta_cols, part.params.scales)
     sigma = np.sqrt(np.diag(cov_theta))
     table, table_sigma = trajectory_with_bands(scenario.model, part, sol.z, cov)
-    chi2, counts, dof = drop_statistics(nlp, fit_nlp, part, r)
+    chi2, counts, dof = drop_statistics(fit_nlp, part, r)
     result = FitResult(
         scenario=scenario, data=data, params=part.params, values=part.values(sol.z), sigma=sigma,
         correlation=cov_theta / np.outer(sigma, sigma), node_time_s=part.mesh.t_nodes,

@@ -175,8 +175,11 @@ SIX_DOF = FileKind(
                attr="baro.bias_prior"),
             _k("rate_hz", "float", "Hz", "Sample rate of the synthetic barometer", source=BaroConfig,
                attr="baro.rate_hz"),
+            _k("position_error_sigma", "float", "", "1-sigma prior of the static-port position-error coefficient k "
+               "(the sensor reads p + k qbar; estimated as baro_qbar_coef); 0: not estimated", source=BaroConfig,
+               attr="baro.position_error_sigma"),
         ), note="Optional. A barometer adds static-pressure residuals against the sounding's pressure at the "
-                "reconstructed altitude; the static-port position error is not modelled."),
+                "reconstructed altitude, optionally with a static-port position error proportional to qbar."),
         Table("truth", (
             _k("seed", "int", "", "Seed of the synthetic data's noise", 0, attr="truth.seed"),
             _k("wind_bias_mps", "[float; 2]", "m/s", "True wind bias north, east added to the sounding",
@@ -191,6 +194,8 @@ SIX_DOF = FileKind(
                source=TruthConfig, attr="truth.downwash_mps"),
             _k("baro_bias_pa", "float", "Pa", "True barometer bias (with [sensors.baro])", source=TruthConfig,
                attr="truth.baro_bias_pa"),
+            _k("baro_qbar_coef", "float", "", "True static-port position error of the barometer: it reads p + k qbar",
+               source=TruthConfig, attr="truth.baro_qbar_coef"),
         ) + _disturbance_keys("what the simulator flies"),
             note="Optional: what `casrecon simulate` uses to make synthetic data, and what the tests "
                  "compare the fit with. A real drop has no [truth]."),

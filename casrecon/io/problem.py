@@ -107,6 +107,7 @@ class TruthConfig:
     downwash_mps: float = 0.0
     disturbance: DisturbanceModel | None = None
     baro_bias_pa: float = 0.0
+    baro_qbar_coef: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -401,7 +402,8 @@ def _truth(t: Fields | None) -> TruthConfig | None:
         accel_bias_mps2=t.vector("accel_bias_mps2", 3, (0.0, 0.0, 0.0)),
         gyro_bias_radps=tuple(np.radians(t.vector("gyro_bias_dps", 3, (0.0, 0.0, 0.0)))),
         clock_offset_s=t.number("clock_offset_s", 0.0), downwash_mps=t.number("downwash_mps", 0.0),
-        disturbance=_disturbance(t), baro_bias_pa=t.number("baro_bias_pa", 0.0))
+        disturbance=_disturbance(t), baro_bias_pa=t.number("baro_bias_pa", 0.0),
+        baro_qbar_coef=t.number("baro_qbar_coef", 0.0))
     t.reject_unknown()
     return cfg
 

@@ -181,7 +181,8 @@ def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator) -
 
 def _baro_samples(scenario: Scenario, traj: Trajectory, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Barometer samples on UTC at ``[sensors.baro] rate_hz`` from pre-release to post-impact: the
-    sounding's pressure at the true centre-of-mass altitude, plus the true bias and white noise
+    sounding's pressure at the true centre-of-mass altitude, plus the true bias, the true
+    static-port error ``baro_qbar_coef`` times qbar, and white noise
     (own random stream (seed, 2), so the IMU and GPS data do not depend on whether there is one)."""
     cfg = scenario.config
     period = 1.0 / cfg.baro.rate_hz
@@ -190,11 +191,12 @@ def _baro_samples(scenario: Scenario, traj: Trajectory, seed: int) -> tuple[np.n
     utc = np.arange(start, t_rel + traj.flight_time_s + cfg.simulation.post_impact_s, period)
     t = np.clip(utc - t_rel, 0.0, traj.flight_time_s)
     h_msl = cfg.site.ground_alt_msl_m + np.interp(t, traj.time_s, traj.output("h_agl"))
+    qbar = np.interp(t, traj.time_s, traj.output("qbar"))
     h = ca.SX.sym("h")
     pressure = ca.Function("pressure", [h], [scenario.atmosphere.at(h).pressure]).map(utc.size)
     rng = np.random.default_rng((seed, 2))
-    p = np.asarray(pressure(h_msl[None, :])).ravel() + cfg.truth.baro_bias_pa + cfg.baro.noise_pa * rng.normal(
-        size=utc.size)
+    p = (np.asarray(pressure(h_msl[None, :])).ravel() + cfg.truth.baro_bias_pa + cfg.truth.baro_qbar_coef * qbar
+         + cfg.baro.noise_pa * rng.normal(size=utc.size))
     return np.round(utc, 3), p
 
 
@@ -223,6 +225,7 @@ def truth_parameters_by_name(scenario: Scenario) -> dict[str, float]:
         out[f"gyro_bias_{axis}"] = float(g)
     if scenario.config.baro is not None:
         out["baro_bias_pa"] = truth.baro_bias_pa
+        out["baro_qbar_coef"] = truth.baro_qbar_coef
     return out
 
 
