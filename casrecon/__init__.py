@@ -1,0 +1,179 @@
+"""casrecon: reconstruct a dropped capsule's 6-DOF flight and aerodynamics from IMU, GPS and a sounding.
+
+The public Python API (in the spirit of lmfit and rockit)::
+
+    import casrecon
+
+    result = casrecon.fit("problems/ees-drop-1")
+    print(result.params["CA_mult"].value, result.params["CA_mult"].stderr)
+    print(result.report())
+    result.sample("alpha_t_deg", [2.0, 5.0])        # values and 3-sigma at flight times, s
+    result.save("results/ees-drop-1")               # the folder `casrecon fit --out` writes
+    again = casrecon.load_results("results/ees-drop-1")
+    casrecon.plot_trajectory(result).savefig("trajectory.png")
+
+Importing ``casrecon`` is cheap: CasADi, pandas and matplotlib are imported when first needed.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from casrecon.io.errors import InputError
+
+if TYPE_CHECKING:
+    from casrecon.estimation.engine.checks import FitError
+    from casrecon.io.pointmass_problem import PointMassConfig
+    from casrecon.output.drop_fit import DropFit
+    from casrecon.output.parameter_records import Parameter, Parameters
+    from casrecon.report.result_figures import (
+        plot_correlation,
+        plot_pitching_moment,
+        plot_qbar_alpha_t,
+        plot_reconciled,
+        plot_residuals,
+        plot_trajectory,
+    )
+    from casrecon.scenario import Scenario
+
+__all__ = [
+    "__version__",
+    "load_problem",
+    "fit",
+    "fit_joint",
+    "load_results",
+    "DropFit",
+    "Parameter",
+    "Parameters",
+    "plot_trajectory",
+    "plot_qbar_alpha_t",
+    "plot_pitching_moment",
+    "plot_reconciled",
+    "plot_residuals",
+    "plot_correlation",
+    "InputError",
+    "FitError",
+]
+
+#: Names imported on first use (module, attribute): their modules import CasADi, pandas or matplotlib.
+_LAZY = {
+    "FitError": ("casrecon.estimation.engine.checks", "FitError"),
+    "DropFit": ("casrecon.output.drop_fit", "DropFit"),
+    "Parameter": ("casrecon.output.parameter_records", "Parameter"),
+    "Parameters": ("casrecon.output.parameter_records", "Parameters"),
+    **{name: ("casrecon.report.result_figures", name) for name in (
+        "plot_trajectory", "plot_qbar_alpha_t", "plot_pitching_moment", "plot_reconciled", "plot_residuals",
+        "plot_correlation")},
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("casrecon")
+        except PackageNotFoundError:
+            return "0+unknown"
+    if name in _LAZY:
+        module, attr = _LAZY[name]
+        value = getattr(importlib.import_module(module), attr)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'casrecon' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+def load_problem(path: str | Path) -> Scenario | PointMassConfig:
+    """Read a problem folder (or its ``problem.toml``).
+
+    Returns
+    -------
+    casrecon.scenario.Scenario or casrecon.io.pointmass_problem.PointMassConfig
+        The 6-DOF problem with its atmosphere and flight model built, or the configuration of a
+        ``kind = "point-mass"`` (GPS-only) problem.
+
+    Raises
+    ------
+    InputError
+        A malformed or missing input, located (file, line, field).
+    """
+    from casrecon.io.pointmass_problem import load_point_mass, problem_kind
+    from casrecon.scenario import Scenario
+
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "problem folder or problem.toml not found")
+    if problem_kind(path) == "point-mass":
+        return load_point_mass(path)
+    return Scenario.load(path)
+
+
+def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
+        print_level: int = 0) -> DropFit:
+    """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
+    simulations.
+
+    Parameters
+    ----------
+    problem : path or Scenario
+        Problem folder, its ``problem.toml``, or a loaded :class:`~casrecon.scenario.Scenario`.
+    linear_solver : {"mumps", "spral"}, optional
+        Overrides ``[estimation] linear_solver``.
+    hessian : {"gauss-newton", "exact"}, optional
+        Overrides ``[estimation] hessian``.
+    print_level : int
+        Ipopt's print level (0 silent, 5 every iteration).
+
+    Returns
+    -------
+    DropFit
+
+    Raises
+    ------
+    InputError
+        Bad input files.
+    FitError
+        No convergence, singular KKT matrix or unusable data (the message says which).
+    """
+    import time
+
+    from casrecon.analysis.fit_products import fit_products
+    from casrecon.estimation.fit import fit_drop
+    from casrecon.output.drop_fit import DropFit
+    from casrecon.report.fit_report import fit_report
+
+    t0 = time.perf_counter()
+    scenario = problem if hasattr(problem, "config") and hasattr(problem, "model") else load_problem(problem)
+    if not hasattr(scenario, "model"):
+        raise InputError(getattr(scenario, "path", problem),
+                         "a point-mass problem: the point-mass fit is not yet part of the Python API "
+                         "(use `casrecon fit`)")
+    result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level)
+    report = fit_report(result)
+    result.timings["total_s"] = time.perf_counter() - t0
+    return DropFit.from_fit(result, fit_products(result), report)
+
+
+def fit_joint(*args: Any, **kwargs: Any) -> Any:
+    """Joint fit of several drops (not yet part of the Python API: use ``casrecon joint``)."""
+    raise NotImplementedError("casrecon.fit_joint is not implemented yet; use the `casrecon joint` command")
+
+
+def load_results(folder: str | Path) -> DropFit:
+    """Read a results folder written by ``casrecon fit --out`` or :meth:`DropFit.save`.
+
+    Raises
+    ------
+    InputError
+        The folder does not exist or is not a per-drop results folder (the message names the
+        folder and the missing file).
+    """
+    from casrecon.output.drop_fit import DropFit
+
+    return DropFit.load(folder)
