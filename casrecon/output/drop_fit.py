@@ -34,10 +34,13 @@ REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
 
 
 def read_frame(path: Path) -> pd.DataFrame:
-    """A CSV file of casrecon's as a DataFrame, every number parsed exactly as written."""
+    """A CSV file of casrecon's as a DataFrame, every number parsed exactly as written (the nearest
+    float; pandas 3 does so by default, pandas 2 needs ``float_precision="round_trip"``)."""
     import pandas as pd
 
-    return pd.read_csv(path, float_precision="round_trip")
+    if int(pd.__version__.split(".")[0]) < 3:
+        return pd.read_csv(path, float_precision="round_trip")
+    return pd.read_csv(path)
 
 
 def read_document(path: Path) -> dict:
@@ -166,13 +169,13 @@ class DropFit:
 
     @property
     def reduced_chi2(self) -> float:
-        """Chi-square over degrees of freedom, -."""
-        return float(self.summary["reduced_chi2"])
+        """Chi-square over degrees of freedom, - (NaN when the summary lacks it)."""
+        return float(self.summary.get("reduced_chi2", float("nan")))
 
     @property
     def chi2(self) -> dict[str, float]:
         """Chi-square per residual group (``imu``, ``gps``, ``prior_aero``, ...), -."""
-        return dict(self.summary["chi2"])
+        return dict(self.summary.get("chi2", {}))
 
     @property
     def columns(self) -> tuple[str, ...]:
