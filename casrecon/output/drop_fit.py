@@ -216,27 +216,7 @@ class DropFit:
             An unknown column or time axis (the message lists the available ones), or a time
             outside the fit window.
         """
-        import pandas as pd
-
-        names = [columns] if isinstance(columns, str) else list(columns)
-        unknown = [n for n in names if n not in self.columns]
-        if unknown:
-            raise ValueError(f"{self.name}: no time-history column {', '.join(map(repr, unknown))}; "
-                             f"available: {', '.join(self.columns)}")
-        if time not in TIME_COLUMNS:
-            raise ValueError(f"time must be one of {', '.join(TIME_COLUMNS)}, got {time!r}")
-        t = np.atleast_1d(np.asarray(times_s, dtype=float))
-        grid = self.trajectory[time].to_numpy()
-        outside = t[(t < grid[0]) | (t > grid[-1]) | ~np.isfinite(t)]
-        if outside.size:
-            raise ValueError(f"{self.name}: {time} {outside[0]:g} s is outside the fit window "
-                             f"[{grid[0]:.4f}, {grid[-1]:.4f}] s")
-        out: dict[str, Any] = {time: t}
-        for n in names:
-            out[n] = np.interp(t, grid, self.trajectory[n].to_numpy())
-            if f"{n}_3sigma" in self.trajectory:
-                out[f"{n}_3sigma"] = np.interp(t, grid, self.trajectory[f"{n}_3sigma"].to_numpy())
-        return pd.DataFrame(out)
+        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
 
     def figure_source(self) -> DropTables:
         """The tables as the figure functions of :mod:`casrecon.report` read them (no folder needed)."""
@@ -266,6 +246,33 @@ class DropFit:
 
                 draw_drop_figures(out, workers=1)
         return folder
+
+
+def sample_frame(name: str, frame: pd.DataFrame, time_columns: Sequence[str], columns: str | Sequence[str],
+                 times_s: float | Sequence[float] | np.ndarray, time: str) -> pd.DataFrame:
+    """``columns`` of ``frame`` and their ``_3sigma`` interpolated linearly at ``times_s`` on the
+    ``time`` axis (one of ``time_columns``); ValueError naming what is available, or the window."""
+    import pandas as pd
+
+    available = tuple(c for c in frame.columns if c not in time_columns and not c.endswith("_3sigma"))
+    names = [columns] if isinstance(columns, str) else list(columns)
+    unknown = [n for n in names if n not in available]
+    if unknown:
+        raise ValueError(f"{name}: no time-history column {', '.join(map(repr, unknown))}; "
+                         f"available: {', '.join(available)}")
+    if time not in time_columns:
+        raise ValueError(f"time must be one of {', '.join(time_columns)}, got {time!r}")
+    t = np.atleast_1d(np.asarray(times_s, dtype=float))
+    grid = frame[time].to_numpy()
+    outside = t[(t < grid[0]) | (t > grid[-1]) | ~np.isfinite(t)]
+    if outside.size:
+        raise ValueError(f"{name}: {time} {outside[0]:g} s is outside the fit window [{grid[0]:.4f}, {grid[-1]:.4f}] s")
+    out: dict[str, Any] = {time: t}
+    for n in names:
+        out[n] = np.interp(t, grid, frame[n].to_numpy())
+        if f"{n}_3sigma" in frame:
+            out[f"{n}_3sigma"] = np.interp(t, grid, frame[f"{n}_3sigma"].to_numpy())
+    return pd.DataFrame(out)
 
 
 def _residuals_of(tables: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:

@@ -36,7 +36,8 @@ class Parameter:
     prior_sigma : float or None
         1-sigma of the zero-mean Gaussian prior (``unit``), None when the prior is off.
     correl : Mapping of str to float
-        Correlation coefficient with every other parameter (not itself), like lmfit's ``correl``.
+        Correlation coefficient with every other parameter (not itself), like lmfit's ``correl``;
+        empty when the fit records no correlations (point-mass fits).
     shared : bool or None
         Joint fits: whether the parameter is common to all drops; None for a per-drop fit.
     """
@@ -88,7 +89,7 @@ class Parameters(Mapping[str, Parameter]):
         if not isinstance(other, Parameters):
             return NotImplemented
         return (tuple(self._records.values()) == tuple(other._records.values())
-                and np.array_equal(self._correlation, other._correlation))
+                and np.array_equal(self._correlation, other._correlation, equal_nan=True))
 
     __hash__ = None  # type: ignore[assignment]
 
@@ -137,7 +138,8 @@ def from_document(doc: dict, reduced_chi2: float | None = None) -> Parameters:
     ----------
     doc : dict
         ``{"parameters": {name: {"value", "sigma", ...}}, "correlation": {"names", "matrix"}}``;
-        without a correlation (point-mass folders) the matrix is the identity.
+        without a correlation (point-mass folders) the matrix is NaN off the diagonal and every
+        ``correl`` is empty.
     reduced_chi2 : float, optional
         Used for ``stderr_scaled`` when an entry lacks ``sigma_chi2_scaled`` (then NaN if None).
     """
@@ -148,7 +150,8 @@ def from_document(doc: dict, reduced_chi2: float | None = None) -> Parameters:
         order = [corr_doc["names"].index(n) for n in names]
         matrix = np.asarray(corr_doc["matrix"], dtype=float)[np.ix_(order, order)]
     else:
-        matrix = np.eye(len(names))
+        matrix = np.full((len(names), len(names)), np.nan)
+        np.fill_diagonal(matrix, 1.0)
     scale = math.sqrt(reduced_chi2) if reduced_chi2 is not None else math.nan
     records = []
     for i, name in enumerate(names):
@@ -160,6 +163,7 @@ def from_document(doc: dict, reduced_chi2: float | None = None) -> Parameters:
             stderr_scaled=float(scaled) if scaled is not None else sigma * scale,
             unit=str(e.get("unit", "")), group=str(e.get("group", "")),
             prior_sigma=_optional_float(e.get("prior_sigma")),
-            correl=MappingProxyType({m: float(matrix[i, j]) for j, m in enumerate(names) if j != i}),
+            correl=MappingProxyType({m: float(matrix[i, j]) for j, m in enumerate(names) if j != i}
+                                    if corr_doc else {}),
             shared=e.get("shared")))
     return Parameters(tuple(records), matrix)
