@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from casrecon.estimation.engine.checks import FitError
     from casrecon.io.pointmass_problem import PointMassConfig
     from casrecon.output.drop_fit import DropFit
+    from casrecon.output.joint_fit import JointFit
     from casrecon.output.parameter_records import Parameter, Parameters
     from casrecon.report.result_figures import (
         plot_correlation,
@@ -45,6 +46,7 @@ __all__ = [
     "fit_joint",
     "load_results",
     "DropFit",
+    "JointFit",
     "Parameter",
     "Parameters",
     "plot_trajectory",
@@ -61,6 +63,7 @@ __all__ = [
 _LAZY = {
     "FitError": ("casrecon.estimation.engine.checks", "FitError"),
     "DropFit": ("casrecon.output.drop_fit", "DropFit"),
+    "JointFit": ("casrecon.output.joint_fit", "JointFit"),
     "Parameter": ("casrecon.output.parameter_records", "Parameter"),
     "Parameters": ("casrecon.output.parameter_records", "Parameters"),
     **{name: ("casrecon.report.result_figures", name) for name in (
@@ -160,20 +163,76 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
     return DropFit.from_fit(result, fit_products(result), report)
 
 
-def fit_joint(*args: Any, **kwargs: Any) -> Any:
-    """Joint fit of several drops (not yet part of the Python API: use ``casrecon joint``)."""
-    raise NotImplementedError("casrecon.fit_joint is not implemented yet; use the `casrecon joint` command")
+def fit_joint(problems: str | Path | list[str | Path], *, name: str = "joint", shared: list[str] | None = None,
+              per_drop: list[str] = (), fixed: list[str] = (), single: bool = False, hessian: str | None = None,
+              linear_solver: str | None = None, print_level: int = 0) -> JointFit:
+    """Joint aero fit of several drops in one NLP (``casrecon joint``).
+
+    Parameters
+    ----------
+    problems : path or list of paths
+        A joint ``.toml`` file (``[joint] name, drops, shared, per_drop, fixed``; the keyword
+        arguments below are then ignored), or at least two problem folders.
+    name : str
+        Name of the joint fit (problem folders only).
+    shared, per_drop, fixed : list of str
+        Dispersion factors common to all drops (None: every factor the drops estimate), estimated
+        by each drop for itself, held at 0.
+    single : bool
+        Also fit each drop alone for the joint-vs-single sigma table (slower).
+    hessian, linear_solver, print_level
+        As for :func:`fit`.
+
+    Returns
+    -------
+    JointFit
+
+    Raises
+    ------
+    InputError, FitError
+    """
+    import time
+
+    from casrecon.analysis.fit_products import fit_products
+    from casrecon.analysis.single_sigmas import single_drop_sigmas
+    from casrecon.estimation import joint
+    from casrecon.output.joint_fit import JointFit
+    from casrecon.scenario import Scenario
+
+    t0 = time.perf_counter()
+    if isinstance(problems, (str, Path)):
+        if not Path(problems).is_file():
+            raise InputError(problems, "expected a joint .toml file or a list of at least two problem folders")
+        cfg = joint.load_joint(problems)
+    else:
+        if len(problems) < 2:
+            raise InputError(", ".join(map(str, problems)) or "(none)", "a joint fit needs at least two problems")
+        cfg = joint.JointConfig(name=name, drops=tuple(Path(p) for p in problems),
+                                shared=tuple(shared) if shared is not None else None, per_drop=tuple(per_drop),
+                                fixed=tuple(fixed))
+    scenarios = [Scenario.load(p) for p in cfg.drops]
+    result = joint.fit_joint(scenarios, cfg, hessian=hessian, linear_solver=linear_solver, print_level=print_level)
+    sigmas = single_drop_sigmas(list(cfg.drops)) if single else {}
+    result.timings["total_s"] = time.perf_counter() - t0
+    return JointFit.from_fit(result, {d.scenario.config.name: fit_products(d) for d in result.drops}, sigmas)
 
 
-def load_results(folder: str | Path) -> DropFit:
-    """Read a results folder written by ``casrecon fit --out`` or :meth:`DropFit.save`.
+def load_results(folder: str | Path) -> DropFit | JointFit:
+    """Read a results folder written by ``casrecon fit --out``, ``casrecon joint --out`` or a result's
+    ``save``: a :class:`DropFit`, or a :class:`JointFit` for a folder with ``drops/``.
 
     Raises
     ------
     InputError
-        The folder does not exist or is not a per-drop results folder (the message names the
-        folder and the missing file).
+        The folder does not exist or is not a results folder (the message names the folder and
+        the missing file).
     """
     from casrecon.output.drop_fit import DropFit
+    from casrecon.output.joint_fit import JointFit
 
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(folder, "results folder not found")
+    if (folder / "drops").is_dir():
+        return JointFit.load(folder)
     return DropFit.load(folder)

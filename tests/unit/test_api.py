@@ -153,3 +153,37 @@ def test_import_is_cheap_and_all_is_complete():
     for name in casrecon.__all__:
         assert getattr(casrecon, name) is not None, name
     assert isinstance(casrecon.__version__, str)
+
+
+def make_joint_folder(folder: Path) -> Path:
+    for drop in ("drop-a", "drop-b"):
+        make_folder(folder / "drops" / drop)
+        summary = json.loads((folder / "drops" / drop / "summary.json").read_text())
+        write_json(folder / "drops" / drop / "summary.json", {**summary, "problem": drop})
+    names = ["CA_mult", "drop-a.wind_bias_n", "drop-b.wind_bias_n"]
+    write_json(folder / "parameters.json", {
+        "parameters": {n: {"value": 0.1 * k, "sigma": 0.01 * (k + 1), "three_sigma": 0.03 * (k + 1),
+                           "sigma_chi2_scaled": 0.011 * (k + 1), "shared": "." not in n} for k, n in enumerate(names)},
+        "correlation": {"names": names, "matrix": _corr(3, seed=4).tolist()}})
+    write_json(folder / "summary.json", {"name": "pair", "converged": True, "shared": ["CA_mult"], "chi2": 240.0,
+                                         "dof": 230, "reduced_chi2": 240 / 230,
+                                         "chi2_per_drop": {"drop-a": {"imu": 100.0}, "drop-b": {"imu": 140.0}}})
+    (folder / "tables.md").write_text("### Shared aero dispersions\n")
+    return folder
+
+
+def test_joint_folder_loads_and_round_trips(tmp_path):
+    joint = casrecon.load_results(make_joint_folder(tmp_path / "joint"))
+    assert isinstance(joint, casrecon.JointFit)
+    assert list(joint.drops) == ["drop-a", "drop-b"] and isinstance(joint.drops["drop-a"], casrecon.DropFit)
+    assert joint.shared == ("CA_mult",) and joint.params["CA_mult"].shared is True
+    assert joint.params["drop-b.wind_bias_n"].shared is False
+    assert joint.params["CA_mult"].correl["drop-a.wind_bias_n"] == joint.params.correlation[0, 1]
+    assert joint.chi2 == {"drop-a": {"imu": 100.0}, "drop-b": {"imu": 140.0}}
+    assert "Shared aero dispersions" in joint.report() and repr(joint).startswith("<JointFit 'pair': 2 drops")
+    assert isinstance(casrecon.plot_correlation(joint), Figure)
+    again = casrecon.load_results(joint.save(tmp_path / "copy"))
+    assert again.params == joint.params and again.drops["drop-b"].params == joint.drops["drop-b"].params
+    (tmp_path / "joint" / "parameters.json").unlink()
+    with pytest.raises(casrecon.InputError, match="not a casrecon joint results folder: parameters.json missing"):
+        casrecon.load_results(tmp_path / "joint")
