@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from casrecon.output.drop_fit import DropFit
     from casrecon.output.joint_fit import JointFit
     from casrecon.output.parameter_records import Parameter, Parameters
+    from casrecon.output.pointmass_result import PointMassFit
     from casrecon.report.result_figures import (
         plot_correlation,
         plot_pitching_moment,
@@ -47,6 +48,7 @@ __all__ = [
     "load_results",
     "DropFit",
     "JointFit",
+    "PointMassFit",
     "Parameter",
     "Parameters",
     "plot_trajectory",
@@ -64,6 +66,7 @@ _LAZY = {
     "FitError": ("casrecon.estimation.engine.checks", "FitError"),
     "DropFit": ("casrecon.output.drop_fit", "DropFit"),
     "JointFit": ("casrecon.output.joint_fit", "JointFit"),
+    "PointMassFit": ("casrecon.output.pointmass_result", "PointMassFit"),
     "Parameter": ("casrecon.output.parameter_records", "Parameter"),
     "Parameters": ("casrecon.output.parameter_records", "Parameters"),
     **{name: ("casrecon.report.result_figures", name) for name in (
@@ -118,9 +121,10 @@ def load_problem(path: str | Path) -> Scenario | PointMassConfig:
 
 
 def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-        print_level: int = 0) -> DropFit:
+        print_level: int = 0) -> DropFit | PointMassFit:
     """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
-    simulations.
+    simulations (for a ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`;
+    ``linear_solver`` and ``hessian`` do not apply to it).
 
     Parameters
     ----------
@@ -135,7 +139,7 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
 
     Returns
     -------
-    DropFit
+    DropFit or PointMassFit
 
     Raises
     ------
@@ -154,13 +158,22 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
     t0 = time.perf_counter()
     scenario = problem if hasattr(problem, "config") and hasattr(problem, "model") else load_problem(problem)
     if not hasattr(scenario, "model"):
-        raise InputError(getattr(scenario, "path", problem),
-                         "a point-mass problem: the point-mass fit is not yet part of the Python API "
-                         "(use `casrecon fit`)")
+        return _fit_point_mass(scenario, print_level)
     result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level)
     report = fit_report(result)
     result.timings["total_s"] = time.perf_counter() - t0
     return DropFit.from_fit(result, fit_products(result), report)
+
+
+def _fit_point_mass(cfg: PointMassConfig, print_level: int) -> PointMassFit:
+    """The GPS-only fit of ``casrecon fit`` on a point-mass problem, with the constant-drag comparison."""
+    from casrecon.estimation.pointmass_fit import fit_point_mass
+    from casrecon.output.pointmass_result import PointMassFit
+    from casrecon.report.pointmass_report import pointmass_report
+
+    main = fit_point_mass(cfg, print_level=print_level)
+    constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
+    return PointMassFit.from_fit(main, constant, pointmass_report(main, constant))
 
 
 def fit_joint(problems: str | Path | list[str | Path], *, name: str = "joint", shared: list[str] | None = None,
@@ -217,9 +230,10 @@ def fit_joint(problems: str | Path | list[str | Path], *, name: str = "joint", s
     return JointFit.from_fit(result, {d.scenario.config.name: fit_products(d) for d in result.drops}, sigmas)
 
 
-def load_results(folder: str | Path) -> DropFit | JointFit:
+def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit:
     """Read a results folder written by ``casrecon fit --out``, ``casrecon joint --out`` or a result's
-    ``save``: a :class:`DropFit`, or a :class:`JointFit` for a folder with ``drops/``.
+    ``save``: a :class:`DropFit`, a :class:`JointFit` for a folder with ``drops/``, or a
+    :class:`PointMassFit` for a point-mass fit's folder.
 
     Raises
     ------
@@ -227,12 +241,16 @@ def load_results(folder: str | Path) -> DropFit | JointFit:
         The folder does not exist or is not a results folder (the message names the folder and
         the missing file).
     """
-    from casrecon.output.drop_fit import DropFit
+    from casrecon.output.drop_fit import DropFit, read_document
     from casrecon.output.joint_fit import JointFit
+    from casrecon.output.pointmass_result import PointMassFit
 
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(folder, "results folder not found")
     if (folder / "drops").is_dir():
         return JointFit.load(folder)
+    summary = folder / "summary.json"
+    if summary.is_file() and read_document(summary).get("kind") == "point-mass":
+        return PointMassFit.load(folder)
     return DropFit.load(folder)

@@ -44,3 +44,17 @@ def test_cli_folder_loads_with_exact_parameters(cli_folder, tmp_path):
 
 def doc_summary(folder: Path) -> dict:
     return json.loads((folder / "summary.json").read_text())
+
+
+def test_point_mass_fit_saves_and_loads(tmp_path):
+    result = casrecon.fit(ROOT / "problems" / "realdata-fs1-byron")
+    assert isinstance(result, casrecon.PointMassFit) and result.converged
+    assert "cda_m2" in result.columns and dict(result.params[next(iter(result.params))].correl) == {}
+    s = result.sample("cda_m2", [1.0, 5.0])
+    assert list(s.columns) == ["time_s", "cda_m2", "cda_m2_3sigma"] and np.all(s["cda_m2_3sigma"] > 0)
+    folder = result.save(tmp_path / "pm")
+    assert (folder / "trajectory.csv").is_file() and not (folder / "figures").exists()
+    again = casrecon.load_results(folder)
+    assert isinstance(again, casrecon.PointMassFit)
+    assert again.params == result.params and again.trajectory.equals(result.trajectory)
+    assert again.report() == result.report() and set(again.residuals) == {"gps"}
