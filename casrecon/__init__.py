@@ -18,6 +18,7 @@ Importing ``casrecon`` is cheap: CasADi, pandas and matplotlib are imported when
 from __future__ import annotations
 
 import importlib
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -176,8 +177,8 @@ def _fit_point_mass(cfg: PointMassConfig, print_level: int) -> PointMassFit:
     return PointMassFit.from_fit(main, constant, pointmass_report(main, constant))
 
 
-def fit_joint(problems: str | Path | list[str | Path], *, name: str = "joint", shared: list[str] | None = None,
-              per_drop: list[str] = (), fixed: list[str] = (), single: bool = False, hessian: str | None = None,
+def fit_joint(problems: str | Path | Sequence[str | Path], *, name: str = "joint", shared: Sequence[str] | None = None,
+              per_drop: Sequence[str] = (), fixed: Sequence[str] = (), single: bool = False, hessian: str | None = None,
               linear_solver: str | None = None, print_level: int = 0) -> JointFit:
     """Joint aero fit of several drops in one NLP (``casrecon joint``).
 

@@ -141,7 +141,7 @@ class JointFit:
 
     def __repr__(self) -> str:
         where = f", from {self.source}" if self.source else ""
-        return (f"<JointFit {self.name!r}: {len(self.drops)} drops, shared {', '.join(self.shared) or 'none'}, "
+        return (f"<JointFit {self.name!r}: {len(self.drops)} drops, {len(self.shared)} shared factors, "
                 f"reduced chi2 {self.reduced_chi2:.4f}, {len(self.params)} parameters{where}>")
 
     def save(self, folder: str | Path, *, figures: bool = False) -> Path:

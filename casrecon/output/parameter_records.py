@@ -49,7 +49,7 @@ class Parameter:
     unit: str = ""
     group: str = ""
     prior_sigma: float | None = None
-    correl: Mapping[str, float] = field(default_factory=dict)
+    correl: Mapping[str, float] = field(default_factory=dict, hash=False)
     shared: bool | None = None
 
     @property

@@ -180,7 +180,8 @@ def test_joint_folder_loads_and_round_trips(tmp_path):
     assert joint.params["drop-b.wind_bias_n"].shared is False
     assert joint.params["CA_mult"].correl["drop-a.wind_bias_n"] == joint.params.correlation[0, 1]
     assert joint.chi2 == {"drop-a": {"imu": 100.0}, "drop-b": {"imu": 140.0}}
-    assert "Shared aero dispersions" in joint.report() and repr(joint).startswith("<JointFit 'pair': 2 drops")
+    assert "Shared aero dispersions" in joint.report()
+    assert repr(joint).startswith("<JointFit 'pair': 2 drops, 1 shared factors")
     assert isinstance(casrecon.plot_correlation(joint), Figure)
     again = casrecon.load_results(joint.save(tmp_path / "copy"))
     assert again.params == joint.params and again.drops["drop-b"].params == joint.drops["drop-b"].params
