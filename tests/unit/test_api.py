@@ -188,3 +188,11 @@ def test_joint_folder_loads_and_round_trips(tmp_path):
     (tmp_path / "joint" / "parameters.json").unlink()
     with pytest.raises(casrecon.InputError, match="not a casrecon joint results folder: parameters.json missing"):
         casrecon.load_results(tmp_path / "joint")
+
+
+def test_save_with_figures_and_plots_from_a_path(loaded, tmp_path):
+    folder = loaded.save(tmp_path / "with-figures", figures=True)
+    assert (folder / "figures" / "altitude_velocity.png").stat().st_size > 1000
+    assert isinstance(casrecon.plot_trajectory(folder), Figure)
+    with pytest.raises(TypeError, match="expected a per-drop result"):
+        casrecon.plot_trajectory(42)
