@@ -85,7 +85,8 @@ class DropFit:
     report_text : str
         The text report (``report.txt``).
     tables : dict of str to pandas.DataFrame
-        Every table of the results folder by file name (``trajectory.csv``, ``gps_fixes.csv``, ...).
+        Every table of the results folder by file name (``trajectory.csv``, ``gps_fixes.csv``, ...);
+        a fresh fit holds ``reconciled.csv`` and ``nominal.csv`` at every sample, the files every 5th.
     documents : dict of str to dict
         Every JSON document by file name (``parameters.json``, ``imu_sigma.json``, ...).
     fit : casrecon.estimation.fit.FitResult or None
