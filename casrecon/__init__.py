@@ -1,0 +1,257 @@
+"""casrecon: reconstruct a dropped capsule's 6-DOF flight and aerodynamics from IMU, GPS and a sounding.
+
+The public Python API (in the spirit of lmfit and rockit)::
+
+    import casrecon
+
+    result = casrecon.fit("problems/ees-drop-1")
+    print(result.params["CA_mult"].value, result.params["CA_mult"].stderr)
+    print(result.report())
+    result.sample("alpha_t_deg", [2.0, 5.0])        # values and 3-sigma at flight times, s
+    result.save("results/ees-drop-1")               # the folder `casrecon fit --out` writes
+    again = casrecon.load_results("results/ees-drop-1")
+    casrecon.plot_trajectory(result).savefig("trajectory.png")
+
+Importing ``casrecon`` is cheap: CasADi, pandas and matplotlib are imported when first needed.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from casrecon.io.errors import InputError
+
+if TYPE_CHECKING:
+    from casrecon.estimation.engine.checks import FitError
+    from casrecon.io.pointmass_problem import PointMassConfig
+    from casrecon.output.drop_fit import DropFit
+    from casrecon.output.joint_fit import JointFit
+    from casrecon.output.parameter_records import Parameter, Parameters
+    from casrecon.output.pointmass_result import PointMassFit
+    from casrecon.report.result_figures import (
+        plot_correlation,
+        plot_pitching_moment,
+        plot_qbar_alpha_t,
+        plot_reconciled,
+        plot_residuals,
+        plot_trajectory,
+    )
+    from casrecon.scenario import Scenario
+
+__all__ = [
+    "__version__",
+    "load_problem",
+    "fit",
+    "fit_joint",
+    "load_results",
+    "DropFit",
+    "JointFit",
+    "PointMassFit",
+    "Parameter",
+    "Parameters",
+    "plot_trajectory",
+    "plot_qbar_alpha_t",
+    "plot_pitching_moment",
+    "plot_reconciled",
+    "plot_residuals",
+    "plot_correlation",
+    "InputError",
+    "FitError",
+]
+
+#: Names imported on first use (module, attribute): their modules import CasADi, pandas or matplotlib.
+_LAZY = {
+    "FitError": ("casrecon.estimation.engine.checks", "FitError"),
+    "DropFit": ("casrecon.output.drop_fit", "DropFit"),
+    "JointFit": ("casrecon.output.joint_fit", "JointFit"),
+    "PointMassFit": ("casrecon.output.pointmass_result", "PointMassFit"),
+    "Parameter": ("casrecon.output.parameter_records", "Parameter"),
+    "Parameters": ("casrecon.output.parameter_records", "Parameters"),
+    **{name: ("casrecon.report.result_figures", name) for name in (
+        "plot_trajectory", "plot_qbar_alpha_t", "plot_pitching_moment", "plot_reconciled", "plot_residuals",
+        "plot_correlation")},
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("casrecon")
+        except PackageNotFoundError:
+            return "0+unknown"
+    if name in _LAZY:
+        module, attr = _LAZY[name]
+        value = getattr(importlib.import_module(module), attr)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'casrecon' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+def load_problem(path: str | Path) -> Scenario | PointMassConfig:
+    """Read a problem folder (or its ``problem.toml``).
+
+    Returns
+    -------
+    casrecon.scenario.Scenario or casrecon.io.pointmass_problem.PointMassConfig
+        The 6-DOF problem with its atmosphere and flight model built, or the configuration of a
+        ``kind = "point-mass"`` (GPS-only) problem.
+
+    Raises
+    ------
+    InputError
+        A malformed or missing input, located (file, line, field).
+    """
+    from casrecon.io.pointmass_problem import load_point_mass, problem_kind
+    from casrecon.scenario import Scenario
+
+    path = Path(path)
+    if not path.exists():
+        raise InputError(path, "problem folder or problem.toml not found")
+    if problem_kind(path) == "point-mass":
+        return load_point_mass(path)
+    return Scenario.load(path)
+
+
+def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
+        print_level: int = 0) -> DropFit | PointMassFit:
+    """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
+    simulations (for a ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`;
+    ``linear_solver`` and ``hessian`` do not apply to it).
+
+    Parameters
+    ----------
+    problem : path or Scenario
+        Problem folder, its ``problem.toml``, or a loaded :class:`~casrecon.scenario.Scenario`.
+    linear_solver : {"mumps", "spral"}, optional
+        Overrides ``[estimation] linear_solver``.
+    hessian : {"gauss-newton", "exact"}, optional
+        Overrides ``[estimation] hessian``.
+    print_level : int
+        Ipopt's print level (0 silent, 5 every iteration).
+
+    Returns
+    -------
+    DropFit or PointMassFit
+
+    Raises
+    ------
+    InputError
+        Bad input files.
+    FitError
+        No convergence, singular KKT matrix or unusable data (the message says which).
+    """
+    import time
+
+    from casrecon.analysis.fit_products import fit_products
+    from casrecon.estimation.fit import fit_drop
+    from casrecon.output.drop_fit import DropFit
+    from casrecon.report.fit_report import fit_report
+
+    t0 = time.perf_counter()
+    scenario = problem if hasattr(problem, "config") and hasattr(problem, "model") else load_problem(problem)
+    if not hasattr(scenario, "model"):
+        return _fit_point_mass(scenario, print_level)
+    result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level)
+    report = fit_report(result)
+    result.timings["total_s"] = time.perf_counter() - t0
+    return DropFit.from_fit(result, fit_products(result), report)
+
+
+def _fit_point_mass(cfg: PointMassConfig, print_level: int) -> PointMassFit:
+    """The GPS-only fit of ``casrecon fit`` on a point-mass problem, with the constant-drag comparison."""
+    from casrecon.estimation.pointmass_fit import fit_point_mass
+    from casrecon.output.pointmass_result import PointMassFit
+    from casrecon.report.pointmass_report import pointmass_report
+
+    main = fit_point_mass(cfg, print_level=print_level)
+    constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
+    return PointMassFit.from_fit(main, constant, pointmass_report(main, constant))
+
+
+def fit_joint(problems: str | Path | Sequence[str | Path], *, name: str = "joint", shared: Sequence[str] | None = None,
+              per_drop: Sequence[str] = (), fixed: Sequence[str] = (), single: bool = False, hessian: str | None = None,
+              linear_solver: str | None = None, print_level: int = 0) -> JointFit:
+    """Joint aero fit of several drops in one NLP (``casrecon joint``).
+
+    Parameters
+    ----------
+    problems : path or list of paths
+        A joint ``.toml`` file (``[joint] name, drops, shared, per_drop, fixed``; the keyword
+        arguments below are then ignored), or at least two problem folders.
+    name : str
+        Name of the joint fit (problem folders only).
+    shared, per_drop, fixed : list of str
+        Dispersion factors common to all drops (None: every factor the drops estimate), estimated
+        by each drop for itself, held at 0.
+    single : bool
+        Also fit each drop alone for the joint-vs-single sigma table (slower).
+    hessian, linear_solver, print_level
+        As for :func:`fit`.
+
+    Returns
+    -------
+    JointFit
+
+    Raises
+    ------
+    InputError, FitError
+    """
+    import time
+
+    from casrecon.analysis.fit_products import fit_products
+    from casrecon.analysis.single_sigmas import single_drop_sigmas
+    from casrecon.estimation import joint
+    from casrecon.output.joint_fit import JointFit
+    from casrecon.scenario import Scenario
+
+    t0 = time.perf_counter()
+    if isinstance(problems, (str, Path)):
+        if not Path(problems).is_file():
+            raise InputError(problems, "expected a joint .toml file or a list of at least two problem folders")
+        cfg = joint.load_joint(problems)
+    else:
+        if len(problems) < 2:
+            raise InputError(", ".join(map(str, problems)) or "(none)", "a joint fit needs at least two problems")
+        cfg = joint.JointConfig(name=name, drops=tuple(Path(p) for p in problems),
+                                shared=tuple(shared) if shared is not None else None, per_drop=tuple(per_drop),
+                                fixed=tuple(fixed))
+    scenarios = [Scenario.load(p) for p in cfg.drops]
+    result = joint.fit_joint(scenarios, cfg, hessian=hessian, linear_solver=linear_solver, print_level=print_level)
+    sigmas = single_drop_sigmas(list(cfg.drops)) if single else {}
+    result.timings["total_s"] = time.perf_counter() - t0
+    return JointFit.from_fit(result, {d.scenario.config.name: fit_products(d) for d in result.drops}, sigmas)
+
+
+def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit:
+    """Read a results folder written by ``casrecon fit --out``, ``casrecon joint --out`` or a result's
+    ``save``: a :class:`DropFit`, a :class:`JointFit` for a folder with ``drops/``, or a
+    :class:`PointMassFit` for a point-mass fit's folder.
+
+    Raises
+    ------
+    InputError
+        The folder does not exist or is not a results folder (the message names the folder and
+        the missing file).
+    """
+    from casrecon.output.drop_fit import DropFit, read_document
+    from casrecon.output.joint_fit import JointFit
+    from casrecon.output.pointmass_result import PointMassFit
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(folder, "results folder not found")
+    if (folder / "drops").is_dir():
+        return JointFit.load(folder)
+    summary = folder / "summary.json"
+    if summary.is_file() and read_document(summary).get("kind") == "point-mass":
+        return PointMassFit.load(folder)
+    return DropFit.load(folder)

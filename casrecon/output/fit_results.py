@@ -22,7 +22,11 @@ from casrecon.output.results import write_columns, write_json
 
 
 def parameters_document(result) -> dict:
-    """``parameters.json`` content; names match truth.json."""
+    """``parameters.json`` content; names match truth.json.
+
+    Every float is stored at full precision (Python's ``json`` writes the shortest repr, which reads
+    back bit-identical), so a loaded result's values, sigmas and correlations equal the fit's.
+    """
     scale = float(np.sqrt(result.reduced_chi2))
     params = {}
     for i, spec in enumerate(result.params.specs):
@@ -31,7 +35,8 @@ def parameters_document(result) -> dict:
                              "sigma_chi2_scaled": s * scale, "unit": spec.unit, "group": spec.group,
                              "prior_sigma": spec.prior_sigma}
     return {"parameters": params,
-            "correlation": {"names": list(result.params.names), "matrix": np.round(result.correlation, 6).tolist()},
+            "correlation": {"names": list(result.params.names),
+                            "matrix": np.asarray(result.correlation, dtype=float).tolist()},
             "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix",
                            "sigma": "absolute (noise sigmas as given)",
                            "sigma_chi2_scaled": f"absolute times sqrt(reduced chi2) = {scale:.5f}"}}

@@ -20,7 +20,8 @@ def joint_parameters_document(result) -> dict:
                   "sigma_chi2_scaled": float(s * np.sqrt(result.reduced_chi2)), "shared": n in result.shared}
               for n, v, s in zip(result.names, result.values, result.sigma)}
     return {"parameters": params,
-            "correlation": {"names": list(result.names), "matrix": np.round(result.correlation, 6).tolist()},
+            "correlation": {"names": list(result.names),
+                            "matrix": np.asarray(result.correlation, dtype=float).tolist()},
             "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix"}}
 
 

@@ -7,6 +7,7 @@ import logging
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from casrecon.report import figure_style as style
 from casrecon.report.results_folder import DropFolder, MissingInput
@@ -17,7 +18,7 @@ IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
 GPS_CHANNELS = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
 
 
-def plot_residuals_imu(drop: DropFolder, out: Path) -> Path:
+def residuals_imu_figure(drop: DropFolder) -> Figure:
     """IMU residuals (measured - model) against flight time (s): specific force in m/s^2, angular
     rate in deg/s; masked samples (used = 0) in another colour; +-1/3 sigma from imu_sigma.json."""
     res = drop.csv("residuals_imu.csv")
@@ -52,7 +53,12 @@ def plot_residuals_imu(drop: DropFolder, out: Path) -> Path:
     axes[0, 0].set_title("specific force (accelerometers)")
     axes[0, 1].set_title("angular rate (gyros)")
     fig.suptitle(f"{drop.name}: IMU residuals, measured minus model")
-    return style.save_figure(fig, out / "residuals_imu.png")
+    return fig
+
+
+def plot_residuals_imu(drop: DropFolder, out: Path) -> Path:
+    """Save :func:`residuals_imu_figure` as ``out / "residuals_imu.png"``."""
+    return style.save_figure(residuals_imu_figure(drop), out / "residuals_imu.png")
 
 
 def _residual_limit(used: np.ndarray, sigma: float | None) -> float:
@@ -63,7 +69,7 @@ def _residual_limit(used: np.ndarray, sigma: float | None) -> float:
     return 1.1 * big if big > 0 else 1.0
 
 
-def plot_residuals_gps(drop: DropFolder, out: Path) -> Path:
+def residuals_gps_figure(drop: DropFolder) -> Figure:
     """GPS residuals (measured - model) against flight time (s): NED position (m) and velocity (m/s)
     with the receiver's own +-1 and +-3 sigma per fix."""
     res = drop.csv("residuals_gps.csv")
@@ -82,10 +88,15 @@ def plot_residuals_gps(drop: DropFolder, out: Path) -> Path:
     axes[0, 0].set_title("position (antenna, NED)")
     axes[0, 1].set_title("velocity (NED)")
     fig.suptitle(f"{drop.name}: GPS residuals, measured minus model")
-    return style.save_figure(fig, out / "residuals_gps.png")
+    return fig
 
 
-def plot_correlation(parameters: dict, title: str, out: Path) -> Path:
+def plot_residuals_gps(drop: DropFolder, out: Path) -> Path:
+    """Save :func:`residuals_gps_figure` as ``out / "residuals_gps.png"``."""
+    return style.save_figure(residuals_gps_figure(drop), out / "residuals_gps.png")
+
+
+def correlation_figure(parameters: dict, title: str) -> Figure:
     """The parameter correlation matrix of parameters.json (``correlation`` {names, matrix}) as an
     image, names on both axes, colour scale -1..1; values printed when there are few parameters,
     black lines between the blocks of a joint fit (shared, then ``<drop>.<name>`` per drop)."""
@@ -115,4 +126,9 @@ def plot_correlation(parameters: dict, title: str, out: Path) -> Path:
                 ax.text(j, i, f"{mat[i, j]:.2f}", ha="center", va="center", fontsize=6,
                         color="white" if abs(mat[i, j]) > 0.6 else "black")
     ax.set_title(f"{title}: parameter correlation matrix ({n} parameters)")
-    return style.save_figure(fig, out / "correlation.png")
+    return fig
+
+
+def plot_correlation(parameters: dict, title: str, out: Path) -> Path:
+    """Save :func:`correlation_figure` as ``out / "correlation.png"``."""
+    return style.save_figure(correlation_figure(parameters, title), out / "correlation.png")

@@ -79,3 +79,48 @@ def drop_folders(results_dir: Path) -> list[Path]:
     """The per-drop sub-folders ``drops/<name>/`` of a joint results folder (empty if none)."""
     drops = Path(results_dir) / "drops"
     return sorted(p for p in drops.iterdir() if p.is_dir()) if drops.is_dir() else []
+
+
+class DropTables:
+    """The same interface as :class:`DropFolder` over tables held in memory (no folder on disk).
+
+    Parameters
+    ----------
+    name : str
+        Drop name, for titles.
+    summary : dict
+        ``summary.json`` content (``release_imu_s``, ``reconciled``, ...).
+    tables : dict of str to dict of str to ndarray
+        File name (``"trajectory.csv"``, ``"residuals_imu.csv"``, ...) -> named columns; must hold
+        ``trajectory.csv``.
+    documents : dict of str to dict
+        File name (``"imu_sigma.json"``, ``"parameters.json"``, ...) -> content.
+    """
+
+    def __init__(self, name: str, summary: dict, tables: dict[str, dict[str, np.ndarray]],
+                 documents: dict[str, dict]):
+        self.name = name
+        self.summary = summary
+        self._tables = tables
+        self._documents = documents
+        self.traj = self.csv("trajectory.csv")
+        release = summary.get("release_imu_s")
+        if release is None:
+            release = self.traj["time_imu_s"][0] - self.traj["flight_time_s"][0]
+        self.release_imu_s = float(release)
+
+    def csv(self, name: str) -> dict[str, np.ndarray]:
+        """Columns of table ``name`` (MissingInput if absent)."""
+        if name not in self._tables:
+            raise MissingInput(f"{self.name} has no {name}")
+        return {k: np.asarray(v, dtype=float) for k, v in self._tables[name].items()}
+
+    def json(self, name: str) -> dict:
+        """Document ``name`` (MissingInput if absent)."""
+        if name not in self._documents:
+            raise MissingInput(f"{self.name} has no {name}")
+        return self._documents[name]
+
+    def flight_time(self, time_imu_s: np.ndarray) -> np.ndarray:
+        """Flight time (s since release) of IMU-clock times (s)."""
+        return np.asarray(time_imu_s) - self.release_imu_s

@@ -7,6 +7,7 @@ import logging
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from casrecon.report import figure_style as style
 from casrecon.report.results_folder import DropFolder, MissingInput
@@ -19,7 +20,7 @@ CM_MIN_QBAR_PA = 100.0
 CM_MAX_ALPHA_DEG = 20.0
 
 
-def plot_altitude_velocity(drop: DropFolder, out: Path) -> Path:
+def altitude_velocity_figure(drop: DropFolder) -> Figure:
     """Altitude AGL (m), vertical velocity and speed, horizontal velocity (m/s) against flight time
     (s): reconstruction lines and, if gps_fixes.csv exists, GPS fixes as dots (altitude = -pos_d)."""
     tr = drop.traj
@@ -53,10 +54,15 @@ def plot_altitude_velocity(drop: DropFolder, out: Path) -> Path:
     for ax in axes[:, 0]:
         ax.legend(fontsize=8, ncol=2, loc="best")
     fig.suptitle(f"{drop.name}: altitude and velocity (lines: reconstruction, dots: GPS antenna)")
-    return style.save_figure(fig, out / "altitude_velocity.png")
+    return fig
 
 
-def plot_qbar_alpha_t(drop: DropFolder, out: Path) -> Path:
+def plot_altitude_velocity(drop: DropFolder, out: Path) -> Path:
+    """Save :func:`altitude_velocity_figure` as ``out / "altitude_velocity.png"``."""
+    return style.save_figure(altitude_velocity_figure(drop), out / "altitude_velocity.png")
+
+
+def qbar_alpha_t_figure(drop: DropFolder) -> Figure:
     """Dynamic pressure (Pa) and total angle of attack (deg) against flight time (s) with shaded
     3-sigma bands (left), and the 3-sigma itself against time (right) since the bands are thin."""
     tr = drop.traj
@@ -78,10 +84,15 @@ def plot_qbar_alpha_t(drop: DropFolder, out: Path) -> Path:
     axes[0, 0].set_title("value with 3-sigma band")
     axes[0, 1].set_title("size of the 3-sigma band")
     fig.suptitle(f"{drop.name}: dynamic pressure and total angle of attack")
-    return style.save_figure(fig, out / "qbar_alpha_t.png")
+    return fig
 
 
-def plot_pitching_moment(drop: DropFolder, out: Path) -> Path:
+def plot_qbar_alpha_t(drop: DropFolder, out: Path) -> Path:
+    """Save :func:`qbar_alpha_t_figure` as ``out / "qbar_alpha_t.png"``."""
+    return style.save_figure(qbar_alpha_t_figure(drop), out / "qbar_alpha_t.png")
+
+
+def pitching_moment_figure(drop: DropFolder) -> Figure:
     """C_m,body about the MRP against angle of attack (deg): points reconstructed from the measured
     rates (qbar > 100 Pa and |alpha| < 20 deg, colored by flight time, s), nominal database curve and
     best-fit dispersed curve at beta = 0 (EES paper Fig. 12)."""
@@ -110,7 +121,12 @@ def plot_pitching_moment(drop: DropFolder, out: Path) -> Path:
     ax.legend(fontsize=9)
     ax.set_title(f"{drop.name}: pitching moment (points: qbar > {CM_MIN_QBAR_PA:.0f} Pa, "
                  f"|alpha| < {CM_MAX_ALPHA_DEG:.0f} deg; curves at beta = 0)")
-    return style.save_figure(fig, out / "pitching_moment.png")
+    return fig
+
+
+def plot_pitching_moment(drop: DropFolder, out: Path) -> Path:
+    """Save :func:`pitching_moment_figure` as ``out / "pitching_moment.png"``."""
+    return style.save_figure(pitching_moment_figure(drop), out / "pitching_moment.png")
 
 
 def _reconciled_text(summary: dict) -> str:
@@ -131,7 +147,7 @@ def _reconciled_text(summary: dict) -> str:
             f"recon {fmt('reconstructed_end_speed_mps', '.2f')} m/s)")
 
 
-def plot_reconciled(drop: DropFolder, out: Path) -> Path:
+def reconciled_figure(drop: DropFolder) -> Figure:
     """Reconstruction against the reconciled forward simulation: altitude AGL (m), speed (m/s),
     total angle of attack (deg) and, if reconciled.csv has it, roll rate (deg/s) against flight time
     (s) (left; the nominal-database simulation of nominal.csv dotted if present), and fitted
@@ -174,4 +190,9 @@ def plot_reconciled(drop: DropFolder, out: Path) -> Path:
     axes[0, 0].text(0.02, 0.05, _reconciled_text(drop.summary), transform=axes[0, 0].transAxes,
                     fontsize=8.5, va="bottom", bbox=dict(boxstyle="round", fc="white", ec="0.6"))
     fig.suptitle(f"{drop.name}: reconstruction vs forward simulation with the fitted dispersions")
-    return style.save_figure(fig, out / "reconciled.png")
+    return fig
+
+
+def plot_reconciled(drop: DropFolder, out: Path) -> Path:
+    """Save :func:`reconciled_figure` as ``out / "reconciled.png"``."""
+    return style.save_figure(reconciled_figure(drop), out / "reconciled.png")

@@ -1,0 +1,289 @@
+"""The per-drop result of the public API (``casrecon.fit``, ``casrecon.load_results``): parameters as
+records, the trajectory and residuals as pandas DataFrames, the report, interpolation at flight
+times, and saving to (or loading from) the results folder that ``casrecon fit --out`` writes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from casrecon.io.errors import InputError
+from casrecon.output.fit_results import parameters_document, summary_document, trajectory_table, write_fit_results
+from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.output.results import atomic_folder
+from casrecon.report.results_folder import DropTables
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from casrecon.analysis.fit_products import FitProducts
+    from casrecon.estimation.fit import FitResult
+
+#: Time columns of ``trajectory`` (s): IMU clock and flight time since release.
+TIME_COLUMNS = ("time_imu_s", "flight_time_s")
+#: Files without which a folder is not a per-drop results folder.
+REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
+
+
+def read_frame(path: Path) -> pd.DataFrame:
+    """A CSV file of casrecon's as a DataFrame, every number parsed exactly as written (the nearest
+    float; pandas 3 does so by default, pandas 2 needs ``float_precision="round_trip"``)."""
+    import pandas as pd
+
+    if int(pd.__version__.split(".")[0]) < 3:
+        return pd.read_csv(path, float_precision="round_trip")
+    return pd.read_csv(path)
+
+
+def read_document(path: Path) -> dict:
+    """A JSON file as a dict; InputError naming the file when it is not JSON."""
+    try:
+        return json.loads(Path(path).read_text())
+    except json.JSONDecodeError as err:
+        raise InputError(path, f"not valid JSON ({err.msg})", line=err.lineno) from None
+
+
+def product_tables(products: FitProducts) -> dict[str, dict[str, np.ndarray]]:
+    """The tables of :class:`~casrecon.analysis.fit_products.FitProducts` by their results-folder
+    file name (``residuals_<kind>.csv`` for every ``<kind>_residuals`` field, ``gps_fixes.csv`` ...)."""
+    tables = {f"residuals_{f.name.removesuffix('_residuals')}.csv": getattr(products, f.name)
+              for f in dataclasses.fields(products) if f.name.endswith("_residuals")}
+    for name in ("gps_fixes", "pitching_moment", "cm_curves", "reconciled", "nominal"):
+        tables[f"{name}.csv"] = getattr(products, name)
+    return tables
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class DropFit:
+    """One drop's reconstruction, from :func:`casrecon.fit` or loaded from a results folder.
+
+    Attributes
+    ----------
+    name : str
+        Problem name.
+    params : Parameters
+        Estimated parameters in fit order (``params["Cmq_mult"].stderr``, ``params.to_frame()``).
+    trajectory : pandas.DataFrame
+        ``time_imu_s`` and ``flight_time_s`` (s), then every reconstructed column (SI or as its
+        name says: ``_deg``, ``_dps``, ``_pa``) followed by its ``<name>_3sigma``. A loaded result
+        holds trajectory.csv as written (9 significant digits); a fresh fit holds full precision,
+        which agrees with the file to a relative 5e-9.
+    residuals : dict of str to pandas.DataFrame
+        Per measurement kind (``"imu"``, ``"gps"``, ...) the ``residuals_<kind>.csv`` table: time
+        (s, IMU clock), measured minus model residuals (SI), sigmas or use flags. A loaded result
+        holds the files as written (9 significant digits).
+    summary : dict
+        ``summary.json``: convergence, chi-square per group, dof, timings (s), reconciled simulation.
+    report_text : str
+        The text report (``report.txt``).
+    tables : dict of str to pandas.DataFrame
+        Every table of the results folder by file name (``trajectory.csv``, ``gps_fixes.csv``, ...);
+        a fresh fit holds ``reconciled.csv`` and ``nominal.csv`` at every sample, the files every 5th.
+    documents : dict of str to dict
+        Every JSON document by file name (``parameters.json``, ``imu_sigma.json``, ...).
+    fit : casrecon.estimation.fit.FitResult or None
+        The estimator's own result (CasADi objects, covariance); None when loaded from a folder.
+    products : casrecon.analysis.fit_products.FitProducts or None
+        Residuals and reconciled simulations as computed; None when loaded.
+    source : Path or None
+        The folder a loaded result came from.
+    """
+
+    name: str
+    params: Parameters
+    trajectory: pd.DataFrame
+    residuals: dict[str, pd.DataFrame]
+    summary: dict
+    report_text: str
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    documents: dict[str, dict] = field(default_factory=dict)
+    fit: FitResult | None = None
+    products: FitProducts | None = None
+    source: Path | None = None
+
+    # ---- construction -------------------------------------------------------------------------
+    @classmethod
+    def from_fit(cls, fit: FitResult, products: FitProducts, report_text: str) -> DropFit:
+        """Wrap a converged :class:`~casrecon.estimation.fit.FitResult` and its products."""
+        import pandas as pd
+
+        params_doc = json.loads(json.dumps(parameters_document(fit)))  # exactly what parameters.json holds
+        summary = json.loads(json.dumps({**summary_document(fit), "reconciled": products.reconciled_summary},
+                                        default=_builtin))
+        cols, data = trajectory_table(fit)
+        trajectory = pd.DataFrame(data, columns=cols)
+        tables = {"trajectory.csv": trajectory}
+        tables.update({k: pd.DataFrame({c: np.asarray(v, dtype=float) for c, v in t.items()})
+                       for k, t in product_tables(products).items()})
+        return cls(name=fit.scenario.config.name, params=from_document(params_doc), trajectory=trajectory,
+                   residuals=_residuals_of(tables), summary=summary, report_text=report_text, tables=tables,
+                   documents={"parameters.json": params_doc, "summary.json": summary,
+                              "imu_sigma.json": dict(products.imu_sigma)},
+                   fit=fit, products=products)
+
+    @classmethod
+    def load(cls, folder: str | Path) -> DropFit:
+        """Read a per-drop results folder (``casrecon fit --out`` or :meth:`save`).
+
+        Raises
+        ------
+        InputError
+            The folder does not exist, lacks one of :data:`REQUIRED_FILES`, or holds a malformed one.
+        """
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise InputError(folder, "results folder not found")
+        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
+        if missing:
+            raise InputError(folder, f"not a casrecon per-drop results folder: {', '.join(missing)} missing")
+        documents = {p.name: read_document(p) for p in sorted(folder.glob("*.json"))}
+        tables = {p.name: read_frame(p) for p in sorted(folder.glob("*.csv"))}
+        summary = documents["summary.json"]
+        try:
+            params = from_document(documents["parameters.json"], summary.get("reduced_chi2"))
+        except (KeyError, TypeError, ValueError, IndexError) as err:
+            raise InputError(folder / "parameters.json",
+                             f"expected parameters {{name: {{value, sigma, ...}}}} and correlation {{names, "
+                             f"matrix}} ({type(err).__name__}: {err})") from None
+        missing_time = [c for c in TIME_COLUMNS if c not in tables["trajectory.csv"].columns]
+        if missing_time:
+            raise InputError(folder / "trajectory.csv", f"no column {', '.join(missing_time)}")
+        report = folder / "report.txt"
+        return cls(name=str(summary.get("problem") or folder.name), params=params,
+                   trajectory=tables["trajectory.csv"], residuals=_residuals_of(tables), summary=summary,
+                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
+                   tables=tables, documents=documents, source=folder.resolve())
+
+    # ---- what a user asks for -----------------------------------------------------------------
+    @property
+    def converged(self) -> bool:
+        """Whether the solver converged (always True for a fit that returned)."""
+        return bool(self.summary.get("converged"))
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Chi-square over degrees of freedom, - (NaN when the summary lacks it)."""
+        return float(self.summary.get("reduced_chi2", float("nan")))
+
+    @property
+    def chi2(self) -> dict[str, float]:
+        """Chi-square per residual group (``imu``, ``gps``, ``prior_aero``, ...), -."""
+        return dict(self.summary.get("chi2", {}))
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Time-history columns that :meth:`sample` accepts (the trajectory's, without time and 3-sigma)."""
+        return tuple(c for c in self.trajectory.columns if c not in TIME_COLUMNS and not c.endswith("_3sigma"))
+
+    def report(self) -> str:
+        """The text report: status, chi-square, parameters with 3-sigma, largest correlations."""
+        return self.report_text
+
+    def __repr__(self) -> str:
+        state = "converged" if self.converged else "NOT converged"
+        where = f", from {self.source}" if self.source else ""
+        return (f"<DropFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
+                f"{len(self.params)} parameters, {len(self.trajectory)} nodes{where}>")
+
+    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
+               time: str = "flight_time_s") -> pd.DataFrame:
+        """Time-history columns and their 3-sigma, interpolated linearly between nodes.
+
+        Parameters
+        ----------
+        columns : str or sequence of str
+            Names from :attr:`columns` (e.g. ``"alpha_t_deg"``, ``["qbar_pa", "mach"]``).
+        times_s : float or array_like
+            Times, s, on the ``time`` axis, within the fit window.
+        time : {"flight_time_s", "time_imu_s"}
+            Flight time since release (default) or the IMU clock.
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per time: the ``time`` column, then each column and its ``<name>_3sigma``.
+
+        Raises
+        ------
+        ValueError
+            An unknown column or time axis (the message lists the available ones), or a time
+            outside the fit window.
+        """
+        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
+
+    def figure_source(self) -> DropTables:
+        """The tables as the figure functions of :mod:`casrecon.report` read them (no folder needed)."""
+        tables = {k: {c: v.to_numpy() for c, v in df.items()} for k, df in self.tables.items()}
+        return DropTables(self.name, self.summary, tables, self.documents)
+
+    def save(self, folder: str | Path, *, figures: bool = False) -> Path:
+        """Write the results folder ``casrecon fit --out folder`` writes, atomically (an earlier folder
+        is replaced only once the new one is complete); figures only if ``figures``.
+
+        A loaded result is saved as a copy of the files it was loaded from (without ``figures/``
+        unless ``figures``). Returns the folder.
+        """
+        folder = Path(folder)
+        with atomic_folder(folder) as out:
+            if self.fit is not None and self.products is not None:
+                from casrecon.report.tables import drop_tables
+
+                write_fit_results(out, self.fit, self.products, self.report_text,
+                                  drop_tables(self.fit, self.products))
+            elif self.source is not None:
+                shutil.copytree(self.source, out, dirs_exist_ok=True, ignore=shutil.ignore_patterns("figures"))
+            else:
+                raise ValueError(f"{self.name}: nothing to save (neither a fit nor a source folder)")
+            if figures:
+                from casrecon.report.plots import draw_drop_figures
+
+                draw_drop_figures(out, workers=1)
+        return folder
+
+
+def sample_frame(name: str, frame: pd.DataFrame, time_columns: Sequence[str], columns: str | Sequence[str],
+                 times_s: float | Sequence[float] | np.ndarray, time: str) -> pd.DataFrame:
+    """``columns`` of ``frame`` and their ``_3sigma`` interpolated linearly at ``times_s`` on the
+    ``time`` axis (one of ``time_columns``); ValueError naming what is available, or the window."""
+    import pandas as pd
+
+    available = tuple(c for c in frame.columns if c not in time_columns and not c.endswith("_3sigma"))
+    names = [columns] if isinstance(columns, str) else list(columns)
+    unknown = [n for n in names if n not in available]
+    if unknown:
+        raise ValueError(f"{name}: no time-history column {', '.join(map(repr, unknown))}; "
+                         f"available: {', '.join(available)}")
+    if time not in time_columns:
+        raise ValueError(f"time must be one of {', '.join(time_columns)}, got {time!r}")
+    t = np.atleast_1d(np.asarray(times_s, dtype=float))
+    grid = frame[time].to_numpy()
+    outside = t[(t < grid[0]) | (t > grid[-1]) | ~np.isfinite(t)]
+    if outside.size:
+        raise ValueError(f"{name}: {time} {outside[0]:g} s is outside the fit window [{grid[0]:.4f}, {grid[-1]:.4f}] s")
+    out: dict[str, Any] = {time: t}
+    for n in names:
+        out[n] = np.interp(t, grid, frame[n].to_numpy())
+        if f"{n}_3sigma" in frame:
+            out[f"{n}_3sigma"] = np.interp(t, grid, frame[f"{n}_3sigma"].to_numpy())
+    return pd.DataFrame(out)
+
+
+def _residuals_of(tables: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
+    return {k.removeprefix("residuals_").removesuffix(".csv"): v for k, v in tables.items()
+            if k.startswith("residuals_") and k.endswith(".csv")}
+
+
+def _builtin(obj):
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return str(obj)

@@ -1,0 +1,162 @@
+"""The joint result of the public API (``casrecon.fit_joint``, ``casrecon.load_results`` on a joint
+folder): global parameters (shared ones plain, each drop's own as ``<drop>.<name>``) with their
+correlations, every drop as a :class:`~casrecon.output.drop_fit.DropFit`, and the results folder
+that ``casrecon joint --out`` writes.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from casrecon.io.errors import InputError
+from casrecon.output.drop_fit import DropFit, read_document
+from casrecon.output.joint_results import joint_parameters_document, write_joint_results
+from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.output.results import atomic_folder
+
+if TYPE_CHECKING:
+    from casrecon.analysis.fit_products import FitProducts
+    from casrecon.estimation.joint import JointResult
+
+#: Files without which a folder is not a joint results folder (besides ``drops/``).
+REQUIRED_FILES = ("summary.json", "parameters.json")
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class JointFit:
+    """A joint fit of several drops, from :func:`casrecon.fit_joint` or loaded from a joint folder.
+
+    Attributes
+    ----------
+    name : str
+        Name of the joint fit.
+    params : Parameters
+        Global parameters in NLP order: shared dispersion factors by their name, each drop's own
+        parameters as ``<drop>.<name>``; ``params[n].shared`` says which; correlations across all.
+    drops : dict of str to DropFit
+        Each drop's part of the joint fit (its trajectory, residuals and parameters as seen by it).
+    summary : dict
+        ``summary.json``: status, iterations, chi-square (total and per drop), dof, timings (s),
+        single-drop sigmas when computed, reconciled-simulation differences per drop.
+    tables_md : str
+        ``tables.md``: shared factors (Table 5 style), per-drop summary, joint vs single sigmas.
+    fit : casrecon.estimation.joint.JointResult or None
+        The estimator's result; None when loaded.
+    source : Path or None
+        The folder a loaded result came from.
+    """
+
+    name: str
+    params: Parameters
+    drops: dict[str, DropFit]
+    summary: dict
+    tables_md: str
+    fit: JointResult | None = None
+    products: dict[str, FitProducts] | None = field(default=None)
+    single: dict[str, dict[str, float]] = field(default_factory=dict)
+    source: Path | None = None
+
+    @classmethod
+    def from_fit(cls, result: JointResult, products: dict[str, FitProducts],
+                 single: dict[str, dict[str, float]] | None = None) -> JointFit:
+        """Wrap a :class:`~casrecon.estimation.joint.JointResult` and each drop's products."""
+        from casrecon.report.fit_report import fit_report
+        from casrecon.report.joint_tables import joint_tables
+
+        single = single or {}
+        drops = {d.scenario.config.name: DropFit.from_fit(d, products[d.scenario.config.name], fit_report(d))
+                 for d in result.drops}
+        reconciled = {n: products[n].reconciled_summary for n in drops}
+        doc = json.loads(json.dumps(joint_parameters_document(result)))
+        summary = {"name": result.config.name, "converged": True, "status": result.status,
+                   "iterations": result.iterations, "drops": list(drops), "shared": list(result.shared),
+                   "chi2": float(result.chi2), "dof": int(result.dof), "reduced_chi2": float(result.reduced_chi2),
+                   "timings": dict(result.timings),
+                   "chi2_per_drop": {n: d.chi2 for n, d in drops.items()}, "single_drop_sigma": single,
+                   "reconciled": reconciled}
+        return cls(name=result.config.name, params=from_document(doc), drops=drops, summary=summary,
+                   tables_md=joint_tables(result, single, reconciled), fit=result, products=products,
+                   single=single)
+
+    @classmethod
+    def load(cls, folder: str | Path) -> JointFit:
+        """Read a joint results folder (``casrecon joint --out`` or :meth:`save`).
+
+        Raises
+        ------
+        InputError
+            Not a folder, a missing top-level file, or a drop sub-folder that is not a results folder.
+        """
+        folder = Path(folder)
+        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
+        if not (folder / "drops").is_dir():
+            missing.append("drops/")
+        if missing:
+            raise InputError(folder, f"not a casrecon joint results folder: {', '.join(missing)} missing")
+        summary = read_document(folder / "summary.json")
+        try:
+            params = from_document(read_document(folder / "parameters.json"), summary.get("reduced_chi2"))
+        except (KeyError, TypeError, ValueError, IndexError) as err:
+            raise InputError(folder / "parameters.json", f"expected parameters and correlation "
+                                                         f"({type(err).__name__}: {err})") from None
+        drops = {}
+        for sub in sorted(p for p in (folder / "drops").iterdir() if p.is_dir()):
+            drop = DropFit.load(sub)
+            drops[drop.name] = drop
+        tables = folder / "tables.md"
+        return cls(name=str(summary.get("name") or folder.name), params=params, drops=drops, summary=summary,
+                   tables_md=tables.read_text() if tables.is_file() else "",
+                   single=dict(summary.get("single_drop_sigma") or {}), source=folder.resolve())
+
+    @property
+    def converged(self) -> bool:
+        """Whether the joint solve converged (always True for a fit that returned)."""
+        return bool(self.summary.get("converged"))
+
+    @property
+    def shared(self) -> tuple[str, ...]:
+        """The dispersion factors common to all drops."""
+        return tuple(self.summary.get("shared", ()))
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Joint chi-square over the joint dof, -."""
+        return float(self.summary.get("reduced_chi2", float("nan")))
+
+    @property
+    def chi2(self) -> dict[str, dict[str, float]]:
+        """Chi-square per drop and residual group (``{"ees-drop-1": {"imu": ..., "gps": ...}}``), -."""
+        return {k: dict(v) for k, v in self.summary.get("chi2_per_drop", {}).items()}
+
+    def report(self) -> str:
+        """Text report: the joint chi-square, then ``tables.md`` (shared factors, per-drop summary)."""
+        head = (f"[[Joint fit: {self.name}]] {len(self.drops)} drops, shared {', '.join(self.shared) or 'none'}; "
+                f"chi-square {self.summary.get('chi2', float('nan')):.1f}, dof {self.summary.get('dof')}, "
+                f"reduced chi-square {self.reduced_chi2:.4f}")
+        return head + "\n\n" + self.tables_md.rstrip("\n")
+
+    def __repr__(self) -> str:
+        where = f", from {self.source}" if self.source else ""
+        return (f"<JointFit {self.name!r}: {len(self.drops)} drops, {len(self.shared)} shared factors, "
+                f"reduced chi2 {self.reduced_chi2:.4f}, {len(self.params)} parameters{where}>")
+
+    def save(self, folder: str | Path, *, figures: bool = False) -> Path:
+        """Write the folder ``casrecon joint --out folder`` writes, atomically; figures only if asked.
+        A loaded result is saved as a copy of its files (without ``figures/`` unless ``figures``)."""
+        folder = Path(folder)
+        with atomic_folder(folder) as out:
+            if self.fit is not None and self.products is not None:
+                write_joint_results(out, self.fit, self.single, self.products)
+            elif self.source is not None:
+                shutil.copytree(self.source, out, dirs_exist_ok=True, ignore=shutil.ignore_patterns("figures"))
+            else:
+                raise ValueError(f"{self.name}: nothing to save (neither a fit nor a source folder)")
+            if figures:
+                from casrecon.report.plots import draw_figures
+
+                draw_figures(out)
+        return folder

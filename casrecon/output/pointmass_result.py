@@ -1,0 +1,149 @@
+"""The point-mass (GPS-only) result of the public API: ``casrecon.fit`` on a ``kind = "point-mass"``
+problem, or ``casrecon.load_results`` on its folder. It holds the files of the results folder that
+``casrecon fit --out`` writes (:mod:`casrecon.output.pointmass_results`) as DataFrames and records.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from casrecon.io.errors import InputError
+from casrecon.output.drop_fit import read_document, read_frame, sample_frame
+from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.output.pointmass_results import write_pointmass_results
+from casrecon.output.results import atomic_folder
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from casrecon.estimation.pointmass_fit import PointMassResult
+
+#: Time columns of ``trajectory`` (s): UTC (Unix seconds, ms resolution) and time since the segment start.
+TIME_COLUMNS = ("time_utc_unix_s", "time_s")
+REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class PointMassFit:
+    """A GPS-only fit: antenna track and drag area with 3-sigma, and the constant-drag comparison.
+
+    Attributes
+    ----------
+    name : str
+    params : Parameters
+        Estimated parameters (wind bias, drag-area spline weights, ...); no correlations are
+        recorded for point-mass fits (``correl`` empty).
+    trajectory : pandas.DataFrame
+        ``time_utc_unix_s``, ``time_s`` (s), antenna NED position (m) and velocity (m/s), ``h_msl_m``,
+        drag area ``cda_m2`` (and lift areas, m^2), each with ``_3sigma``: trajectory.csv as written
+        (9 significant digits, UTC to 1 ms), also for a fresh fit.
+    residuals : dict of str to pandas.DataFrame
+        ``{"gps": ...}``: normalised residuals of the fitted and the constant-drag model (-).
+    summary : dict
+        ``summary.json``: the fit's and the constant model's convergence, chi-square, residual statistics.
+    report_text : str
+    fit, constant : PointMassResult or None
+        The estimator's results (None when loaded).
+    source : Path or None
+        The folder a loaded result came from.
+    """
+
+    name: str
+    params: Parameters
+    trajectory: pd.DataFrame
+    residuals: dict[str, pd.DataFrame]
+    summary: dict
+    report_text: str
+    fit: PointMassResult | None = None
+    constant: PointMassResult | None = None
+    source: Path | None = None
+
+    @classmethod
+    def from_fit(cls, main: PointMassResult, constant: PointMassResult, report_text: str) -> PointMassFit:
+        """Wrap the fitted and the constant-drag results (through their results files, so a fresh
+        and a loaded result hold the same tables)."""
+        with tempfile.TemporaryDirectory(prefix="casrecon-pm-") as tmp:
+            write_pointmass_results(Path(tmp), main, constant, report_text)
+            loaded = cls.load(tmp)
+        return cls(name=loaded.name, params=loaded.params, trajectory=loaded.trajectory,
+                   residuals=loaded.residuals, summary=loaded.summary, report_text=loaded.report_text,
+                   fit=main, constant=constant)
+
+    @classmethod
+    def load(cls, folder: str | Path) -> PointMassFit:
+        """Read a point-mass results folder; InputError naming the folder and what is missing."""
+        folder = Path(folder)
+        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
+        if missing:
+            raise InputError(folder, f"not a casrecon point-mass results folder: {', '.join(missing)} missing")
+        summary = read_document(folder / "summary.json")
+        try:
+            params = from_document(read_document(folder / "parameters.json"),
+                                   (summary.get("fit") or {}).get("reduced_chi2"))
+        except (KeyError, TypeError, ValueError) as err:
+            raise InputError(folder / "parameters.json", f"expected parameters {{name: {{value, sigma}}}} "
+                                                         f"({type(err).__name__}: {err})") from None
+        residuals = {"gps": read_frame(folder / "residuals_gps.csv")} if (folder / "residuals_gps.csv").is_file() \
+            else {}
+        report = folder / "report.txt"
+        return cls(name=str(summary.get("problem") or folder.name), params=params,
+                   trajectory=read_frame(folder / "trajectory.csv"), residuals=residuals, summary=summary,
+                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
+                   source=Path(folder).resolve())
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.summary.get("converged"))
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Reduced chi-square of the fitted model, -."""
+        return float((self.summary.get("fit") or {}).get("reduced_chi2", np.nan))
+
+    @property
+    def chi2(self) -> dict[str, float]:
+        """Chi-square per residual group of the fitted model, -."""
+        return dict((self.summary.get("fit") or {}).get("chi2", {}))
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Columns :meth:`sample` accepts."""
+        return tuple(c for c in self.trajectory.columns if c not in TIME_COLUMNS and not c.endswith("_3sigma"))
+
+    def report(self) -> str:
+        return self.report_text
+
+    def __repr__(self) -> str:
+        state = "converged" if self.converged else "NOT converged"
+        return (f"<PointMassFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
+                f"{len(self.params)} parameters, {len(self.trajectory)} fixes>")
+
+    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
+               time: str = "time_s") -> pd.DataFrame:
+        """Columns (e.g. ``"cda_m2"``) and their 3-sigma interpolated linearly at ``times_s`` (s since the
+        segment start, or UTC Unix seconds with ``time="time_utc_unix_s"``); ValueError for an unknown
+        column (listing the available ones) or a time outside the segment."""
+        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
+
+    def save(self, folder: str | Path, *, figures: bool = False) -> Path:
+        """Write the folder ``casrecon fit --out folder`` writes for a point-mass problem, atomically."""
+        folder = Path(folder)
+        with atomic_folder(folder) as out:
+            if self.fit is not None and self.constant is not None:
+                write_pointmass_results(out, self.fit, self.constant, self.report_text)
+            elif self.source is not None:
+                shutil.copytree(self.source, out, dirs_exist_ok=True, ignore=shutil.ignore_patterns("figures"))
+            else:
+                raise ValueError(f"{self.name}: nothing to save")
+            if figures:
+                from casrecon.report.pointmass_plots import plot_track_fit
+
+                plot_track_fit(out)
+        return folder
