@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import pymap3d
 
 from casrecon.io.flysight import GpsTrack, read_flysight
+from casrecon.io.gps_rules import fixes_ned, good_fixes
 from casrecon.io.imu import ImuLog, read_imu_csv
 from casrecon.io.problem import ProblemConfig
 
@@ -73,24 +73,17 @@ def _events(imu: ImuLog, cfg: ProblemConfig) -> tuple[float, float, list[str]]:
 
 
 def _gps(track: GpsTrack, cfg: ProblemConfig, window: tuple[float, float], notes: list[str]):
-    est, site = cfg.estimation, cfg.site
+    quality = cfg.estimation.gps_quality
     t = track.time_unix_s - cfg.imu.clock_utc_at_zero.timestamp()
     in_window = (t >= window[0]) & (t <= window[1])
-    good = ((track.h_acc_m <= est.max_h_acc_m) & (track.v_acc_m <= est.max_v_acc_m)
-            & (track.s_acc_mps <= est.max_s_acc_mps) & ((track.num_sv < 0) | (track.num_sv >= est.min_num_sv)))
+    good = good_fixes(track, quality)
     n_bad = int(np.sum(in_window & ~good))
     if n_bad:
-        notes.append(f"{n_bad} GPS fixes in the window dropped for poor accuracy (hAcc > {est.max_h_acc_m} m, "
-                     f"vAcc > {est.max_v_acc_m} m, sAcc > {est.max_s_acc_mps} m/s or numSV < {est.min_num_sv})")
+        notes.append(f"{n_bad} GPS fixes in the window dropped for poor accuracy ({quality.describe()})")
     keep = in_window & good
     if keep.sum() < 3:
         raise FitDataError(f"{track.path}: only {keep.sum()} usable GPS fixes in the fit window")
-    n, e, d = pymap3d.geodetic2ned(track.lat_deg[keep], track.lon_deg[keep], track.h_msl_m[keep],
-                                   site.lat_deg, site.lon_deg, site.ground_alt_msl_m)
-    vel = np.column_stack([track.vel_n_mps, track.vel_e_mps, track.vel_d_mps])[keep]
-    sig = np.column_stack([track.h_acc_m, track.h_acc_m, track.v_acc_m,
-                           track.s_acc_mps, track.s_acc_mps, track.s_acc_mps])[keep]
-    return t[keep], np.column_stack([n, e, d]), vel, sig
+    return (t[keep], *fixes_ned(track, cfg.site, keep))
 
 
 def patch_saturated(time: np.ndarray, values: np.ndarray, valid: np.ndarray, span: int = 25):

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
-import pymap3d
 from scipy.interpolate import BSpline
 
 from casrecon.estimation.engine.blocks import BlockSet, Term
@@ -40,6 +39,7 @@ from casrecon.estimation.parameters import ParameterSet, ParameterSpec
 from casrecon.estimation.segment import SegmentError, find_segment
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
+from casrecon.io.gps_rules import fixes_ned
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
@@ -123,12 +123,8 @@ def prepare_data(cfg: PointMassConfig) -> PointMassData:
     nodes = start + period * np.arange(max(int(np.floor((seg.end_unix_s - start) / period + 1e-3)), 0) + 1)
     idx = np.clip(np.searchsorted(t, nodes - period / 2), 0, t.size - 1)
     on_node = (np.abs(t[idx] - nodes) < period / 4) & seg.good[idx]
-    site = cfg.site
-    n, e, d = pymap3d.geodetic2ned(track.lat_deg[idx], track.lon_deg[idx], track.h_msl_m[idx],
-                                   site.lat_deg, site.lon_deg, site.ground_alt_msl_m)
-    y = np.column_stack([n, e, d, track.vel_n_mps[idx], track.vel_e_mps[idx], track.vel_d_mps[idx]])
-    sig = np.column_stack([track.h_acc_m[idx], track.h_acc_m[idx], track.v_acc_m[idx],
-                           track.s_acc_mps[idx], track.s_acc_mps[idx], track.s_acc_mps[idx]])
+    pos, vel, sig = fixes_ned(track, cfg.site, idx)
+    y = np.column_stack([pos, vel])
     inv = np.where(on_node[:, None], 1.0 / sig, 0.0)
     if on_node.sum() < 3:
         raise FitError(f"{track.path}: only {int(on_node.sum())} good fixes in the segment "

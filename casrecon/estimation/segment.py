@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from casrecon.io.flysight import GpsTrack
-from casrecon.io.pointmass_problem import GpsQuality, SegmentConfig
+from casrecon.io.gps_rules import GpsQuality, good_fixes
+from casrecon.io.pointmass_problem import SegmentConfig
 
 
 class SegmentError(ValueError):
@@ -34,13 +35,6 @@ class Segment:
     notes: tuple[str, ...]
 
 
-def good_fixes(track: GpsTrack, q: GpsQuality) -> np.ndarray:
-    """Boolean mask of the fixes that pass the quality rules."""
-    sv_ok = (track.num_sv < 0) | (track.num_sv >= q.min_num_sv)
-    return (track.h_acc_m <= q.max_h_acc_m) & (track.v_acc_m <= q.max_v_acc_m) & (
-        track.s_acc_mps <= q.max_s_acc_mps) & sv_ok
-
-
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
     return list(zip(edges[::2], edges[1::2]))
@@ -49,8 +43,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     """The descent segment of ``track`` per the module's rules (or the configured times)."""
     good = good_fixes(track, q)
-    notes = [f"{int((~good).sum())} of {track.n} fixes fail the quality rules (hAcc > {q.max_h_acc_m} m, vAcc > "
-             f"{q.max_v_acc_m} m, sAcc > {q.max_s_acc_mps} m/s or numSV < {q.min_num_sv}) and are dropped"]
+    notes = [f"{int((~good).sum())} of {track.n} fixes fail the quality rules ({q.describe()}) and are dropped"]
     t = track.time_unix_s
     if cfg.start_unix_s is not None and cfg.end_unix_s is not None:
         notes.append("segment from [segment] start_utc / end_utc")

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from casrecon.io.gps_rules import GpsQuality
 from casrecon.io.problem import parse_dynamics, parse_site, parse_utc
 from casrecon.io.toml_fields import Fields, load_toml
 from casrecon.physics.dynamics import DynamicsOptions, Site
@@ -34,16 +35,6 @@ class DragConfig:
     smoothness_sigma_m2: float = 0.02
     lift: bool = False
     lift_sigma_m2: float = 0.1
-
-
-@dataclass(frozen=True)
-class GpsQuality:
-    """Fixes reporting worse accuracy than these (1-sigma) or fewer satellites are dropped."""
-
-    max_h_acc_m: float = 10.0
-    max_v_acc_m: float = 10.0
-    max_s_acc_mps: float = 1.0
-    min_num_sv: int = 6
 
 
 @dataclass(frozen=True)

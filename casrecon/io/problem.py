@@ -28,6 +28,7 @@ import numpy as np
 
 from casrecon.io.baro import BaroConfig, parse_baro
 from casrecon.io.errors import InputError
+from casrecon.io.gps_rules import GpsQuality
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.toml_fields import Fields, load_toml
 from casrecon.io.vehicle_files import load_aero, load_vehicle
@@ -208,6 +209,11 @@ class EstimationConfig:
     max_v_acc_m: float = 10.0
     max_s_acc_mps: float = 1.0
     min_num_sv: int = 6
+
+    @property
+    def gps_quality(self) -> GpsQuality:
+        """The GPS quality rules of ``max_h_acc_m``, ``max_v_acc_m``, ``max_s_acc_mps``, ``min_num_sv``."""
+        return GpsQuality(self.max_h_acc_m, self.max_v_acc_m, self.max_s_acc_mps, self.min_num_sv)
 
     def resolved_hessian(self) -> str:
         """The Hessian "auto" stands for with these settings."""

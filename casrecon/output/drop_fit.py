@@ -181,7 +181,7 @@ class DropFit:
     @property
     def columns(self) -> tuple[str, ...]:
         """Time-history columns that :meth:`sample` accepts (the trajectory's, without time and 3-sigma)."""
-        return tuple(c for c in self.trajectory.columns if c not in TIME_COLUMNS and not c.endswith("_3sigma"))
+        return history_columns(self.trajectory, TIME_COLUMNS)
 
     def report(self) -> str:
         """The text report: status, chi-square, parameters with 3-sigma, largest correlations."""
@@ -249,13 +249,18 @@ class DropFit:
         return folder
 
 
+def history_columns(frame: pd.DataFrame, time_columns: Sequence[str]) -> tuple[str, ...]:
+    """The time-history columns of a trajectory frame: neither time nor ``_3sigma`` columns."""
+    return tuple(c for c in frame.columns if c not in time_columns and not c.endswith("_3sigma"))
+
+
 def sample_frame(name: str, frame: pd.DataFrame, time_columns: Sequence[str], columns: str | Sequence[str],
                  times_s: float | Sequence[float] | np.ndarray, time: str) -> pd.DataFrame:
     """``columns`` of ``frame`` and their ``_3sigma`` interpolated linearly at ``times_s`` on the
     ``time`` axis (one of ``time_columns``); ValueError naming what is available, or the window."""
     import pandas as pd
 
-    available = tuple(c for c in frame.columns if c not in time_columns and not c.endswith("_3sigma"))
+    available = history_columns(frame, time_columns)
     names = [columns] if isinstance(columns, str) else list(columns)
     unknown = [n for n in names if n not in available]
     if unknown:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from casrecon.io.errors import InputError
-from casrecon.output.drop_fit import read_document, read_frame, sample_frame
+from casrecon.output.drop_fit import history_columns, read_document, read_frame, sample_frame
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.pointmass_results import write_pointmass_results
 from casrecon.output.results import atomic_folder
@@ -115,7 +115,7 @@ class PointMassFit:
     @property
     def columns(self) -> tuple[str, ...]:
         """Columns :meth:`sample` accepts."""
-        return tuple(c for c in self.trajectory.columns if c not in TIME_COLUMNS and not c.endswith("_3sigma"))
+        return history_columns(self.trajectory, TIME_COLUMNS)
 
     def report(self) -> str:
         return self.report_text

@@ -13,8 +13,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from casrecon.estimation.segment import SegmentError, find_segment, good_fixes
+from casrecon.estimation.segment import SegmentError, find_segment
 from casrecon.io.flysight import GpsTrack
+from casrecon.io.gps_rules import good_fixes
 from casrecon.io.pointmass_problem import GpsQuality, SegmentConfig
 
 T0 = 1_600_000_000.0

@@ -1,0 +1,60 @@
+"""The GPS rules every fit applies, in one place: which fixes are good enough to use (the quality
+thresholds), and how a fix becomes an antenna position and velocity in the site's NED frame with
+its 1-sigma accuracies (north and east by hAcc, down by vAcc, each velocity component by sAcc).
+
+Used by the 6-DOF fit (thresholds from ``[estimation]``) and the point-mass fit (``[quality]``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pymap3d
+
+from casrecon.io.flysight import GpsTrack
+from casrecon.physics.dynamics import Site
+
+
+@dataclass(frozen=True)
+class GpsQuality:
+    """Fixes reporting worse accuracy than these (1-sigma) or fewer satellites are dropped.
+
+    Parameters
+    ----------
+    max_h_acc_m, max_v_acc_m : float
+        Largest reported horizontal and vertical accuracy, m.
+    max_s_acc_mps : float
+        Largest reported speed accuracy, m/s.
+    min_num_sv : int
+        Fewest satellites (not tested where the file has no numSV).
+    """
+
+    max_h_acc_m: float = 10.0
+    max_v_acc_m: float = 10.0
+    max_s_acc_mps: float = 1.0
+    min_num_sv: int = 6
+
+    def describe(self) -> str:
+        """The rules in words, for notes on what was dropped."""
+        return (f"hAcc > {self.max_h_acc_m} m, vAcc > {self.max_v_acc_m} m, sAcc > {self.max_s_acc_mps} m/s or "
+                f"numSV < {self.min_num_sv}")
+
+
+def good_fixes(track: GpsTrack, q: GpsQuality) -> np.ndarray:
+    """Boolean mask of the fixes of ``track`` that pass the quality rules ``q``."""
+    sv_ok = (track.num_sv < 0) | (track.num_sv >= q.min_num_sv)
+    return (track.h_acc_m <= q.max_h_acc_m) & (track.v_acc_m <= q.max_v_acc_m) & (
+        track.s_acc_mps <= q.max_s_acc_mps) & sv_ok
+
+
+def fixes_ned(track: GpsTrack, site: Site, idx) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Antenna position (n, 3; m, NED from the site's ground point), velocity (n, 3; m/s, NED) and
+    the 1-sigma of the six (n, 6; hAcc, hAcc, vAcc, sAcc, sAcc, sAcc) of the fixes ``idx`` (an index
+    array or a boolean mask)."""
+    n, e, d = pymap3d.geodetic2ned(track.lat_deg[idx], track.lon_deg[idx], track.h_msl_m[idx],
+                                   site.lat_deg, site.lon_deg, site.ground_alt_msl_m)
+    vel = np.column_stack([track.vel_n_mps[idx], track.vel_e_mps[idx], track.vel_d_mps[idx]])
+    sigma = np.column_stack([track.h_acc_m[idx], track.h_acc_m[idx], track.v_acc_m[idx],
+                             track.s_acc_mps[idx], track.s_acc_mps[idx], track.s_acc_mps[idx]])
+    return np.column_stack([n, e, d]), vel, sigma
