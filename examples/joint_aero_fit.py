@@ -27,6 +27,13 @@ def main() -> None:
     print(f"{result.status} in {result.iterations} iterations, reduced chi-square {result.reduced_chi2:.4f}, "
           f"build {result.timings['build_s']:.1f} s, solve {result.timings['solve_s']:.1f} s")
     assert 0.95 < result.reduced_chi2 < 1.05
+    # the joint chi-square over the joint dof; each drop's over its own (not the joint one repeated)
+    assert abs(result.chi2 / result.dof - result.reduced_chi2) < 1e-9 * result.reduced_chi2
+    # each drop's dof counts the shared factors as its own; the joint dof counts them once
+    assert result.dof == sum(d.dof for d in result.drops) + (len(result.drops) - 1) * len(result.shared)
+    for drop in result.drops:
+        assert abs(sum(drop.chi2.values()) / drop.dof - drop.reduced_chi2) < 1e-12
+        print(f"{drop.scenario.config.name}: own reduced chi-square {drop.reduced_chi2:.4f} ({drop.dof} dof)")
 
     truth = json.loads((DROPS[0] / "data" / "truth.json").read_text())["parameters"]
     single = single_drop_sigmas(DROPS)
