@@ -16,8 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from casrecon.estimation.engine.blocks import Term, unit_norm_term
+from casrecon.estimation.engine.checks import FitError
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
-from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.fitdata import FitData, FitDataError
 from casrecon.estimation.kinds.baro import BaroKind
 from casrecon.estimation.kinds.base import DropContext, MeasurementKind
 from casrecon.estimation.kinds.disturbance import disturbance_terms
@@ -47,10 +48,14 @@ def parameter_set(cfg: ProblemConfig, kinds: tuple[MeasurementKind, ...] = MEASU
 
 def load_measurements(cfg: ProblemConfig, data: FitData,
                       kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> dict[str, object]:
-    """Each present kind's measurements for the fit window, by kind name."""
+    """Each present kind's measurements for the fit window, by kind name; FitError when a kind's
+    data cannot support the fit (e.g. too few samples in the window)."""
     out = {}
     for kind in kinds:
-        m = kind.load(cfg, data)
+        try:
+            m = kind.load(cfg, data)
+        except FitDataError as err:
+            raise FitError(str(err)) from None
         if m is not None:
             out[kind.name] = m
     return out
@@ -82,10 +87,6 @@ class FitNlp:
         """Per-drop fit: scaled z from node states (K, 13) and parameter values (SI)."""
         return self.parts[0].pack(states, values, self.nlp.n_z)
 
-    def unpack(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per-drop fit: node states (K, 13) and parameter values, SI."""
-        return self.parts[0].states(z), self.parts[0].values(z)
-
 
 def parameter_names(layouts: list[DropLayout]) -> dict[int, str]:
     """z column -> parameter name; parameters several drops share keep their plain name, a drop's
@@ -114,12 +115,16 @@ def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-
 
 
 def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg: ProblemConfig,
-              hessian: str = "gauss-newton", guess_clock_s: float | None = None) -> FitNlp:
+              hessian: str = "gauss-newton", guess_clock_s: float | None = None,
+              measurements: dict[str, object] | None = None) -> FitNlp:
     """The NLP of one drop. GPS fixes are put on collocation intervals for the clock offset
-    ``guess_clock_s`` (default: the configured guess)."""
+    ``guess_clock_s`` (default: the configured guess). ``measurements`` are the kinds' data from
+    :func:`load_measurements` (read here when not given)."""
     n_sv = NS * mesh.t_nodes.size
     guess = cfg.estimation.clock_offset_guess_s if guess_clock_s is None else guess_clock_s
     layout = DropLayout(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), guess_clock_s=guess,
                         disturbance=cfg.estimation.disturbance, u_offset=n_sv + params.n)
-    context = DropContext(model, cfg, layout, data, load_measurements(cfg, data))
+    if measurements is None:
+        measurements = load_measurements(cfg, data)
+    context = DropContext(model, cfg, layout, data, measurements)
     return assemble_drops([context], n_sv + params.n + layout.u_cols.size, hessian)

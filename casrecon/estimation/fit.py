@@ -15,7 +15,7 @@ import numpy as np
 
 from casrecon.estimation.bands import MAX_BAND_NODES, columns_of, trajectory_with_bands
 from casrecon.estimation.continuation import solve_fit
-from casrecon.estimation.drop import FitNlp, build_nlp, parameter_set
+from casrecon.estimation.drop import FitNlp, build_nlp, load_measurements, parameter_set
 from casrecon.estimation.engine.checks import (
     FitError,
     covariance_or_fail,
@@ -164,11 +164,12 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     t0 = time.perf_counter()
     data, mesh = prepare_drop(scenario)
     params = parameter_set(cfg)
+    measurements = load_measurements(cfg, data)  # read once, not at every clock shift
     x0 = initial_guess(data, mesh, cfg.vehicle, scenario.atmosphere, cfg.site.ground_alt_msl_m)
     t1 = time.perf_counter()
 
     def build(guesses: dict[str, float]) -> FitNlp:
-        return build_nlp(scenario.model, data, mesh, params, cfg, settings.hessian, guesses[cfg.name])
+        return build_nlp(scenario.model, data, mesh, params, cfg, settings.hessian, guesses[cfg.name], measurements)
 
     def start(fit_nlp: FitNlp) -> np.ndarray:
         return fit_nlp.pack(x0, np.zeros(params.n))

@@ -156,10 +156,6 @@ class BlockLocals:
         self.n_s, self.n_p, self.n_u = layout.n_states, layout.params.n, layout.n_u
         self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u)
 
-    @property
-    def n_local(self) -> int:
-        return int(self.symbol.numel())
-
     def split(self, v: ca.SX | None = None):
         """(x_k, x_k+1, theta, u_k, u_k+1) in SI from the scaled local vector (default: the
         block symbol)."""

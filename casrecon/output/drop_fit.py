@@ -5,9 +5,7 @@ times, and saving to (or loading from) the results folder that ``casrecon fit --
 
 from __future__ import annotations
 
-import dataclasses
 import json
-import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,9 +14,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from casrecon.io.errors import InputError
-from casrecon.output.fit_results import parameters_document, summary_document, trajectory_table, write_fit_results
+from casrecon.output.fit_results import (
+    parameters_document,
+    product_tables,
+    summary_document,
+    trajectory_table,
+    write_fit_results,
+)
 from casrecon.output.parameter_records import Parameters, from_document
-from casrecon.output.results import atomic_folder
+from casrecon.output.results import save_results_folder, to_builtin
 from casrecon.report.results_folder import DropTables
 
 if TYPE_CHECKING:
@@ -49,16 +53,6 @@ def read_document(path: Path) -> dict:
         return json.loads(Path(path).read_text())
     except json.JSONDecodeError as err:
         raise InputError(path, f"not valid JSON ({err.msg})", line=err.lineno) from None
-
-
-def product_tables(products: FitProducts) -> dict[str, dict[str, np.ndarray]]:
-    """The tables of :class:`~casrecon.analysis.fit_products.FitProducts` by their results-folder
-    file name (``residuals_<kind>.csv`` for every ``<kind>_residuals`` field, ``gps_fixes.csv`` ...)."""
-    tables = {f"residuals_{f.name.removesuffix('_residuals')}.csv": getattr(products, f.name)
-              for f in dataclasses.fields(products) if f.name.endswith("_residuals")}
-    for name in ("gps_fixes", "pitching_moment", "cm_curves", "reconciled", "nominal"):
-        tables[f"{name}.csv"] = getattr(products, name)
-    return tables
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -117,7 +111,7 @@ class DropFit:
 
         params_doc = json.loads(json.dumps(parameters_document(fit)))  # exactly what parameters.json holds
         summary = json.loads(json.dumps({**summary_document(fit), "reconciled": products.reconciled_summary},
-                                        default=_builtin))
+                                        default=to_builtin))
         cols, data = trajectory_table(fit)
         trajectory = pd.DataFrame(data, columns=cols)
         tables = {"trajectory.csv": trajectory}
@@ -231,22 +225,22 @@ class DropFit:
         A loaded result is saved as a copy of the files it was loaded from (without ``figures/``
         unless ``figures``). Returns the folder.
         """
-        folder = Path(folder)
-        with atomic_folder(folder) as out:
-            if self.fit is not None and self.products is not None:
-                from casrecon.report.tables import drop_tables
+        from casrecon.report.tables import drop_tables
 
-                write_fit_results(out, self.fit, self.products, self.report_text,
-                                  drop_tables(self.fit, self.products))
-            elif self.source is not None:
-                shutil.copytree(self.source, out, dirs_exist_ok=True, ignore=shutil.ignore_patterns("figures"))
-            else:
-                raise ValueError(f"{self.name}: nothing to save (neither a fit nor a source folder)")
-            if figures:
-                from casrecon.report.plots import draw_drop_figures
+        write = None
+        if self.fit is not None and self.products is not None:
+            fit, products = self.fit, self.products
 
-                draw_drop_figures(out, workers=1)
-        return folder
+            def write(out: Path) -> None:
+                write_fit_results(out, fit, products, self.report_text, drop_tables(fit, products))
+
+        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None)
+
+
+def _draw_figures(out: Path) -> None:
+    from casrecon.report.plots import draw_drop_figures  # matplotlib only when figures are asked for
+
+    draw_drop_figures(out, workers=1)
 
 
 def history_columns(frame: pd.DataFrame, time_columns: Sequence[str]) -> tuple[str, ...]:
@@ -285,10 +279,3 @@ def _residuals_of(tables: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:
     return {k.removeprefix("residuals_").removesuffix(".csv"): v for k, v in tables.items()
             if k.startswith("residuals_") and k.endswith(".csv")}
 
-
-def _builtin(obj):
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return str(obj)

@@ -70,19 +70,28 @@ def write_table(path: Path, columns: dict[str, np.ndarray], every: int = 1) -> N
     write_columns(path, list(columns), np.column_stack(list(columns.values()))[::every])
 
 
+#: Tables written at every n-th row only (the forward simulations, at 2 ms steps).
+TABLE_EVERY = {"reconciled.csv": 5, "nominal.csv": 5}
+
+
+def product_tables(products) -> dict[str, dict[str, np.ndarray]]:
+    """The tables of a :class:`~casrecon.analysis.fit_products.FitProducts` by their results-folder
+    file name (``residuals_<kind>.csv`` for the IMU, the GPS and every other kind, ``gps_fixes.csv``,
+    ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv``, ``nominal.csv``), all rows."""
+    tables = {"residuals_imu.csv": products.imu_residuals, "residuals_gps.csv": products.gps_residuals}
+    tables.update({f"residuals_{kind}.csv": columns for kind, columns in products.kind_residuals.items()})
+    tables.update({"gps_fixes.csv": products.gps_fixes, "pitching_moment.csv": products.pitching_moment,
+                   "cm_curves.csv": products.cm_curves, "reconciled.csv": products.reconciled,
+                   "nominal.csv": products.nominal})
+    return tables
+
+
 def write_diagnostics(out: Path, products) -> None:
-    """Residual, GPS-fix, pitching-moment and reconciled-simulation files of a
-    :class:`~casrecon.analysis.fit_products.FitProducts` (the simulations at every 5th sample)."""
-    write_table(out / "residuals_imu.csv", products.imu_residuals)
+    """The files of :func:`product_tables` (the simulations at every 5th sample, TABLE_EVERY) and
+    ``imu_sigma.json``."""
+    for name, columns in product_tables(products).items():
+        write_table(out / name, columns, every=TABLE_EVERY.get(name, 1))
     write_json(out / "imu_sigma.json", products.imu_sigma)
-    write_table(out / "residuals_gps.csv", products.gps_residuals)
-    for kind, columns in products.kind_residuals.items():
-        write_table(out / f"residuals_{kind}.csv", columns)
-    write_table(out / "gps_fixes.csv", products.gps_fixes)
-    write_table(out / "pitching_moment.csv", products.pitching_moment)
-    write_table(out / "cm_curves.csv", products.cm_curves)
-    write_table(out / "reconciled.csv", products.reconciled, every=5)
-    write_table(out / "nominal.csv", products.nominal, every=5)
 
 
 def write_fit_results(out: Path, result, products, report_text: str, tables_md: str) -> None:

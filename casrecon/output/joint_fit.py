@@ -7,7 +7,6 @@ that ``casrecon joint --out`` writes.
 from __future__ import annotations
 
 import json
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -16,7 +15,7 @@ from casrecon.io.errors import InputError
 from casrecon.output.drop_fit import DropFit, read_document
 from casrecon.output.joint_results import joint_parameters_document, write_joint_results
 from casrecon.output.parameter_records import Parameters, from_document
-from casrecon.output.results import atomic_folder
+from casrecon.output.results import save_results_folder
 
 if TYPE_CHECKING:
     from casrecon.analysis.fit_products import FitProducts
@@ -147,16 +146,17 @@ class JointFit:
     def save(self, folder: str | Path, *, figures: bool = False) -> Path:
         """Write the folder ``casrecon joint --out folder`` writes, atomically; figures only if asked.
         A loaded result is saved as a copy of its files (without ``figures/`` unless ``figures``)."""
-        folder = Path(folder)
-        with atomic_folder(folder) as out:
-            if self.fit is not None and self.products is not None:
-                write_joint_results(out, self.fit, self.single, self.products)
-            elif self.source is not None:
-                shutil.copytree(self.source, out, dirs_exist_ok=True, ignore=shutil.ignore_patterns("figures"))
-            else:
-                raise ValueError(f"{self.name}: nothing to save (neither a fit nor a source folder)")
-            if figures:
-                from casrecon.report.plots import draw_figures
+        write = None
+        if self.fit is not None and self.products is not None:
+            fit, single, products = self.fit, self.single, self.products
 
-                draw_figures(out)
-        return folder
+            def write(out: Path) -> None:
+                write_joint_results(out, fit, single, products)
+
+        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None)
+
+
+def _draw_figures(out: Path) -> None:
+    from casrecon.report.plots import draw_figures  # matplotlib only when figures are asked for
+
+    draw_figures(out)

@@ -5,7 +5,6 @@ problem, or ``casrecon.load_results`` on its folder. It holds the files of the r
 
 from __future__ import annotations
 
-import shutil
 import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -18,7 +17,7 @@ from casrecon.io.errors import InputError
 from casrecon.output.drop_fit import history_columns, read_document, read_frame, sample_frame
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.pointmass_results import write_pointmass_results
-from casrecon.output.results import atomic_folder
+from casrecon.output.results import save_results_folder
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -134,16 +133,17 @@ class PointMassFit:
 
     def save(self, folder: str | Path, *, figures: bool = False) -> Path:
         """Write the folder ``casrecon fit --out folder`` writes for a point-mass problem, atomically."""
-        folder = Path(folder)
-        with atomic_folder(folder) as out:
-            if self.fit is not None and self.constant is not None:
-                write_pointmass_results(out, self.fit, self.constant, self.report_text)
-            elif self.source is not None:
-                shutil.copytree(self.source, out, dirs_exist_ok=True, ignore=shutil.ignore_patterns("figures"))
-            else:
-                raise ValueError(f"{self.name}: nothing to save")
-            if figures:
-                from casrecon.report.pointmass_plots import plot_track_fit
+        write = None
+        if self.fit is not None and self.constant is not None:
+            fit, constant = self.fit, self.constant
 
-                plot_track_fit(out)
-        return folder
+            def write(out: Path) -> None:
+                write_pointmass_results(out, fit, constant, self.report_text)
+
+        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None)
+
+
+def _draw_figures(out: Path) -> None:
+    from casrecon.report.pointmass_plots import plot_track_fit  # matplotlib only when figures are asked for
+
+    plot_track_fit(out)

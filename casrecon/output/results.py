@@ -12,7 +12,7 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -38,12 +38,32 @@ def atomic_folder(target: str | Path) -> Iterator[Path]:
         shutil.rmtree(backup, ignore_errors=True)
 
 
+def save_results_folder(folder: str | Path, name: str, write: Callable[[Path], None] | None,
+                        source: Path | None, draw: Callable[[Path], None] | None = None) -> Path:
+    """Write a result's folder atomically: with ``write(out)`` when the result holds a fit, else as a
+    copy of the folder it was loaded from (``source``, without ``figures/``); then ``draw(out)``
+    when given. ValueError naming the result ``name`` when it has neither. Returns the folder."""
+    folder = Path(folder)
+    with atomic_folder(folder) as out:
+        if write is not None:
+            write(out)
+        elif source is not None:
+            shutil.copytree(source, out, dirs_exist_ok=True, ignore=shutil.ignore_patterns("figures"))
+        else:
+            raise ValueError(f"{name}: nothing to save (neither a fit nor a source folder)")
+        if draw is not None:
+            draw(out)
+    return folder
+
+
 def write_json(path: str | Path, data) -> None:
     """Write ``data`` as indented JSON (numpy scalars and arrays converted)."""
-    Path(path).write_text(json.dumps(data, indent=2, default=_to_builtin) + "\n")
+    Path(path).write_text(json.dumps(data, indent=2, default=to_builtin) + "\n")
 
 
-def _to_builtin(obj):
+def to_builtin(obj):
+    """JSON form of what ``json`` cannot write itself: numpy arrays as lists, numpy scalars as
+    Python numbers, anything else as its ``str``."""
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.generic):

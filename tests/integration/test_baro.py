@@ -17,6 +17,7 @@ from conftest import PROBLEMS
 
 from casrecon.analysis.fit_products import fit_products
 from casrecon.estimation.fit import fit_drop
+from casrecon.output.drop_fit import DropFit
 from casrecon.output.fit_results import write_diagnostics
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name
@@ -29,6 +30,11 @@ def fits():
     return with_baro, without
 
 
+@pytest.fixture(scope="module")
+def products(fits):
+    return fit_products(fits[0])
+
+
 def test_truth_within_three_sigma(fits):
     r, _ = fits
     assert r.converged and "baro" in r.chi2
@@ -39,12 +45,11 @@ def test_truth_within_three_sigma(fits):
     assert r.parameter("baro_bias_pa")[1] < 1.0  # 0.61 Pa measured: the bias is well determined
 
 
-def test_pressure_residuals_are_white_at_the_stated_noise(fits):
+def test_pressure_residuals_are_white_at_the_stated_noise(fits, products):
     r, _ = fits
     n = r.n_measurements["baro"]
     assert n > 900
     assert r.chi2["baro"] / n == pytest.approx(1.0, abs=4 * np.sqrt(2.0 / n))
-    products = fit_products(r)
     cols = products.kind_residuals["baro"]
     ratio = cols["pressure_residual_pa"] / cols["pressure_sigma_pa"]
     assert abs(np.corrcoef(ratio[:-1], ratio[1:])[0, 1]) < 0.15
@@ -58,8 +63,13 @@ def test_barometer_sharpens_the_clock_and_leaves_the_rest(fits):
         assert with_baro.parameter(name)[1] <= 1.01 * without.parameter(name)[1], name
 
 
-def test_residuals_file_is_written(fits, tmp_path):
-    r, _ = fits
-    write_diagnostics(tmp_path, fit_products(r))
+def test_residuals_file_is_written(products, tmp_path):
+    write_diagnostics(tmp_path, products)
     header = (tmp_path / "residuals_baro.csv").read_text().splitlines()[0]
     assert header == "time_imu_s,pressure_residual_pa,pressure_sigma_pa"
+
+
+def test_api_result_has_one_residual_frame_per_kind(fits, products):
+    result = DropFit.from_fit(fits[0], products, "")
+    assert set(result.residuals) == {"imu", "gps", "baro"}
+    assert list(result.residuals["baro"].columns) == ["time_imu_s", "pressure_residual_pa", "pressure_sigma_pa"]

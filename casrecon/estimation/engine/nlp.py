@@ -212,7 +212,7 @@ def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, paramete
             if term.group in groups:
                 raise ValueError(f"residual group {term.group!r} appears in two terms")
             groups[term.group] = slice(start, start + rows)
-            const[term.group] = const.get(term.group, 0.0) + term.const_chi2
+            const[term.group] = term.const_chi2
             counts[term.group] = rows if term.n_measurements is None else term.n_measurements
         start += rows
     sets, g_rows, g_parts, row = [], [], [], 0

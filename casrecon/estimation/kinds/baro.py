@@ -23,7 +23,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
-from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.fitdata import FitData, FitDataError
 from casrecon.estimation.kinds.base import DropContext
 from casrecon.estimation.kinds.gps import CLOCK
 from casrecon.estimation.layout import BlockLocals
@@ -86,7 +86,7 @@ class BaroKind:
         margin = 1.0 if receiver else 0.0
         keep = (t >= data.window[0] + margin) & (t <= data.window[1] - margin)
         if keep.sum() < 2:
-            raise ValueError(f"{baro.file}: only {int(keep.sum())} barometer samples in the fit window "
+            raise FitDataError(f"{baro.file}: only {int(keep.sum())} barometer samples in the fit window "
                              f"{data.window[0]:.2f} to {data.window[1]:.2f} s (IMU clock)")
         return BaroData(t[keep], log.pressure_pa[keep], baro.noise_pa, receiver)
 
