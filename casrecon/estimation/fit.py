@@ -30,6 +30,7 @@ from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet
 from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import Mesh, make_mesh
+from casrecon.io.errors import InputError
 from casrecon.physics.dynamics import DISTURBANCE_NAMES
 from casrecon.scenario import Scenario
 
@@ -134,7 +135,8 @@ RATE_TOLERANCE = 0.02
 
 
 def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
-    """Read a drop's data and lay its mesh, turning data problems into FitError.
+    """Read and check a drop's data and lay its mesh, turning data problems into FitError (bad input files and
+    the pre-solve data check's refusals stay :class:`~casrecon.io.errors.InputError`).
 
     The samples per interval come from the IMU rate measured in the file (median sample spacing);
     a declared ``[sensors.imu] rate_hz`` more than RATE_TOLERANCE away from it is an error (a
@@ -148,6 +150,8 @@ def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
             raise FitError(f"{cfg.imu.file}: the IMU samples are {measured_hz:.2f} Hz apart (median spacing) but "
                            f"{cfg.path} declares [sensors.imu] rate_hz = {cfg.imu.rate_hz:g}; correct rate_hz")
         return data, make_mesh(data.imu_time_s, cfg.estimation.mesh_samples(measured_hz))
+    except InputError:
+        raise  # bad input (a file, or the pre-solve data check): exit 2, not a failed fit
     except (FitDataError, ValueError) as err:
         raise FitError(str(err)) from None
 

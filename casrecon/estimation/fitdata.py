@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from casrecon.io.flysight import GpsTrack, read_flysight
-from casrecon.io.gps_rules import fixes_ned, good_fixes
+from casrecon.estimation.data_checks import check_accel_unit, check_drop_data
+from casrecon.io.flysight import GpsTrack, no_fix_mask, read_flysight
+from casrecon.io.gps_rules import fixes_ned, good_fixes, no_fix_note
 from casrecon.io.imu import ImuLog, read_imu_csv
 from casrecon.io.problem import ProblemConfig
 
@@ -77,7 +78,10 @@ def _gps(track: GpsTrack, cfg: ProblemConfig, window: tuple[float, float], notes
     t = track.time_unix_s - cfg.imu.clock_utc_at_zero.timestamp()
     in_window = (t >= window[0]) & (t <= window[1])
     good = good_fixes(track, quality)
-    n_bad = int(np.sum(in_window & ~good))
+    no_fix = no_fix_note(track, in_window)
+    if no_fix:
+        notes.append(f"{no_fix} (in the window)")
+    n_bad = int(np.sum(in_window & ~good & ~no_fix_mask(track)))
     if n_bad:
         notes.append(f"{n_bad} GPS fixes in the window dropped for poor accuracy ({quality.describe()})")
     keep = in_window & good
@@ -107,15 +111,18 @@ def patch_saturated(time: np.ndarray, values: np.ndarray, valid: np.ndarray, spa
 
 
 def load_fit_data(cfg: ProblemConfig) -> FitData:
-    """Read the problem's IMU and GPS files and prepare them for the fit."""
+    """Read the problem's IMU and GPS files, check them (:mod:`casrecon.estimation.data_checks`: a
+    failure is a located :class:`~casrecon.io.errors.InputError`) and prepare them for the fit."""
     if cfg.imu.file is None or cfg.gps.file is None:
         raise FitDataError(f"{cfg.path}: [sensors.imu] file and [sensors.gps] file are needed for a fit")
     imu = read_imu_csv(cfg.imu.file, cfg.imu.spec)
     track = read_flysight(cfg.gps.file)
+    check_accel_unit(cfg, imu)
     release, impact, notes = _events(imu, cfg)
     window = (release + cfg.estimation.start_after_release_s, impact - cfg.estimation.end_before_impact_s)
     if window[1] - window[0] < 1.0:
         raise FitDataError(f"{cfg.path}: fit window {window[0]:.2f} to {window[1]:.2f} s is shorter than 1 s")
+    check_drop_data(cfg, imu, track, release, impact, window)
     r_ib = np.asarray(cfg.vehicle.imu_to_body)
     accel_valid, gyro_valid = ~imu.accel_saturated, ~imu.gyro_saturated
     sel = (imu.time_s >= window[0] - 1e-9) & (imu.time_s <= window[1] + 1e-9)

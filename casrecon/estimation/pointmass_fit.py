@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import BSpline
 
+from casrecon.estimation.data_checks import check_point_mass_data
 from casrecon.estimation.engine.blocks import BlockSet, Term
 from casrecon.estimation.engine.checks import (
     FitError,
@@ -109,12 +110,14 @@ def atmosphere_of(cfg: PointMassConfig) -> Atmosphere:
 
 
 def prepare_data(cfg: PointMassConfig) -> PointMassData:
-    """Read the track, find the segment and put the good fixes on a uniform node grid."""
+    """Read the track, find the segment, check the data (:mod:`casrecon.estimation.data_checks`: a failure is
+    a located :class:`~casrecon.io.errors.InputError`) and put the good fixes on a uniform node grid."""
     track = read_flysight(cfg.gps_file)
     try:
         seg = find_segment(track, cfg.quality, cfg.segment)
     except SegmentError as err:
         raise FitError(str(err)) from None
+    check_point_mass_data(cfg, track, cfg.quality, (seg.start_unix_s, seg.end_unix_s))
     t = track.time_unix_s
     period = float(np.median(np.diff(t)))
     # nodes on the fix epochs: an explicit start_utc between two fixes starts at the next fix, and a

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from casrecon.io.flysight import GpsTrack
-from casrecon.io.gps_rules import GpsQuality, good_fixes
+from casrecon.io.gps_rules import GpsQuality, good_fixes, no_fix_note
 from casrecon.io.pointmass_problem import SegmentConfig
 
 
@@ -44,6 +44,9 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     """The descent segment of ``track`` per the module's rules (or the configured times)."""
     good = good_fixes(track, q)
     notes = [f"{int((~good).sum())} of {track.n} fixes fail the quality rules ({q.describe()}) and are dropped"]
+    no_fix = no_fix_note(track)
+    if no_fix:
+        notes.append(f"of which {no_fix}")
     t = track.time_unix_s
     if cfg.start_unix_s is not None and cfg.end_unix_s is not None:
         notes.append("segment from [segment] start_utc / end_utc")

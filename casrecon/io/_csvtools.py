@@ -155,7 +155,7 @@ def _float_or_nan(text: str) -> float:
 
 
 def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str], line: int,
-                 ) -> dict[str, int]:
+                 kind: str = "CSV file") -> dict[str, int]:
     """Locate named columns in a header row.
 
     Parameters
@@ -168,6 +168,8 @@ def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str],
         Required names.
     line : int
         1-based line number of the header.
+    kind : str
+        What the file should be (``"IMU CSV"``), for the message when none of ``wanted`` is there.
 
     Returns
     -------
@@ -177,11 +179,15 @@ def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str],
     Raises
     ------
     InputError
-        Naming the first required column that is missing.
+        Naming the first required column that is missing; when none of them is there (another
+        kind of file), saying what header was expected instead of quoting the file's line.
     """
     index: dict[str, int] = {}
     for k, name in enumerate(header):
         index.setdefault(name, k)
+    if not any(name in index for name in wanted):
+        raise InputError(path, f"not a {kind}: expected a header line naming the columns "
+                         f"{', '.join(wanted)} (none of them found)", line=line)
     for name in wanted:
         if name not in index:
             raise InputError(path, f"required column '{name}' is missing (columns found: "
@@ -190,7 +196,7 @@ def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str],
 
 
 def check_increasing(path: str | Path, t: np.ndarray, line_numbers: Sequence[int] | np.ndarray,
-                     field: str, fmt: Callable[[float], str] = repr) -> None:
+                     field: str, fmt: Callable[[float], str] = "{:.9g}".format) -> None:
     """Require strictly increasing times; report the first offending line.
 
     Raises

@@ -5,14 +5,19 @@ Rules kept by :func:`read_flysight` (all violations raise a located
 
 - columns are found by name, never by position; extra columns are ignored;
 - the required columns are ``time, lat, lon, hMSL, velN, velE, velD, hAcc, vAcc, sAcc``;
-  ``numSV`` is optional (``-1`` where absent or blank);
+  ``numSV`` and ``gpsFix`` are optional (``-1`` where absent or blank);
 - the units row must give the expected unit for every column used (``deg``, ``m``, ``m/s``;
   FlySight 1 writes them in parentheses), an unknown unit is an error naming line and column;
 - every value must be a finite number: blank cells, ``nan`` and ``inf`` are errors;
 - times are ISO-8601 UTC (ending in ``Z``) and must be strictly increasing: a time going
   backwards *and a duplicated timestamp* are errors;
 - a row with too few fields, or a last line without line terminator (file cut mid-write),
-  is an error; trailing blank lines are ignored.
+  is an error; trailing blank lines are ignored;
+- the accuracies hAcc, vAcc and sAcc of a row that has a fix must be > 0: a receiver's
+  1-sigma estimate is never zero or negative, so such a row is corrupt (an error naming its
+  line). Rows *without* a fix (:func:`no_fix_mask`: ``gpsFix`` 0, 1, 2 or 5, or latitude,
+  longitude and height all exactly 0 where the file has no ``gpsFix``) are kept as read,
+  whatever their accuracies, and never used by a fit.
 
 Every fix is kept, including cold-start fixes with poor accuracy: filtering on
 ``h_acc_m``/``v_acc_m``/``s_acc_mps``/``num_sv`` is the caller's decision
@@ -66,6 +71,10 @@ class GpsTrack:
         Receiver's speed accuracy estimate, m/s.
     num_sv : numpy.ndarray
         Satellites used (int64), ``-1`` where the file has no value.
+    gps_fix : numpy.ndarray, optional
+        The receiver's fix type (int64; u-blox/FlySight ``gpsFix``: 0 none, 1 dead reckoning,
+        2 2D, 3 3D, 4 GNSS + dead reckoning, 5 time only), ``-1`` where the file has no value
+        (FlySight 2 tracks have none). Default: all ``-1``.
     """
 
     path: str
@@ -81,11 +90,29 @@ class GpsTrack:
     v_acc_m: np.ndarray
     s_acc_mps: np.ndarray
     num_sv: np.ndarray
+    gps_fix: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.gps_fix is None:
+            object.__setattr__(self, "gps_fix", np.full(np.shape(self.time_unix_s), -1, dtype=np.int64))
 
     @property
     def n(self) -> int:
         """Number of fixes."""
         return int(self.time_unix_s.size)
+
+
+#: ``gpsFix`` values of a position fix a fit can use: 3 (3D) and 4 (GNSS + dead reckoning).
+FIX_3D = (3, 4)
+
+
+def no_fix_mask(track: GpsTrack) -> np.ndarray:
+    """Rows of ``track`` that hold no usable 3D position fix: ``gpsFix`` present and not 3 or 4
+    (0 no fix, 1 dead reckoning only, 2 2D, 5 time only), or, where the file gives no ``gpsFix``,
+    latitude, longitude and height all exactly 0 (the receiver's placeholder without a fix)."""
+    zero = (track.lat_deg == 0) & (track.lon_deg == 0) & (track.h_msl_m == 0)
+    known = track.gps_fix >= 0
+    return np.where(known, ~np.isin(track.gps_fix, FIX_3D), zero)
 
 
 def iso_utc(t_unix_s: float | np.ndarray) -> str | np.ndarray:
@@ -237,7 +264,7 @@ def _build(path: str | Path, fmt: str, located_header: tuple[list[str], int],
     """
     wanted = ["time", *REQUIRED_UNITS]
     header, header_line = located_header
-    col = find_columns(path, header, wanted, line=header_line)
+    col = find_columns(path, header, wanted, line=header_line, kind="FlySight track")
     _check_units(path, header, units, unit_line)
     numbers = list(range(first, first + len(body))) if isinstance(first, int) else first
     if not body:
@@ -247,13 +274,30 @@ def _build(path: str | Path, fmt: str, located_header: tuple[list[str], int],
     t = parse_iso_times(path, cols["time"], numbers)
     check_increasing(path, t, numbers, "time", fmt=lambda x: str(iso_utc(x)))
     v = {name: parse_floats(path, cols[name], numbers, name) for name in REQUIRED_UNITS}
-    num_sv = np.full(t.size, -1, dtype=np.int64)
-    if "numSV" in header:
-        k = header.index("numSV")
-        sv = parse_floats(path, [r[k] for r in rows], numbers, "numSV", allow_empty=True)
-        num_sv = np.where(np.isnan(sv), -1, np.nan_to_num(sv)).astype(np.int64)
-    return GpsTrack(str(path), fmt, t, v["lat"], v["lon"], v["hMSL"], v["velN"], v["velE"],
-                    v["velD"], v["hAcc"], v["vAcc"], v["sAcc"], num_sv)
+    counts = {}
+    for name in ("numSV", "gpsFix"):
+        counts[name] = np.full(t.size, -1, dtype=np.int64)
+        if name in header:
+            k = header.index(name)
+            got = parse_floats(path, [r[k] for r in rows], numbers, name, allow_empty=True)
+            counts[name] = np.where(np.isnan(got), -1, np.nan_to_num(got)).astype(np.int64)
+    track = GpsTrack(str(path), fmt, t, v["lat"], v["lon"], v["hMSL"], v["velN"], v["velE"],
+                     v["velD"], v["hAcc"], v["vAcc"], v["sAcc"], counts["numSV"], counts["gpsFix"])
+    _check_accuracies(path, track, numbers)
+    return track
+
+
+def _check_accuracies(path: str | Path, track: GpsTrack, numbers: list[int]) -> None:
+    """Refuse a row with a fix whose hAcc, vAcc or sAcc is not > 0 (corrupt: the fit divides by them)."""
+    fixed = ~no_fix_mask(track)
+    for name, unit, acc in (("hAcc", "m", track.h_acc_m), ("vAcc", "m", track.v_acc_m),
+                            ("sAcc", "m/s", track.s_acc_mps)):
+        bad = fixed & ~(acc > 0)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise InputError(path, f"accuracy {float(acc[k]):g} {unit} at {iso_utc(track.time_unix_s[k])}; expected "
+                             "> 0 (a receiver's 1-sigma estimate is positive: a zero or negative one marks a "
+                             "corrupt row)", line=int(numbers[k]), field=name)
 
 
 def write_flysight1(path: str | Path, track: GpsTrack) -> None:
@@ -262,7 +306,7 @@ def write_flysight1(path: str | Path, track: GpsTrack) -> None:
     Header line and units line as the device writes them, then one row per fix with the
     device's precision (lat/lon 1e-7 deg, heights 1 mm, velocities 1 cm/s). Times are
     ``2019-05-25T20:21:18.60Z`` (centiseconds, as the device) when every time is a whole
-    number of 10 ms, otherwise with milliseconds. ``gpsFix`` is 3; ``heading`` is the
+    number of 10 ms, otherwise with milliseconds. ``gpsFix`` is the track's (3 where unknown); ``heading`` is the
     course over ground from velN/velE (deg, 0..360) and ``cAcc`` the course accuracy
     ``sAcc / ground speed`` in degrees (capped at 180); ``numSV`` is blank where ``-1``.
 
@@ -280,11 +324,12 @@ def write_flysight1(path: str | Path, track: GpsTrack) -> None:
     gs = np.hypot(track.vel_n_mps, track.vel_e_mps)
     heading = np.degrees(np.arctan2(track.vel_e_mps, track.vel_n_mps)) % 360.0
     c_acc = np.minimum(np.degrees(track.s_acc_mps / np.maximum(gs, 1e-9)), 180.0)
+    fix = np.where(track.gps_fix < 0, 3, track.gps_fix)
     out = [",".join(_FS1_HEADER), ",".join(_FS1_UNITS)]
     for k in range(track.n):
         sv = "" if track.num_sv[k] < 0 else str(int(track.num_sv[k]))
         out.append(f"{times[k]},{track.lat_deg[k]:.7f},{track.lon_deg[k]:.7f},"
                    f"{track.h_msl_m[k]:.3f},{track.vel_n_mps[k]:.2f},{track.vel_e_mps[k]:.2f},"
                    f"{track.vel_d_mps[k]:.2f},{track.h_acc_m[k]:.3f},{track.v_acc_m[k]:.3f},"
-                   f"{track.s_acc_mps[k]:.2f},{heading[k]:.5f},{c_acc[k]:.5f},3,{sv}")
+                   f"{track.s_acc_mps[k]:.2f},{heading[k]:.5f},{c_acc[k]:.5f},{fix[k]},{sv}")
     Path(path).write_text("\n".join(out) + "\n", encoding="utf-8")

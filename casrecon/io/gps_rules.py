@@ -1,5 +1,5 @@
-"""The GPS rules every fit applies, in one place: which fixes are good enough to use (the quality
-thresholds), and how a fix becomes an antenna position and velocity in the site's NED frame with
+"""The GPS rules every fit applies, in one place: which fixes are good enough to use (a 3D fix, and
+the quality thresholds), and how a fix becomes an antenna position and velocity in the site's NED frame with
 its 1-sigma accuracies (north and east by hAcc, down by vAcc, each velocity component by sAcc).
 
 Used by the 6-DOF fit (thresholds from ``[estimation]``) and the point-mass fit (``[quality]``).
@@ -12,13 +12,14 @@ from dataclasses import dataclass
 import numpy as np
 import pymap3d
 
-from casrecon.io.flysight import GpsTrack
+from casrecon.io.flysight import GpsTrack, no_fix_mask
 from casrecon.physics.dynamics import Site
 
 
 @dataclass(frozen=True)
 class GpsQuality:
-    """Fixes reporting worse accuracy than these (1-sigma) or fewer satellites are dropped.
+    """Fixes reporting worse accuracy than these (1-sigma) or fewer satellites are dropped, and so
+    are rows without a 3D fix (:func:`casrecon.io.flysight.no_fix_mask`).
 
     Parameters
     ----------
@@ -37,15 +38,27 @@ class GpsQuality:
 
     def describe(self) -> str:
         """The rules in words, for notes on what was dropped."""
-        return (f"hAcc > {self.max_h_acc_m} m, vAcc > {self.max_v_acc_m} m, sAcc > {self.max_s_acc_mps} m/s or "
-                f"numSV < {self.min_num_sv}")
+        return (f"no 3D fix, hAcc > {self.max_h_acc_m} m, vAcc > {self.max_v_acc_m} m, sAcc > "
+                f"{self.max_s_acc_mps} m/s or numSV < {self.min_num_sv}")
 
 
 def good_fixes(track: GpsTrack, q: GpsQuality) -> np.ndarray:
-    """Boolean mask of the fixes of ``track`` that pass the quality rules ``q``."""
+    """Boolean mask of the fixes of ``track`` that hold a 3D fix and pass the quality rules ``q``."""
     sv_ok = (track.num_sv < 0) | (track.num_sv >= q.min_num_sv)
     return (track.h_acc_m <= q.max_h_acc_m) & (track.v_acc_m <= q.max_v_acc_m) & (
-        track.s_acc_mps <= q.max_s_acc_mps) & sv_ok
+        track.s_acc_mps <= q.max_s_acc_mps) & sv_ok & ~no_fix_mask(track)
+
+
+def no_fix_note(track: GpsTrack, mask: np.ndarray | None = None) -> str | None:
+    """A note on the rows without a 3D fix (within ``mask`` when given) that a fit drops, or None."""
+    bad = no_fix_mask(track) if mask is None else no_fix_mask(track) & mask
+    n = int(bad.sum())
+    if not n:
+        return None
+    values = sorted({int(v) for v in track.gps_fix[bad]})
+    how = (f"gpsFix {', '.join(map(str, values))}" if values != [-1]
+           else "latitude, longitude and height all 0")
+    return f"{n} GPS rows without a 3D fix ({how}) dropped"
 
 
 def fixes_ned(track: GpsTrack, site: Site, idx) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,0 +1,32 @@
+"""The pre-solve data check alone, on a problem folder: read the files, run every check of
+:mod:`casrecon.estimation.data_checks` and prepare the data as the fit would, without building or
+solving anything (milliseconds to a fraction of a second)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from casrecon.estimation.fitdata import load_fit_data
+from casrecon.estimation.pointmass_fit import prepare_data
+from casrecon.io.pointmass_problem import load_point_mass, problem_kind
+from casrecon.io.problem import load_problem
+
+
+def check_problem(path: str | Path) -> tuple[str, ...]:
+    """Check the data of a 6-DOF or point-mass problem (folder or ``problem.toml``) as a fit would.
+
+    Returns
+    -------
+    tuple of str
+        The notes the fit would carry (what was dropped or masked, and why).
+
+    Raises
+    ------
+    InputError
+        A malformed file, or data the pre-solve check refuses (located).
+    FitError, FitDataError
+        Data a fit cannot use for another reason (no release or impact found, too few fixes).
+    """
+    if problem_kind(path) == "point-mass":
+        return prepare_data(load_point_mass(path)).notes
+    return load_fit_data(load_problem(path)).notes

@@ -1,0 +1,184 @@
+"""Plausibility rules for an IMU log, in one place: the pre-solve data check of the fits
+(:mod:`casrecon.estimation.data_checks`) refuses a log that breaks one, ``casrecon inspect`` warns.
+
+Each rule looks at a span of samples (the fit window, or the whole log for ``inspect``) and returns
+a :class:`Finding` (message, line of the IMU CSV, column) or None. The thresholds:
+
+- **gaps** (:data:`IMU_GAP_FACTOR` = 1.5): a step between two samples longer than 1.5 times the
+  median step is a gap. The collocation mesh puts sample ``k`` of the window at ``t0 + k dt``, so a
+  single missing sample already shifts every later sample by one period; steps quantised to a
+  timer tick (400 Hz stamped in whole ms: 2, 3, 2, 3 ms) stay below 1.5 periods.
+- **gyro unit** (:data:`MAX_GYRO_RATE_DPS` = 2000 deg/s at the :data:`GYRO_RATE_PERCENTILE` = 95th
+  percentile of the angular-rate magnitude): beyond the largest range of common MEMS gyros,
+  sustained over 5 % of the span: a log in deg/s declared as rad/s reads 57.3 times too fast
+  (drop 3 of the EES problems: 54 deg/s becomes 3100 deg/s). A log in rad/s declared as deg/s
+  reads too slow and is not caught by this rule.
+- **accelerometer unit** (:data:`ACCEL_MEDIAN_G` = 0.25 to 4 g for the median specific-force
+  magnitude over the whole log): a body hanging under a helicopter, sitting on the ground or
+  descending at terminal speed feels about 1 g, so the median is near 1 g; m/s^2 declared as g
+  gives about 9.8 g, g declared as m/s^2 about 0.1 g.
+- **saturation** (:data:`MAX_SATURATED_SHARE` = 25 % of the samples of one axis at or beyond its
+  declared limit): the fit leaves saturated samples out; a quarter of an axis clipped means a
+  clipped sensor or limits declared in the wrong unit.
+- **stuck channel** (:data:`STUCK_RUN_S` = 1 s, at least :data:`STUCK_MIN_SAMPLES` = 20 samples):
+  the same reading, not at a declared limit, repeated for 1 s. A working sensor's noise changes
+  its reading from sample to sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.io.errors import InputError
+from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, STANDARD_GRAVITY, ImuCsvSpec, ImuLog
+
+IMU_GAP_FACTOR = 1.5
+MAX_GYRO_RATE_DPS = 2000.0
+GYRO_RATE_PERCENTILE = 95.0
+ACCEL_MEDIAN_G = (0.25, 4.0)
+MAX_SATURATED_SHARE = 0.25
+STUCK_RUN_S = 1.0
+STUCK_MIN_SAMPLES = 20
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One broken rule: what is wrong (one sentence), the 1-based line of the IMU CSV and the column."""
+
+    message: str
+    line: int | None = None
+    field: str | None = None
+
+    def error(self, path: str | Path) -> InputError:
+        """The located error for file ``path``."""
+        return InputError(path, self.message, line=self.line, field=self.field)
+
+
+def line_of(index: int) -> int:
+    """Line of the IMU CSV holding sample ``index`` (0-based; the header is line 1)."""
+    return int(index) + 2
+
+
+def _axis_names(spec: ImuCsvSpec, columns: tuple[str, str, str]) -> tuple[str, ...]:
+    """Names of the IMU axes for messages: the file's columns, unless an axes rotation mixes them."""
+    return columns if spec.axes is None else tuple(f"IMU {a} axis ({', '.join(columns)})" for a in "xyz")
+
+
+def gap_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> Finding | None:
+    """The largest step between samples of ``span`` when it exceeds IMU_GAP_FACTOR median steps."""
+    idx = np.arange(m.n)[span]
+    if idx.size < 3:
+        return None
+    t = m.time_s[idx]
+    step = np.diff(t)
+    med = float(np.median(step))
+    k = int(np.argmax(step))
+    if step[k] <= IMU_GAP_FACTOR * med:
+        return None
+    n_gaps = int(np.count_nonzero(step > IMU_GAP_FACTOR * med))
+    more = f" ({n_gaps} such gaps in all)" if n_gaps > 1 else ""
+    return Finding(f"gap of {step[k]:.4g} s after t = {t[k]:.6g} s ({step[k] / med:.1f} sample periods of "
+                   f"{med * 1e3:.4g} ms){more}; expected evenly spaced samples, steps at most {IMU_GAP_FACTOR:g} "
+                   "periods (the fit places sample k at t0 + k dt)", line=line_of(idx[k + 1]), field=spec.time_column)
+
+
+def gyro_unit_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> Finding | None:
+    """Angular rates beyond what a gyro measures over more than 5 % of ``span``: a unit declared wrong."""
+    gyro = m.gyro_radps[span]
+    if gyro.shape[0] == 0:
+        return None
+    rate = np.degrees(np.linalg.norm(gyro, axis=1))
+    level = float(np.percentile(rate, GYRO_RATE_PERCENTILE))
+    if level <= MAX_GYRO_RATE_DPS:
+        return None
+    axis = int(np.argmax(np.percentile(np.abs(gyro), GYRO_RATE_PERCENTILE, axis=0)))
+    hint = ('the file is probably in deg/s: declare gyro_unit = "deg/s"' if spec.gyro_unit == "rad/s"
+            else "check gyro_unit and the gyro columns")
+    return Finding(f"angular rate above {level:.0f} deg/s for {100 - GYRO_RATE_PERCENTILE:g} % of the samples (up "
+                   f"to {rate.max():.0f} deg/s) with the gyros read as {spec.gyro_unit}; expected at most "
+                   f"{MAX_GYRO_RATE_DPS:g} deg/s, the range of a gyro; {hint}",
+                   field=_axis_names(spec, spec.gyro_columns)[axis])
+
+
+def accel_unit_finding(m: ImuLog, spec: ImuCsvSpec) -> Finding | None:
+    """Median specific force of the whole log outside ACCEL_MEDIAN_G: an accelerometer unit declared wrong."""
+    med = float(np.median(np.linalg.norm(m.accel_mps2, axis=1))) / STANDARD_GRAVITY
+    lo, hi = ACCEL_MEDIAN_G
+    if lo <= med <= hi:
+        return None
+    if med > hi and spec.accel_unit == "g":
+        hint = 'the file is probably in m/s^2: declare accel_unit = "m/s^2"'
+    elif med < lo and spec.accel_unit == "m/s^2":
+        hint = 'the file is probably in g: declare accel_unit = "g"'
+    else:
+        hint = "check accel_unit and the accelerometer columns"
+    return Finding(f"median specific force over the log {med:.3g} g with the accelerometers read as "
+                   f"{spec.accel_unit}; expected {lo:g} to {hi:g} g (a body hanging, at rest or descending at "
+                   f"terminal speed feels about 1 g); {hint}", field=",".join(spec.accel_columns))
+
+
+def saturation_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> Finding | None:
+    """An axis with more than MAX_SATURATED_SHARE of the samples of ``span`` at its declared limit."""
+    for kind, sat, columns, unit, limits in (
+            ("gyro", m.gyro_saturated, spec.gyro_columns, spec.gyro_unit, spec.gyro_limits),
+            ("accelerometer", m.accel_saturated, spec.accel_columns, spec.accel_unit, spec.accel_limits)):
+        part = sat[span]
+        if part.shape[0] == 0 or limits is None:
+            continue
+        share = part.mean(axis=0)
+        k = int(np.argmax(share))
+        if share[k] > MAX_SATURATED_SHARE:
+            idx = np.arange(m.n)[span][part[:, k]]
+            return Finding(f"{share[k]:.0%} of the {kind} samples at or beyond the declared {kind} limits "
+                           f"({_limits_text(limits, k, unit)}), from t = {m.time_s[idx[0]]:.6g} s; expected at most "
+                           f"{MAX_SATURATED_SHARE:.0%} (a clipped sensor, or limits or unit declared wrong)",
+                           line=line_of(idx[0]), field=_axis_names(spec, columns)[k])
+    return None
+
+
+def _limits_text(limits: tuple[tuple[float, float], ...], k: int, unit: str) -> str:
+    pairs = np.broadcast_to(np.array(limits, dtype=np.float64).reshape(-1, 2), (3, 2))
+    return f"{pairs[k, 0]:g} to {pairs[k, 1]:g} {unit}"
+
+
+def _longest_run(v: np.ndarray, free: np.ndarray) -> tuple[int, int]:
+    """(start, length) of the longest run of equal consecutive values of ``v`` where ``free`` holds."""
+    same = (v[1:] == v[:-1]) & free[1:] & free[:-1]
+    if not same.any():
+        return 0, 1
+    edges = np.flatnonzero(np.diff(np.r_[0, same.astype(np.int8), 0]))
+    starts, stops = edges[::2], edges[1::2]
+    j = int(np.argmax(stops - starts))
+    return int(starts[j]), int(stops[j] - starts[j]) + 1
+
+
+def stuck_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> Finding | None:
+    """A channel repeating one reading (not at a declared limit) for STUCK_RUN_S or longer within ``span``."""
+    idx = np.arange(m.n)[span]
+    if idx.size < STUCK_MIN_SAMPLES:
+        return None
+    t = m.time_s[idx]
+    for kind, values, sat, columns, scale, unit in (
+            ("gyro", m.gyro_radps, m.gyro_saturated, spec.gyro_columns, GYRO_SCALE[spec.gyro_unit], spec.gyro_unit),
+            ("accelerometer", m.accel_mps2, m.accel_saturated, spec.accel_columns, ACCEL_SCALE[spec.accel_unit],
+             spec.accel_unit)):
+        for k in range(3):
+            start, n = _longest_run(values[idx, k], ~sat[idx, k])
+            duration = float(t[start + n - 1] - t[start])
+            if n >= STUCK_MIN_SAMPLES and duration >= STUCK_RUN_S:
+                return Finding(f"{kind} reads {values[idx[start], k] / scale:.6g} {unit} for {duration:.4g} s "
+                               f"({n} samples from t = {t[start]:.6g} s); expected a reading that changes (a working "
+                               f"sensor's noise changes it from sample to sample; unchanged for {STUCK_RUN_S:g} s or "
+                               "longer means a stuck or disconnected channel, or clipping at undeclared limits)",
+                               line=line_of(idx[start]), field=_axis_names(spec, columns)[k])
+    return None
+
+
+def imu_findings(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> list[Finding]:
+    """Every rule's finding on ``span`` (the accelerometer unit on the whole log), in the order the fit checks."""
+    found = [gap_finding(m, spec, span), accel_unit_finding(m, spec), gyro_unit_finding(m, spec, span),
+             saturation_finding(m, spec, span), stuck_finding(m, spec, span)]
+    return [f for f in found if f is not None]
