@@ -22,8 +22,9 @@ Checks and thresholds (module constants):
   log, put on UTC by ``[sensors.imu.clock] utc_at_zero``, must lie within 60 s of ``[release]
   time_utc``; a time written to the minute passes, a wrong hour, day or time zone does not.
 - **release and impact altitude** (:data:`RELEASE_ALT_TOL_M` = 100 m, :data:`IMPACT_ALT_TOL_M` = 50 m):
-  the GPS altitude at release (nearest good fix within 3 s, carried to the instant by its vertical
-  speed) within 100 m of ``ground_alt_msl_m + h_agl_m``; at impact within 50 m of ``ground_alt_msl_m``.
+  the GPS altitude at impact (nearest good fix within 3 s, carried to the instant by its vertical
+  speed) within 50 m of ``ground_alt_msl_m``, then at release within 100 m of ``ground_alt_msl_m +
+  h_agl_m``.
 - **sounding coverage**: the sounding's top level at or above the release altitude (the higher of
   ``[site]`` + ``[release]`` and the highest good fix of the window); point-mass: above the highest
   good fix of the segment. Above its top the atmosphere would be held constant.
@@ -80,6 +81,11 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
     t_gps = track.time_unix_s - zero
     check_coverage(track, good, t_gps, window, "the fit window", lambda t: f"IMU t = {t:.3f} s")
     ground = cfg.site.ground_alt_msl_m
+    h_impact = _altitude_at(track, good, t_gps, impact)
+    if h_impact is not None and abs(h_impact - ground) > IMPACT_ALT_TOL_M:
+        raise InputError(cfg.path, f"ground at {ground:g} m MSL but the GPS ({track.path}) puts the impact (IMU t = "
+                         f"{impact:.3f} s) at {h_impact:.0f} m MSL, {h_impact - ground:+.0f} m from it; expected "
+                         f"within {IMPACT_ALT_TOL_M:g} m", field="site.ground_alt_msl_m")
     h_release = _altitude_at(track, good, t_gps, release)
     stated = ground + cfg.release.h_agl_m
     if h_release is not None and abs(h_release - stated) > RELEASE_ALT_TOL_M:
@@ -87,11 +93,6 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
                          f"the GPS ({track.path}) puts the release at {h_release:.0f} m MSL, "
                          f"{h_release - ground:.0f} m above the ground; expected them within {RELEASE_ALT_TOL_M:g} m "
                          "(check [release] h_agl_m and [site] ground_alt_msl_m)", field="release.h_agl_m")
-    h_impact = _altitude_at(track, good, t_gps, impact)
-    if h_impact is not None and abs(h_impact - ground) > IMPACT_ALT_TOL_M:
-        raise InputError(cfg.path, f"ground at {ground:g} m MSL but the GPS ({track.path}) puts the impact (IMU t = "
-                         f"{impact:.3f} s) at {h_impact:.0f} m MSL, {h_impact - ground:+.0f} m from it; expected "
-                         f"within {IMPACT_ALT_TOL_M:g} m", field="site.ground_alt_msl_m")
     in_window = good & (t_gps >= window[0]) & (t_gps <= window[1])
     top_needed = max(ground + cfg.release.h_agl_m, float(track.h_msl_m[in_window].max(initial=-np.inf)))
     check_sounding_top(cfg.atmosphere.sounding, cfg.atmosphere.launch, top_needed, "the release altitude")

@@ -7,11 +7,20 @@ Problems reported:
 - gaps: steps longer than twice the median step (count and the largest);
 - IMU saturation: samples equal to an axis' extreme value when that value repeats
   (at least 3 samples), the signature of a clipped sensor;
-- soundings: levels dropped for missing values, IGRA2 launches that are truncated.
+- IMU warnings (``WARNING:`` lines), by the rules the fits apply (:mod:`casrecon.io.imu_checks`):
+  gaps over 1.5 sample periods, a unit that gives implausible values (gyros over 2000 deg/s,
+  a median specific force outside 0.25 to 4 g), a channel stuck at one reading for 1 s (a gyro
+  saturated for the whole log is one);
+- GPS warnings: rows without a 3D fix (``gpsFix`` 0, 1, 2 or 5, or latitude, longitude and height
+  all 0), which every fit drops;
+- soundings: levels dropped for missing values, IGRA2 launches that are truncated, and a University
+  of Wyoming TEXT:LIST that looks truncated (a last level cut short, or levels ending below
+  :data:`WYOMING_TOP_HPA` with nothing after them).
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -19,8 +28,9 @@ import numpy as np
 
 from casrecon.io._csvtools import read_lines
 from casrecon.io.errors import InputError
-from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
+from casrecon.io.flysight import GpsTrack, iso_utc, no_fix_mask, read_flysight
 from casrecon.io.imu import ImuCsvSpec, ImuLog, read_imu_csv
+from casrecon.io.imu_checks import imu_findings
 from casrecon.io.sensor import SensorLog, is_flysight2_sensor, read_flysight2_sensor
 from casrecon.io.sounding import Sounding, detect_sounding_format, igra2_launches, read_sounding
 
@@ -35,6 +45,8 @@ COLD_V_ACC_M = 10.0
 COLD_S_ACC_MPS = 1.0
 COLD_MIN_SV = 6
 SATURATION_MIN_REPEATS = 3
+#: A complete Wyoming TEXT:LIST download reaches this pressure or lower (hPa) and ends with a text block.
+WYOMING_TOP_HPA = 100.0
 
 
 def inspect_file(path: str | Path) -> str:
@@ -65,7 +77,7 @@ def inspect_file(path: str | Path) -> str:
     if first.startswith("$FLYS") or ("time" in header and "lat" in header):
         return _report_gps(read_flysight(path), lines)
     if detect_sounding_format(lines) is not None:
-        return _report_sounding(read_sounding(path), lines)
+        return _report_sounding(read_sounding(path), lines, Path(path).read_bytes().endswith(b"\n"))
     for spec in (ImuCsvSpec(), ROCKET_SPEC):
         if all(c in header for c in spec.columns):
             return _report_imu(read_imu_csv(path, spec), spec)
@@ -136,10 +148,17 @@ def _report_gps(g: GpsTrack, lines: list[str]) -> str:
            f"to {g.s_acc_mps.max():.2f} m/s",
            _cold_start(g),
            _gaps(t, lambda x: f"at {iso_utc(x)}")]
+    no_fix = no_fix_mask(g)
+    if no_fix.any():
+        k = int(np.argmax(no_fix))
+        values = sorted({int(v) for v in g.gps_fix[no_fix]})
+        how = f"gpsFix {', '.join(map(str, values))}" if values != [-1] else "latitude, longitude and height all 0"
+        out.append(f"WARNING: {int(no_fix.sum())} rows without a 3D fix ({how}), the first at {iso_utc(t[k])}; "
+                   "a fit drops them")
     return "\n".join(out)
 
 
-def _report_sounding(s: Sounding, lines: list[str]) -> str:
+def _report_sounding(s: Sounding, lines: list[str], final_newline: bool = True) -> str:
     speed = np.hypot(s.wind_north_mps, s.wind_east_mps)
     names = {"wyoming-csv": "University of Wyoming TEXT:CSV sounding",
              "wyoming-list": "University of Wyoming TEXT:LIST sounding",
@@ -159,7 +178,27 @@ def _report_sounding(s: Sounding, lines: list[str]) -> str:
                 f"; TRUNCATED: {info.present_levels} of {info.declared_levels} levels present")
             out.append(f"launch {k}: {info.description}, line {info.line}, "
                        f"{info.declared_levels} levels{note}")
+    if s.format == "wyoming-list":
+        out.extend(_wyoming_list_truncation(s, lines, final_newline))
     return "\n".join(out)
+
+
+def _wyoming_list_truncation(s: Sounding, lines: list[str], final_newline: bool) -> list[str]:
+    """Warnings when a TEXT:LIST looks cut: the last level line cut short, or levels that stop below
+    WYOMING_TOP_HPA with nothing after them (a complete download ends with the station information)."""
+    head = next(k for k, ln in enumerate(lines) if "PRES" in ln.split() and "HGHT" in ln.split())
+    rows = [k for k in range(head + 2, len(lines)) if lines[k].strip() and not lines[k].strip().startswith("---")]
+    last = next((i for i, k in enumerate(rows) if re.match(r"\s*[A-Za-z<]", lines[k])), len(rows))
+    out = []
+    if last == len(rows) and rows and not final_newline:
+        out.append(f"WARNING: TRUNCATED: the last level (line {rows[-1] + 1}) has no line terminator: the file was "
+                   "cut mid-line and its last values may be partial")
+    top_hpa = s.pressure_pa[-1] / 100
+    if last == len(rows) and top_hpa > WYOMING_TOP_HPA:
+        out.append(f"WARNING: possibly TRUNCATED: the levels stop at {top_hpa:.1f} hPa ({s.altitude_msl_m[-1]:.0f} m) "
+                   f"with nothing after them; a complete TEXT:LIST goes on to {WYOMING_TOP_HPA:g} hPa or above and "
+                   "ends with the station information")
+    return out
 
 
 def _report_sensor(s: SensorLog) -> str:
@@ -217,4 +256,6 @@ def _report_imu(m: ImuLog, spec: ImuCsvSpec) -> str:
     sat = _saturation("accelerometer", acc, spec.accel_columns) \
         + _saturation("gyro", gyr, spec.gyro_columns)
     out.extend(sat or ["saturation: no axis sits repeatedly at its extreme value"])
+    out.extend(f"WARNING: line {f.line}: {f.field}: {f.message}" if f.line else f"WARNING: {f.field}: {f.message}"
+               for f in imu_findings(m, spec))
     return "\n".join(out)
