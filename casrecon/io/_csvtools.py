@@ -155,7 +155,7 @@ def _float_or_nan(text: str) -> float:
 
 
 def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str], line: int,
-                 kind: str = "CSV file") -> dict[str, int]:
+                 kind: str = "a CSV file of this kind") -> dict[str, int]:
     """Locate named columns in a header row.
 
     Parameters
@@ -169,7 +169,7 @@ def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str],
     line : int
         1-based line number of the header.
     kind : str
-        What the file should be (``"IMU CSV"``), for the message when none of ``wanted`` is there.
+        What the file should be, with its article (``"an IMU CSV"``), for the message when none of ``wanted`` is there.
 
     Returns
     -------
@@ -186,7 +186,7 @@ def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str],
     for k, name in enumerate(header):
         index.setdefault(name, k)
     if not any(name in index for name in wanted):
-        raise InputError(path, f"not a {kind}: expected a header line naming the columns "
+        raise InputError(path, f"not {kind}: expected a header line naming the columns "
                          f"{', '.join(wanted)} (none of them found)", line=line)
     for name in wanted:
         if name not in index:

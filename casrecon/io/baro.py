@@ -113,7 +113,7 @@ def read_baro(path: str | Path) -> BaroLog:
         raise InputError(path, "a barometer CSV needs a time column (time_unix_s for UTC or time_s for the IMU "
                          "clock) and a pressure column (pressure_pa or pressure_hpa) named in its header line; "
                          f"{'no time column' if time_col is None else 'no pressure column'} found", line=1)
-    cols = find_columns(path, header, (time_col, pressure_col), line=1, kind="barometer CSV")
+    cols = find_columns(path, header, (time_col, pressure_col), line=1, kind="a barometer CSV")
     body = [ln for ln in lines[1:] if ln.strip()]
     numbers = [k + 2 for k, ln in enumerate(lines[1:]) if ln.strip()]
     if len(body) < 2:

@@ -264,7 +264,7 @@ def _build(path: str | Path, fmt: str, located_header: tuple[list[str], int],
     """
     wanted = ["time", *REQUIRED_UNITS]
     header, header_line = located_header
-    col = find_columns(path, header, wanted, line=header_line, kind="FlySight track")
+    col = find_columns(path, header, wanted, line=header_line, kind="a FlySight track")
     _check_units(path, header, units, unit_line)
     numbers = list(range(first, first + len(body))) if isinstance(first, int) else first
     if not body:

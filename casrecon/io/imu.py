@@ -292,7 +292,7 @@ def read_imu_csv(path: str | Path, spec: ImuCsvSpec = ImuCsvSpec(),  # noqa: B00
     line0, block = next(blocks)
     cut = block.index(b"\n") + 1
     header = [h.strip() for h in decode_block(path, block[:cut], line0)[0].split(",")]
-    col = find_columns(path, header, spec.columns, line=1, kind="IMU CSV")
+    col = find_columns(path, header, spec.columns, line=1, kind="an IMU CSV")
     usecols = [col[c] for c in spec.columns]
     ncols = len(header)
     size = Path(path).stat().st_size
