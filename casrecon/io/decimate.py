@@ -30,7 +30,7 @@ from dataclasses import replace
 import numpy as np
 from scipy import signal
 
-from casrecon.io.errors import InputError
+from casrecon.io.errors import InputError, plain_repr
 from casrecon.io.imu import ImuLog
 
 PASS_FRACTION = 0.8
@@ -114,7 +114,7 @@ def decimate_imu(log: ImuLog, factor: int | None = None, *,
             raise ValueError(f"no integer factor takes {rate:.6g} Hz to {target_rate_hz:g} Hz "
                              "within 1 %")
     if not isinstance(factor, int | np.integer) or factor < 2:
-        raise ValueError(f"factor must be an integer >= 2, got {factor!r}")
+        raise ValueError(f"factor must be an integer >= 2, got {plain_repr(factor)}")
     factor = int(factor)
     h = antialias_fir(factor)
     if t.size < h.size:

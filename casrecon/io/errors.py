@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 
 class InputError(ValueError):
@@ -37,3 +40,17 @@ class InputError(ValueError):
         where = self.path if self.line is None else f"{self.path}:{self.line}"
         what = f"field '{self.field}': " if self.field else ""
         return f"{where}: {what}{self.message}"
+
+
+def plain_repr(value: Any) -> str:
+    """``repr`` of a value for a message, with numpy scalars and arrays shown as plain Python numbers
+    and lists (``(1.5, 2)``, not ``(np.float64(1.5), np.int64(2))``)."""
+
+    def plain(v: Any) -> Any:
+        if isinstance(v, np.generic | np.ndarray):
+            return v.tolist()
+        if isinstance(v, list | tuple):
+            return type(v)(plain(x) for x in v)
+        return v
+
+    return repr(plain(value))

@@ -46,7 +46,7 @@ from casrecon.io._csvtools import (
     parse_numeric_block,
     split_rows,
 )
-from casrecon.io.errors import InputError
+from casrecon.io.errors import InputError, plain_repr
 
 STANDARD_GRAVITY = 9.80665
 TIME_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
@@ -102,13 +102,13 @@ def axes_matrix(axes: str | tuple | list | np.ndarray | None) -> np.ndarray:
             R = np.array(axes, dtype=np.float64)
         except (TypeError, ValueError):
             raise ValueError(f"axes must be a string like 'x,-z,y' or a 3x3 matrix, got "
-                             f"{axes!r}") from None
+                             f"{plain_repr(axes)}") from None
         if R.shape != (3, 3) or not np.isfinite(R).all():
             raise ValueError(f"axes matrix must be 3x3 and finite, got shape {R.shape}")
         if not np.allclose(R @ R.T, np.eye(3), rtol=0, atol=AXES_TOL):
             raise ValueError("axes matrix is not orthonormal (R R^T != I within 1e-6)")
     if np.linalg.det(R) < 0:
-        raise ValueError(f"axes {axes!r} has determinant -1: a reflection, not a rotation "
+        raise ValueError(f"axes {plain_repr(axes)} has determinant -1: a reflection, not a rotation "
                          "(the file's axes would be left-handed)")
     return R
 
@@ -119,7 +119,7 @@ def _check_limits(name: str, limits: tuple[tuple[float, float], ...] | None) -> 
     try:
         pairs = [(float(lo), float(hi)) for lo, hi in limits]
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a tuple of (low, high) pairs, got {limits!r}") from None
+        raise ValueError(f"{name} must be a tuple of (low, high) pairs, got {plain_repr(limits)}") from None
     if len(pairs) not in (1, 3):
         raise ValueError(f"{name} needs 3 (low, high) pairs, one per axis (or 1 for all), "
                          f"got {len(pairs)}")
@@ -180,7 +180,7 @@ class ImuCsvSpec:
         for name, cols in (("accel_columns", self.accel_columns),
                            ("gyro_columns", self.gyro_columns)):
             if len(cols) != 3 or not all(isinstance(c, str) and c for c in cols):
-                raise ValueError(f"{name} must be 3 non-empty column names, got {cols!r}")
+                raise ValueError(f"{name} must be 3 non-empty column names, got {plain_repr(cols)}")
         names = [self.time_column, *self.accel_columns, *self.gyro_columns]
         if len(set(names)) != len(names):
             raise ValueError(f"column names must be distinct, got {names}")

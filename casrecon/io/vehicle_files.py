@@ -101,12 +101,16 @@ def _table(path: Path, clp: float, cl0: float) -> TableCoefficients:
     """Read a (Mach, alpha_T) table CSV laid out as a full grid, one row per point."""
     try:
         with open(path, encoding="utf-8") as fh:
-            header = fh.readline().strip().split(",")
+            header = [h.strip() for h in fh.readline().strip().split(",")]
+        if tuple(header) != TABLE_COLUMNS:
+            order = " (the same columns in another order)" if sorted(header) == sorted(TABLE_COLUMNS) else ""
+            raise InputError(path, f"not an aero table CSV: expected the header line {','.join(TABLE_COLUMNS)}"
+                             f"{order}", line=1)
         data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    except InputError:
+        raise
     except (OSError, ValueError, UnicodeDecodeError) as err:
         raise InputError(path, f"cannot read aero table: {err}") from None
-    if tuple(header) != TABLE_COLUMNS:
-        raise InputError(path, f"header must be {','.join(TABLE_COLUMNS)}, got {','.join(header)}", line=1)
     if not np.all(np.isfinite(data)):
         raise InputError(path, "aero table holds a non-finite value")
     mach, alpha = np.unique(data[:, 0]), np.unique(data[:, 1])

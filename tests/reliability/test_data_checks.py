@@ -31,6 +31,7 @@ from casrecon.io.errors import InputError
 from casrecon.io.imu import ImuCsvSpec, read_imu_csv
 from casrecon.io.inspect import inspect_file
 from casrecon.io.pointmass_problem import load_point_mass
+from casrecon.io.vehicle_files import load_aero
 
 REPO = Path(__file__).resolve().parents[2]
 PROBLEMS = REPO / "problems"
@@ -531,3 +532,22 @@ def test_wrong_file_kind_says_what_was_expected(wrong):
     text = str(exc.value)
     assert "not an IMU CSV: expected a header line naming the columns time_s, ax, ay, az, wx, wy, wz" in text
     assert "Norman" not in text and "lat" not in text and exc.value.line == 1
+
+
+def test_numpy_values_shown_as_plain_numbers():
+    with pytest.raises(ValueError) as exc:
+        ImuCsvSpec(gyro_limits=np.float64(3.5))
+    assert "got 3.5" in str(exc.value) and "np." not in str(exc.value)
+    with pytest.raises(ValueError) as exc:
+        ImuCsvSpec(gyro_columns=(np.str_("wx"), "wy"))
+    assert "got ('wx', 'wy')" in str(exc.value)
+
+
+def test_wrong_aero_table_says_what_was_expected(problems):
+    aero = problems / "aero"
+    shutil.copy(PROBLEMS / DROP / "data/gps.csv", aero / "ees-sphere-cone.csv")
+    with pytest.raises(InputError) as exc:
+        load_aero(aero / "ees-sphere-cone.toml")
+    text = str(exc.value)
+    assert "not an aero table CSV: expected the header line mach,alpha_t_deg,CA,CN,Cm,Cmq" in text
+    assert "lat" not in text and exc.value.line == 1
