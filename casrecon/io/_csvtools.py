@@ -155,7 +155,7 @@ def _float_or_nan(text: str) -> float:
 
 
 def find_columns(path: str | Path, header: Sequence[str], wanted: Sequence[str], line: int,
-                 kind: str = "a CSV file of this kind") -> dict[str, int]:
+                 kind: str = "the expected kind of file") -> dict[str, int]:
     """Locate named columns in a header row.
 
     Parameters

@@ -281,7 +281,7 @@ def _read_kind(path: str | Path, kind: str, cols: dict, units: dict, body: list[
                          line=numbers[0], field=f"$COL,{kind}")
     header, header_line = cols[kind]
     wanted = _KINDS[kind]
-    col = find_columns(path, header, list(wanted), line=header_line)
+    col = find_columns(path, header, list(wanted), line=header_line, kind=f"a FlySight 2 {kind} header")
     if kind not in units:
         raise InputError(path, f"no '$UNIT,{kind},...' line: the units of the {kind} rows are "
                          "unknown", line=header_line, field=f"$UNIT,{kind}")

@@ -425,7 +425,7 @@ def _read_plain_csv(path: str | Path, lines: list[str]) -> Sounding:
     by_dir = "wind_dir_deg" in header or "wind_north_mps" not in header
     wind = ("wind_dir_deg", "wind_speed_mps") if by_dir else ("wind_north_mps", "wind_east_mps")
     wanted = [*_PLAIN_REQUIRED, *wind] + (["density_kgm3"] if "density_kgm3" in header else [])
-    col = find_columns(path, header, wanted, line=hk + 1)
+    col = find_columns(path, header, wanted, line=hk + 1, kind="a plain CSV sounding")
     body = [(k + 1, ln) for k, ln in enumerate(lines) if k > hk and ln.strip()]
     numbers = np.array([n for n, _ in body], dtype=np.int64)
     rows = split_rows(path, [ln for _, ln in body], numbers, len(header))
