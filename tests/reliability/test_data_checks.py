@@ -10,6 +10,7 @@ Self-contained helpers (no tests/reliability/conftest.py needed).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import shutil
@@ -82,11 +83,18 @@ def add_estimation_key(folder: Path, line: str) -> None:
                     else text + f"\n[estimation]\n{line}\n")
 
 
+@functools.cache
+def shipped_imu_table() -> np.ndarray:
+    """The shipped data/imu.csv of the drop, parsed once."""
+    return np.loadtxt(PROBLEMS / DROP / "data/imu.csv", delimiter=",", skiprows=1)
+
+
 def edit_imu(folder: Path, change: Callable[[np.ndarray], np.ndarray]) -> None:
-    """Rewrite data/imu.csv (time_s, ax, ay, az, wx, wy, wz in the file's units) through ``change``."""
+    """Rewrite data/imu.csv (time_s, ax, ay, az, wx, wy, wz in the file's units; the shipped file's values)
+    through ``change``."""
     path = folder / "data/imu.csv"
     header = path.read_text().split("\n", 1)[0]
-    table = change(np.loadtxt(path, delimiter=",", skiprows=1))
+    table = change(shipped_imu_table().copy())
     np.savetxt(path, table, delimiter=",", header=header, comments="", fmt=["%.15g"] + ["%.9g"] * 6)
 
 
