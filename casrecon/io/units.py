@@ -119,8 +119,11 @@ def utc_text(time_unix_s) -> np.ndarray:
 
 
 def column_format(name: str) -> str:
-    """printf format of a numeric CSV column: Unix times to the microsecond, else 9 significant digits."""
-    return "%.6f" if name.endswith("unix_s") else "%.9g"
+    """printf format of a numeric CSV column: Unix times to the microsecond, latitude and longitude
+    to 1e-9 deg (0.1 mm), else 9 significant digits."""
+    if name.endswith("unix_s"):
+        return "%.6f"
+    return "%.9f" if name in GEODETIC[:2] else "%.9g"
 
 
 def unnamed_columns(names) -> list[str]:
