@@ -77,7 +77,8 @@ class DropFit:
     name : str
         Problem name.
     params : Parameters
-        Estimated parameters in fit order (``params["Cmq_mult"].stderr``, ``params.to_frame()``).
+        Estimated parameters in fit order (``params["Cmq_mult"].stderr``, ``params.to_frame()``),
+        each in its ``unit`` as parameters.json holds it (gyro biases in deg/s; ``fit`` keeps SI).
     trajectory : pandas.DataFrame
         ``time_imu_s``, ``flight_time_s`` and ``time_unix_s`` (s), ``utc`` (pandas UTC timestamps;
         the GPS receiver's UTC through the fitted clock offset), the centre of mass's

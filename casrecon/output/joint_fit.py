@@ -46,6 +46,10 @@ class JointFit:
         ``tables.md``: shared factors (Table 5 style), per-drop summary, joint vs single sigmas.
     fit : casrecon.estimation.joint.JointResult or None
         The estimator's result; None when loaded.
+    products : dict of str to FitProducts or None
+        Each drop's residuals and reconciled simulations; None when loaded.
+    single : dict of str to dict of str to float
+        Drop -> parameter -> 1-sigma of the drop's own fit (output units: gyro biases in deg/s).
     source : Path or None
         The folder a loaded result came from.
     """
