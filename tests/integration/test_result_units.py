@@ -98,8 +98,8 @@ def test_the_rules_catch_names_without_units():
         "pos_n_residual", "wx_residual", "pos_n_sigma", "wind_bias_n", "time"]
     assert unnamed_json_numbers({"ax": 0.05, "mesh": {"intervals": 3}, "p": {"value": 1.0}}) == [
         "ax", "mesh.intervals", "p.value"]
-    assert (unit_of("wx_residual_dps"), unit_of("pos_n_m_3sigma"), unit_of("force_error_x_n"), unit_of("cases_per_s"),
-            unit_of("CA_mult"), unit_of("utc")) == ("deg/s", "m", "N", "1/s", "-", unit_of("utc"))
+    assert [unit_of(n) for n in ("wx_residual_dps", "pos_n_m_3sigma", "force_error_x_n", "cases_per_s", "CA_mult",
+                                 "vel_d_mps", "qbar_pa")] == ["deg/s", "m", "N", "1/s", "-", "m/s", "Pa"]
     assert unit_of("wind_bias_n") is None and unit_of("utc").startswith("UTC")
     # a record's unit names its numbers, a key on the path names the numbers below it, a units map its keys
     assert unnamed_json_numbers({"p": {"value": 1.0, "unit": "m/s"}, "flight_time_s": {"mean": 1.0},
