@@ -17,8 +17,6 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from casrecon.io.errors import InputError
 
 
@@ -33,7 +31,8 @@ def _simulate(args: argparse.Namespace) -> int:
     from casrecon.io.baro import write_baro_csv
     from casrecon.io.flysight import write_flysight1
     from casrecon.io.imu import write_imu_csv
-    from casrecon.output.results import atomic_folder, write_columns, write_json
+    from casrecon.output.results import atomic_folder, write_json
+    from casrecon.output.simulation_results import write_simulation_trajectory
     from casrecon.scenario import Scenario
     from casrecon.simulation.simulate import Simulator
     from casrecon.simulation.synthetic import make_synthetic
@@ -52,9 +51,7 @@ def _simulate(args: argparse.Namespace) -> int:
         traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s)
     summary = {"problem": cfg.name, **traj.summary(), "wall_time_s": time.perf_counter() - t0}
     with atomic_folder(args.out) as out:
-        columns, table = traj.table()
-        rows = np.r_[0:table.shape[0]:args.every, table.shape[0] - 1] if args.every > 1 else slice(None)
-        write_columns(out / "trajectory.csv", columns, table[rows])
+        write_simulation_trajectory(out / "trajectory.csv", traj, cfg, args.every)
         write_json(out / "summary.json", summary)
         if args.data:
             write_imu_csv(out / "imu.csv", data.imu_time_s, data.imu_accel_mps2, data.imu_gyro_radps, cfg.imu.spec)
@@ -268,6 +265,7 @@ def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.output.results import atomic_folder, write_json
+    from casrecon.output.sensitivity_results import design_document, fisher_document, parameter_unit, profile_document
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario
 
@@ -275,7 +273,7 @@ def _sensitivity(args: argparse.Namespace) -> int:
     with atomic_folder(args.out) as out:
         if args.study == "design":
             design = obs.design_study(scenario, args.parameter)
-            write_json(out / "design.json", design)
+            write_json(out / "design.json", design_document(design, parameter_unit(scenario.config, args.parameter)))
             sensitivity_plots.plot_design(design, out)
             print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
                             for k, v in design.items() if k != "parameter"))
@@ -286,17 +284,14 @@ def _sensitivity(args: argparse.Namespace) -> int:
             print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
             return 3
         directions = obs.fisher_directions(result)
-        write_json(out / "fisher.json", [{"eigenvalue": d.eigenvalue, "sigma": d.sigma, "weights": d.weights}
-                                         for d in directions])
+        write_json(out / "fisher.json", fisher_document(result, directions))
         print("weakest parameter combinations (parameters in units of their scale):")
         for d in directions[:5]:
             print("   " + d.describe())
         if args.study == "profile":
             prof = obs.profile_likelihood(result, args.parameter, args.points)
-            write_json(out / f"profile_{prof.name}.json", {
-                "values": prof.values, "delta_chi2": prof.delta_chi2, "estimate": prof.estimate,
-                "interval_delta_chi2_9": prof.interval, "fisher_three_sigma": prof.fisher_three_sigma,
-                "half_width_over_fisher": prof.agreement})
+            write_json(out / f"profile_{prof.name}.json",
+                       profile_document(prof, parameter_unit(scenario.config, prof.name)))
             sensitivity_plots.plot_profile(prof, out)
             print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
                   f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")

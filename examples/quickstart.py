@@ -49,9 +49,14 @@ def main() -> None:
             a, b = result.params[name], loaded.params[name]
             assert a.value == b.value and a.stderr == b.stderr and a.stderr_scaled == b.stderr_scaled, name
             assert dict(a.correl) == dict(b.correl), name
-        # trajectory.csv holds 9 significant digits: the loaded frame agrees to that precision
+        # trajectory.csv holds 9 significant digits: the loaded frame agrees to that precision; its
+        # utc column (ISO 8601 in the file) is read as pandas UTC timestamps, to the microsecond
         assert list(loaded.trajectory.columns) == list(result.trajectory.columns)
-        np.testing.assert_allclose(loaded.trajectory.to_numpy(), result.trajectory.to_numpy(), rtol=1e-8, atol=0)
+        np.testing.assert_allclose(loaded.trajectory.select_dtypes("number").to_numpy(),
+                                   result.trajectory.select_dtypes("number").to_numpy(), rtol=1e-8, atol=0)
+        assert (loaded.trajectory["utc"] == result.trajectory["utc"]).all()
+        print("UTC, latitude, longitude, h_MSL at the first node:",
+              *loaded.trajectory.loc[0, ["utc", "latitude_deg", "longitude_deg", "h_msl_m"]])
         np.testing.assert_allclose(loaded.sample("alpha_t_deg", times).to_numpy(), alpha.to_numpy(), rtol=1e-8)
 
         # %% A figure is a matplotlib Figure: save it, or display it in a notebook

@@ -14,6 +14,16 @@ import numpy as np
 
 from casrecon.estimation import diagnostics as dg
 from casrecon.estimation.drop import MEASUREMENT_KINDS
+from casrecon.estimation.kinds.gps import clock_offset
+from casrecon.io.units import (
+    GPS_COMPONENT_UNITS,
+    IMU_CHANNEL_UNITS,
+    TIME_UNIX,
+    gps_residual_column,
+    gps_sigma_column,
+    imu_residual_column,
+    imu_sigma_key,
+)
 
 #: GPS residual components (antenna position NED, m; velocity NED, m/s).
 GPS_COMPONENTS = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
@@ -32,14 +42,17 @@ class FitProducts:
     Attributes
     ----------
     imu_residuals : Columns
-        ``time_imu_s`` (s, IMU clock), measured minus predicted ``<ch>_residual`` (m/s^2 for
-        ax, ay, az; rad/s for wx, wy, wz; IMU axes) and ``<ch>_used`` (1 where fitted, 0 where masked).
+        ``time_imu_s`` (s, IMU clock), measured minus predicted ``<ch>_residual_mps2`` (ax, ay, az;
+        m/s^2) and ``<ch>_residual_dps`` (wx, wy, wz; deg/s), IMU axes, and ``<ch>_used`` (1 where
+        fitted, 0 where masked); names from :mod:`casrecon.io.units`.
     imu_sigma : dict of str to float
-        Noise 1-sigma of each IMU channel (m/s^2, rad/s).
+        Noise 1-sigma of each IMU channel: ``<ch>_sigma_mps2`` (m/s^2), ``<ch>_sigma_dps`` (deg/s).
     gps_residuals : Columns
-        ``time_imu_s`` (s), ``<c>_residual`` and ``<c>_sigma`` for :data:`GPS_COMPONENTS` (m, m/s).
+        ``time_imu_s`` (s), ``time_unix_s`` (the fix's UTC stamp, s), ``<c>_residual_m`` /
+        ``<c>_residual_mps`` and ``<c>_sigma_m`` / ``<c>_sigma_mps`` for :data:`GPS_COMPONENTS`.
     gps_fixes : Columns
-        ``time_imu_s`` (s) and the measured antenna ``pos_n_m`` .. ``vel_d_mps`` (NED, m and m/s).
+        ``time_imu_s``, ``time_unix_s`` (s) and the measured antenna ``pos_n_m`` .. ``vel_d_mps``
+        (NED, m and m/s).
     pitching_moment : Columns
         ``time_imu_s`` (s), ``alpha_deg`` (deg), ``qbar_pa`` (Pa) and ``cm_recon`` (-) at the nodes.
     cm_curves : Columns
@@ -54,7 +67,7 @@ class FitProducts:
         :func:`roll_rate_comparison` rows (deg/s) for a vehicle with spin vanes, else None.
     kind_residuals : dict of str to Columns
         Residual columns of every other measurement kind present (e.g. ``"baro"``), as the kind's
-        ``residuals`` names them (units in the column names).
+        ``residuals`` names them (units in the column names), with ``time_unix_s`` after ``time_imu_s``.
     """
 
     imu_residuals: Columns
@@ -119,15 +132,17 @@ def fit_products(result) -> FitProducts:
     FitProducts
     """
     imu = dg.imu_residuals(result)
+    factors = np.array([IMU_CHANNEL_UNITS[c][1] for c in dg.IMU_CHANNELS])
     imu_cols = {"time_imu_s": imu["time_imu_s"]}
-    imu_cols.update({f"{c}_residual": imu["residual"][:, k] for k, c in enumerate(dg.IMU_CHANNELS)})
+    imu_cols.update({imu_residual_column(c): imu["residual"][:, k] * factors[k] for k, c in enumerate(dg.IMU_CHANNELS)})
     imu_cols.update({f"{c}_used": imu["valid"][:, k] for k, c in enumerate(dg.IMU_CHANNELS)})
     gps = dg.gps_residuals(result)
-    gps_cols = {"time_imu_s": gps["time_imu_s"]}
-    gps_cols.update({f"{c}_residual": gps["residual"][:, k] for k, c in enumerate(GPS_COMPONENTS)})
-    gps_cols.update({f"{c}_sigma": gps["sigma"][:, k] for k, c in enumerate(GPS_COMPONENTS)})
+    utc = {TIME_UNIX: unix_time(result, gps["time_imu_s"])}
+    gps_cols = {"time_imu_s": gps["time_imu_s"], **utc}
+    gps_cols.update({gps_residual_column(c): gps["residual"][:, k] for k, c in enumerate(GPS_COMPONENTS)})
+    gps_cols.update({gps_sigma_column(c): gps["sigma"][:, k] for k, c in enumerate(GPS_COMPONENTS)})
     d = result.data
-    fix_names = ("pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps", "vel_d_mps")
+    fix_names = [f"{c}_{GPS_COMPONENT_UNITS[c]}" for c in GPS_COMPONENTS]
     fixes = np.column_stack([d.gps_pos_ned, d.gps_vel_ned])
     pm = dg.pitching_moment(result)
     rec = dg.reconciled_simulation(result)
@@ -135,9 +150,9 @@ def fit_products(result) -> FitProducts:
     vanes = result.scenario.config.aero.vanes is not None
     return FitProducts(
         imu_residuals=imu_cols,
-        imu_sigma=dict(zip(dg.IMU_CHANNELS, imu["sigma"].tolist())),
+        imu_sigma={imu_sigma_key(c): float(sg * f) for c, sg, f in zip(dg.IMU_CHANNELS, imu["sigma"], factors)},
         gps_residuals=gps_cols,
-        gps_fixes={"time_imu_s": gps["time_imu_s"], **{n: fixes[:, k] for k, n in enumerate(fix_names)}},
+        gps_fixes={"time_imu_s": gps["time_imu_s"], **utc, **{n: fixes[:, k] for k, n in enumerate(fix_names)}},
         pitching_moment={k: pm[k] for k in ("time_imu_s", "alpha_deg", "qbar_pa", "cm_recon")},
         cm_curves={"alpha_deg": pm["alpha_grid_deg"], "cm_nominal": pm["cm_nominal"], "cm_fitted": pm["cm_fitted"]},
         reconciled={k: rec[k] for k in SIMULATION_COLUMNS},
@@ -148,11 +163,22 @@ def fit_products(result) -> FitProducts:
 
 
 def other_kind_residuals(result) -> dict[str, Columns]:
-    """Residual columns of the measurement kinds other than the IMU and GPS that the fit used."""
+    """Residual columns of the measurement kinds other than the IMU and GPS that the fit used, with
+    ``time_unix_s`` (:func:`unix_time`) after ``time_imu_s``."""
     out = {}
     for kind in MEASUREMENT_KINDS:
         if kind.name not in ("imu", "gps") and kind.name in result.measurements:
             columns = kind.residuals(result)
             if columns is not None:
+                if "time_imu_s" in columns:
+                    columns = {"time_imu_s": columns["time_imu_s"], TIME_UNIX: unix_time(result, columns["time_imu_s"]),
+                               **{k: v for k, v in columns.items() if k != "time_imu_s"}}
                 out[kind.name] = columns
     return out
+
+
+def unix_time(result, time_imu_s: np.ndarray) -> np.ndarray:
+    """UTC (Unix seconds) of IMU-clock times of a fit, on the GPS receiver's clock:
+    ``utc_at_zero + t_imu + clock_offset`` with the fitted (or held) clock offset."""
+    utc0 = result.scenario.config.imu.clock_utc_at_zero.timestamp()
+    return utc0 + np.asarray(time_imu_s, dtype=float) + clock_offset(result)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from casrecon.estimation.fit import fit_drop
+from casrecon.io.units import output_unit
 from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
 
@@ -20,7 +21,8 @@ def single_drop_sigma(problem: str | Path) -> tuple[str, dict[str, float]]:
     Returns
     -------
     tuple of (str, dict of str to float)
-        The problem name and the absolute 1-sigma of each estimated parameter (SI, as fitted).
+        The problem name and the absolute 1-sigma of each estimated parameter, in its output unit
+        (:func:`~casrecon.io.units.output_unit`: SI, gyro biases in deg/s).
 
     Raises
     ------
@@ -28,7 +30,8 @@ def single_drop_sigma(problem: str | Path) -> tuple[str, dict[str, float]]:
         When the fit fails.
     """
     result = fit_drop(Scenario.load(problem))
-    return result.scenario.config.name, dict(zip(result.params.names, map(float, result.sigma)))
+    return result.scenario.config.name, {spec.name: float(sigma) * output_unit(spec.unit)[1]
+                                         for spec, sigma in zip(result.params.specs, result.sigma)}
 
 
 def single_drop_sigmas(problems: list[Path], workers: int = 2) -> dict[str, dict[str, float]]:
@@ -44,6 +47,7 @@ def single_drop_sigmas(problems: list[Path], workers: int = 2) -> dict[str, dict
     Returns
     -------
     dict of str to dict of str to float
-        Problem name -> parameter name -> absolute 1-sigma (SI), in the order of ``problems``.
+        Problem name -> parameter name -> absolute 1-sigma (output unit, as :func:`single_drop_sigma`),
+        in the order of ``problems``.
     """
     return dict(parallel_map(single_drop_sigma, [str(p) for p in problems], workers=workers))

@@ -1,6 +1,7 @@
 """The GPS rules every fit applies, in one place: which fixes are good enough to use (a 3D fix, and
-the quality thresholds), and how a fix becomes an antenna position and velocity in the site's NED frame with
-its 1-sigma accuracies (north and east by hAcc, down by vAcc, each velocity component by sAcc).
+the quality thresholds), and how a fix becomes an antenna position and velocity in the site's NED
+frame with its 1-sigma accuracies (north and east by hAcc, down by vAcc, each velocity component by
+sAcc), and back (:func:`ned_to_geodetic`, for the latitude, longitude and h_MSL columns of the results).
 
 Used by the 6-DOF fit (thresholds from ``[estimation]``) and the point-mass fit (``[quality]``).
 """
@@ -71,3 +72,13 @@ def fixes_ned(track: GpsTrack, site: Site, idx) -> tuple[np.ndarray, np.ndarray,
     sigma = np.column_stack([track.h_acc_m[idx], track.h_acc_m[idx], track.v_acc_m[idx],
                              track.s_acc_mps[idx], track.s_acc_mps[idx], track.s_acc_mps[idx]])
     return np.column_stack([n, e, d]), vel, sigma
+
+
+def ned_to_geodetic(pos_ned: np.ndarray, site: Site) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Latitude and longitude (deg, WGS-84) and height above mean sea level (m) of NED positions
+    (n, 3; m from the site's ground point): ``pymap3d.ned2geodetic``, the exact inverse of
+    :func:`fixes_ned` (heights in and out are MSL, the site's ground altitude being MSL)."""
+    pos = np.atleast_2d(np.asarray(pos_ned, dtype=float))
+    lat, lon, h = pymap3d.ned2geodetic(pos[:, 0], pos[:, 1], pos[:, 2], site.lat_deg, site.lon_deg,
+                                       site.ground_alt_msl_m)
+    return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float), np.asarray(h, dtype=float)

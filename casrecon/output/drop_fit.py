@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from casrecon.io.errors import InputError
+from casrecon.io.units import TEXT_COLUMNS, TIME_UNIX, UTC
 from casrecon.output.fit_results import (
     parameters_document,
     product_tables,
@@ -31,20 +32,32 @@ if TYPE_CHECKING:
     from casrecon.analysis.fit_products import FitProducts
     from casrecon.estimation.fit import FitResult
 
-#: Time columns of ``trajectory`` (s): IMU clock and flight time since release.
-TIME_COLUMNS = ("time_imu_s", "flight_time_s")
+#: Time columns of ``trajectory`` (s): IMU clock, flight time since release, UTC (Unix seconds).
+TIME_COLUMNS = ("time_imu_s", "flight_time_s", TIME_UNIX)
+#: Time columns a per-drop trajectory.csv must have.
+REQUIRED_TIME_COLUMNS = ("time_imu_s", "flight_time_s")
 #: Files without which a folder is not a per-drop results folder.
 REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
 
 
 def read_frame(path: Path) -> pd.DataFrame:
     """A CSV file of casrecon's as a DataFrame, every number parsed exactly as written (the nearest
-    float; pandas 3 does so by default, pandas 2 needs ``float_precision="round_trip"``)."""
+    float; pandas 3 does so by default, pandas 2 needs ``float_precision="round_trip"``), the
+    ``utc`` column as tz-aware timestamps (:func:`with_timestamps`)."""
     import pandas as pd
 
     if int(pd.__version__.split(".")[0]) < 3:
-        return pd.read_csv(path, float_precision="round_trip")
-    return pd.read_csv(path)
+        return with_timestamps(pd.read_csv(path, float_precision="round_trip"))
+    return with_timestamps(pd.read_csv(path))
+
+
+def with_timestamps(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` with its ``utc`` column (ISO 8601 text), if any, as pandas UTC timestamps."""
+    import pandas as pd
+
+    if UTC in frame.columns:
+        frame[UTC] = pd.to_datetime(frame[UTC].astype(str), utc=True, format="ISO8601")
+    return frame
 
 
 def read_document(path: Path) -> dict:
@@ -64,16 +77,20 @@ class DropFit:
     name : str
         Problem name.
     params : Parameters
-        Estimated parameters in fit order (``params["Cmq_mult"].stderr``, ``params.to_frame()``).
+        Estimated parameters in fit order (``params["Cmq_mult"].stderr``, ``params.to_frame()``),
+        each in its ``unit`` as parameters.json holds it (gyro biases in deg/s; ``fit`` keeps SI).
     trajectory : pandas.DataFrame
-        ``time_imu_s`` and ``flight_time_s`` (s), then every reconstructed column (SI or as its
-        name says: ``_deg``, ``_dps``, ``_pa``) followed by its ``<name>_3sigma``. A loaded result
-        holds trajectory.csv as written (9 significant digits); a fresh fit holds full precision,
-        which agrees with the file to a relative 5e-9.
+        ``time_imu_s``, ``flight_time_s`` and ``time_unix_s`` (s), ``utc`` (pandas UTC timestamps;
+        the GPS receiver's UTC through the fitted clock offset), the centre of mass's
+        ``latitude_deg``, ``longitude_deg`` and ``h_msl_m``, then every reconstructed column (unit in
+        its name: ``_m``, ``_mps``, ``_deg``, ``_dps``, ``_pa``) followed by its ``<name>_3sigma``. A
+        loaded result holds trajectory.csv as written (9 significant digits, Unix times to 1 us); a
+        fresh fit holds full precision, which agrees with the file to a relative 5e-9.
     residuals : dict of str to pandas.DataFrame
         Per measurement kind (``"imu"``, ``"gps"``, ...) the ``residuals_<kind>.csv`` table: time
-        (s, IMU clock), measured minus model residuals (SI), sigmas or use flags. A loaded result
-        holds the files as written (9 significant digits).
+        (s, IMU clock; UTC for the GPS), measured minus model residuals and sigmas (unit in each
+        column name, gyros in deg/s) or use flags. A loaded result holds the files as written (9
+        significant digits).
     summary : dict
         ``summary.json``: convergence, chi-square per group, dof, timings (s), reconciled simulation.
     report_text : str
@@ -112,8 +129,7 @@ class DropFit:
         params_doc = json.loads(json.dumps(parameters_document(fit)))  # exactly what parameters.json holds
         summary = json.loads(json.dumps({**summary_document(fit), "reconciled": products.reconciled_summary},
                                         default=to_builtin))
-        cols, data = trajectory_table(fit)
-        trajectory = pd.DataFrame(data, columns=cols)
+        trajectory = with_timestamps(pd.DataFrame(trajectory_table(fit)))
         tables = {"trajectory.csv": trajectory}
         tables.update({k: pd.DataFrame({c: np.asarray(v, dtype=float) for c, v in t.items()})
                        for k, t in product_tables(products).items()})
@@ -147,7 +163,7 @@ class DropFit:
             raise InputError(folder / "parameters.json",
                              f"expected parameters {{name: {{value, sigma, ...}}}} and correlation {{names, "
                              f"matrix}} ({type(err).__name__}: {err})") from None
-        missing_time = [c for c in TIME_COLUMNS if c not in tables["trajectory.csv"].columns]
+        missing_time = [c for c in REQUIRED_TIME_COLUMNS if c not in tables["trajectory.csv"].columns]
         if missing_time:
             raise InputError(folder / "trajectory.csv", f"no column {', '.join(missing_time)}")
         report = folder / "report.txt"
@@ -197,8 +213,8 @@ class DropFit:
             Names from :attr:`columns` (e.g. ``"alpha_t_deg"``, ``["qbar_pa", "mach"]``).
         times_s : float or array_like
             Times, s, on the ``time`` axis, within the fit window.
-        time : {"flight_time_s", "time_imu_s"}
-            Flight time since release (default) or the IMU clock.
+        time : {"flight_time_s", "time_imu_s", "time_unix_s"}
+            Flight time since release (default), the IMU clock, or UTC in Unix seconds.
 
         Returns
         -------
@@ -215,7 +231,8 @@ class DropFit:
 
     def figure_source(self) -> DropTables:
         """The tables as the figure functions of :mod:`casrecon.report` read them (no folder needed)."""
-        tables = {k: {c: v.to_numpy() for c, v in df.items()} for k, df in self.tables.items()}
+        tables = {k: {c: v.to_numpy() for c, v in df.items() if c not in TEXT_COLUMNS}
+                  for k, df in self.tables.items()}
         return DropTables(self.name, self.summary, tables, self.documents)
 
     def save(self, folder: str | Path, *, figures: bool = False) -> Path:
@@ -244,8 +261,9 @@ def _draw_figures(out: Path) -> None:
 
 
 def history_columns(frame: pd.DataFrame, time_columns: Sequence[str]) -> tuple[str, ...]:
-    """The time-history columns of a trajectory frame: neither time nor ``_3sigma`` columns."""
-    return tuple(c for c in frame.columns if c not in time_columns and not c.endswith("_3sigma"))
+    """The time-history columns of a trajectory frame: neither time, text (``utc``) nor ``_3sigma`` columns."""
+    return tuple(c for c in frame.columns
+                 if c not in time_columns and c not in TEXT_COLUMNS and not c.endswith("_3sigma"))
 
 
 def sample_frame(name: str, frame: pd.DataFrame, time_columns: Sequence[str], columns: str | Sequence[str],

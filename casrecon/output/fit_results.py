@@ -1,7 +1,9 @@
 """The results folder of a per-drop fit (written atomically by the caller's ``atomic_folder``).
 
-Files: ``trajectory.csv`` (time history with 3-sigma columns), ``parameters.json`` (values,
-1- and 3-sigma absolute and chi-square-scaled, correlations), ``summary.json`` (convergence,
+Every column and JSON key names its unit (:mod:`casrecon.io.units`; gyro quantities in deg/s).
+Files: ``trajectory.csv`` (time history with 3-sigma columns, UTC, latitude, longitude, h_MSL),
+``parameters.json`` (values, 1- and 3-sigma absolute and chi-square-scaled, correlations),
+``summary.json`` (convergence,
 chi-square per group, timings, reconciled-simulation differences), ``tables.md`` (EES Tables 3,
 4, 5 style), ``report.txt`` (the console report), ``config/`` (the exact input files and the
 resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv`` (and
@@ -18,28 +20,50 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.output.results import write_columns, write_json
+from casrecon.io.gps_rules import ned_to_geodetic
+from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, output_unit, utc_text
+from casrecon.output.columns import write_table
+from casrecon.output.results import write_json
+
+
+def parameter_record(spec, value: float, sigma: float, chi2_scale: float) -> dict:
+    """One ``parameters.json`` entry, in the parameter's output unit (:func:`output_unit`: gyro
+    biases in deg/s); ``group`` and ``prior_sigma`` when ``spec`` has them."""
+    unit, f = output_unit(spec.unit)
+    prior = getattr(spec, "prior_sigma", None)
+    return {"value": float(value) * f, "sigma": float(sigma) * f, "three_sigma": 3 * float(sigma) * f,
+            "sigma_chi2_scaled": float(sigma) * chi2_scale * f, "unit": unit, "group": spec.group,
+            "prior_sigma": None if prior is None else prior * f}
 
 
 def parameters_document(result) -> dict:
-    """``parameters.json`` content; names match truth.json.
+    """``parameters.json`` content; names match truth.json, values and sigmas in each entry's
+    ``unit`` (gyro biases in deg/s, as truth.json and the problem file give them).
 
     Every float is stored at full precision (Python's ``json`` writes the shortest repr, which reads
     back bit-identical), so a loaded result's values, sigmas and correlations equal the fit's.
     """
     scale = float(np.sqrt(result.reduced_chi2))
-    params = {}
-    for i, spec in enumerate(result.params.specs):
-        s = float(result.sigma[i])
-        params[spec.name] = {"value": float(result.values[i]), "sigma": s, "three_sigma": 3 * s,
-                             "sigma_chi2_scaled": s * scale, "unit": spec.unit, "group": spec.group,
-                             "prior_sigma": spec.prior_sigma}
+    params = {spec.name: parameter_record(spec, result.values[i], result.sigma[i], scale)
+              for i, spec in enumerate(result.params.specs)}
     return {"parameters": params,
             "correlation": {"names": list(result.params.names),
                             "matrix": np.asarray(result.correlation, dtype=float).tolist()},
             "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix",
                            "sigma": "absolute (noise sigmas as given)",
                            "sigma_chi2_scaled": f"absolute times sqrt(reduced chi2) = {scale:.5f}"}}
+
+
+def clock_document(result) -> dict:
+    """How the results' UTC is made: the GPS receiver's UTC of IMU time t is
+    ``utc_at_imu_zero + t + clock_offset_s``."""
+    from casrecon.analysis.fit_products import unix_time  # CasADi only when a fit is written
+    from casrecon.estimation.kinds.gps import CLOCK, clock_offset
+
+    release = float(unix_time(result, np.array([result.data.release_imu_s]))[0])
+    return {"utc_at_imu_zero": str(utc_text(result.scenario.config.imu.clock_utc_at_zero.timestamp())),
+            "clock_offset_s": clock_offset(result), "clock_offset_estimated": CLOCK in result.params.names,
+            "release_utc": str(utc_text(release)), "release_time_unix_s": release}
 
 
 def summary_document(result) -> dict:
@@ -51,23 +75,27 @@ def summary_document(result) -> dict:
             "timings": result.timings, **{k: result.timings[k] for k in ("build_s", "solve_s", "covariance_s",
                                                                           "total_s")},
             "release_imu_s": d.release_imu_s, "impact_imu_s": d.impact_imu_s, "window_imu_s": list(d.window),
-            "mesh": {"intervals": int(result.node_time_s.size - 1),
+            "clock": clock_document(result),
+            "mesh": {"n_intervals": int(result.node_time_s.size - 1),
                      "h_s": float(result.node_time_s[1] - result.node_time_s[0])},
             "notes": list(result.notes)}
 
 
-def trajectory_table(result) -> tuple[list[str], np.ndarray]:
-    cols = ["time_imu_s", "flight_time_s"]
-    data = [result.node_time_s, result.flight_time_s]
+def trajectory_table(result) -> dict[str, np.ndarray]:
+    """``trajectory.csv`` columns: ``time_imu_s``, ``flight_time_s``, ``time_unix_s`` and ``utc`` (the
+    GPS receiver's UTC, :func:`~casrecon.analysis.fit_products.unix_time`), the centre of mass's
+    ``latitude_deg``, ``longitude_deg``, ``h_msl_m`` (:func:`~casrecon.io.gps_rules.ned_to_geodetic`),
+    then each reconstructed column and its ``<name>_3sigma`` (absolute)."""
+    from casrecon.analysis.fit_products import unix_time  # CasADi only when a fit is written
+
+    t_unix = unix_time(result, result.node_time_s)
+    pos = np.column_stack([result.column(c)[0] for c in ("pos_n_m", "pos_e_m", "pos_d_m")])
+    cols = {"time_imu_s": result.node_time_s, "flight_time_s": result.flight_time_s, TIME_UNIX: t_unix,
+            UTC: utc_text(t_unix), **dict(zip(GEODETIC, ned_to_geodetic(pos, result.scenario.config.site)))}
     for i, name in enumerate(result.columns):
-        cols += [name, f"{name}_3sigma"]
-        data += [result.table[:, i], 3 * result.table_sigma[:, i]]
-    return cols, np.column_stack(data)
-
-
-def write_table(path: Path, columns: dict[str, np.ndarray], every: int = 1) -> None:
-    """Write named columns (1-D arrays of one length) as CSV, keeping every ``every``-th row."""
-    write_columns(path, list(columns), np.column_stack(list(columns.values()))[::every])
+        cols[name] = result.table[:, i]
+        cols[f"{name}_3sigma"] = 3 * result.table_sigma[:, i]
+    return cols
 
 
 #: Tables written at every n-th row only (the forward simulations, at 2 ms steps).
@@ -111,7 +139,7 @@ def write_fit_results(out: Path, result, products, report_text: str, tables_md: 
         Written as ``tables.md``.
     """
     out = Path(out)
-    write_columns(out / "trajectory.csv", *trajectory_table(result))
+    write_table(out / "trajectory.csv", trajectory_table(result))
     write_json(out / "parameters.json", parameters_document(result))
     write_diagnostics(out, products)
     write_json(out / "summary.json", {**summary_document(result), "reconciled": products.reconciled_summary})

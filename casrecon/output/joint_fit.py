@@ -13,9 +13,9 @@ from typing import TYPE_CHECKING
 
 from casrecon.io.errors import InputError
 from casrecon.output.drop_fit import DropFit, read_document
-from casrecon.output.joint_results import joint_parameters_document, write_joint_results
+from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
 from casrecon.output.parameter_records import Parameters, from_document
-from casrecon.output.results import save_results_folder
+from casrecon.output.results import save_results_folder, to_builtin
 
 if TYPE_CHECKING:
     from casrecon.analysis.fit_products import FitProducts
@@ -39,12 +39,17 @@ class JointFit:
     drops : dict of str to DropFit
         Each drop's part of the joint fit (its trajectory, residuals and parameters as seen by it).
     summary : dict
-        ``summary.json``: status, iterations, chi-square (total and per drop), dof, timings (s),
-        single-drop sigmas when computed, reconciled-simulation differences per drop.
+        ``summary.json``: status, iterations, the joint chi-square, dof and reduced chi-square, each
+        drop's own chi-square per group, dof and reduced chi-square, timings (s), single-drop sigmas
+        when computed (output units, named in ``units``), reconciled-simulation differences per drop.
     tables_md : str
         ``tables.md``: shared factors (Table 5 style), per-drop summary, joint vs single sigmas.
     fit : casrecon.estimation.joint.JointResult or None
         The estimator's result; None when loaded.
+    products : dict of str to FitProducts or None
+        Each drop's residuals and reconciled simulations; None when loaded.
+    single : dict of str to dict of str to float
+        Drop -> parameter -> 1-sigma of the drop's own fit (output units: gyro biases in deg/s).
     source : Path or None
         The folder a loaded result came from.
     """
@@ -71,12 +76,7 @@ class JointFit:
                  for d in result.drops}
         reconciled = {n: products[n].reconciled_summary for n in drops}
         doc = json.loads(json.dumps(joint_parameters_document(result)))
-        summary = {"name": result.config.name, "converged": True, "status": result.status,
-                   "iterations": result.iterations, "drops": list(drops), "shared": list(result.shared),
-                   "chi2": float(result.chi2), "dof": int(result.dof), "reduced_chi2": float(result.reduced_chi2),
-                   "timings": dict(result.timings),
-                   "chi2_per_drop": {n: d.chi2 for n, d in drops.items()}, "single_drop_sigma": single,
-                   "reconciled": reconciled}
+        summary = json.loads(json.dumps(joint_summary_document(result, single, reconciled), default=to_builtin))
         return cls(name=result.config.name, params=from_document(doc), drops=drops, summary=summary,
                    tables_md=joint_tables(result, single, reconciled), fit=result, products=products,
                    single=single)

@@ -8,21 +8,56 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.output.fit_results import write_fit_results
+from casrecon.io.units import output_unit
+from casrecon.output.fit_results import parameter_record, write_fit_results
 from casrecon.output.results import write_json
 from casrecon.report.fit_report import fit_report
 from casrecon.report.joint_tables import joint_tables
 from casrecon.report.tables import drop_tables
 
 
+def joint_specs(result) -> dict[str, object]:
+    """Global parameter name -> its ParameterSpec (shared ones by their name, a drop's own as
+    ``<drop>.<name>``), from the drops' parameter sets."""
+    specs = {}
+    for d in result.drops:
+        for spec in d.params.specs:
+            specs.setdefault(spec.name, spec)
+            specs[f"{d.scenario.config.name}.{spec.name}"] = spec
+    return {n: specs[n] for n in result.names}
+
+
 def joint_parameters_document(result) -> dict:
-    params = {n: {"value": float(v), "sigma": float(s), "three_sigma": 3 * float(s),
-                  "sigma_chi2_scaled": float(s * np.sqrt(result.reduced_chi2)), "shared": n in result.shared}
+    """``parameters.json`` of a joint fit: per global parameter the record of
+    :func:`~casrecon.output.fit_results.parameter_record` (values in its ``unit``; gyro biases in
+    deg/s) and ``shared``; the correlation matrix over all (full precision)."""
+    scale = float(np.sqrt(result.reduced_chi2))
+    specs = joint_specs(result)
+    params = {n: {**parameter_record(specs[n], v, s, scale), "shared": n in result.shared}
               for n, v, s in zip(result.names, result.values, result.sigma)}
     return {"parameters": params,
             "correlation": {"names": list(result.names),
                             "matrix": np.asarray(result.correlation, dtype=float).tolist()},
             "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix"}}
+
+
+def joint_summary_document(result, single: dict[str, dict[str, float]], reconciled: dict[str, dict]) -> dict:
+    """``summary.json`` of a joint fit: the joint chi-square over the joint dof (``reduced_chi2``),
+    each drop's own chi-square per group, dof and reduced chi-square, the single-drop sigmas (each
+    parameter's output unit, named in ``units``) and the reconciled simulations."""
+    drops = {d.scenario.config.name: d for d in result.drops}
+    units = {}
+    for d in result.drops:
+        units.update({spec.name: output_unit(spec.unit)[0] for spec in d.params.specs})
+    return {"name": result.config.name, "converged": True, "status": result.status,
+            "iterations": int(result.iterations), "drops": list(drops), "shared": list(result.shared),
+            "chi2": float(result.chi2), "dof": int(result.dof), "reduced_chi2": float(result.reduced_chi2),
+            "timings": dict(result.timings),
+            **{k: result.timings[k] for k in ("build_s", "solve_s", "covariance_s", "total_s") if k in result.timings},
+            "chi2_per_drop": {n: dict(d.chi2) for n, d in drops.items()},
+            "dof_per_drop": {n: int(d.dof) for n, d in drops.items()},
+            "reduced_chi2_per_drop": {n: float(d.reduced_chi2) for n, d in drops.items()},
+            "single_drop_sigma": single, "units": units, "reconciled": reconciled}
 
 
 def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], products: dict) -> None:
@@ -35,7 +70,7 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
     result : casrecon.estimation.joint.JointResult
         The joint fit.
     single : dict of str to dict of str to float
-        Drop name -> parameter -> 1-sigma of the drop's own fit (empty when not run).
+        Drop name -> parameter -> 1-sigma of the drop's own fit, output unit (empty when not run).
     products : dict of str to casrecon.analysis.fit_products.FitProducts
         Drop name -> the residuals and reconciled simulations of its part of the joint fit.
     """
@@ -48,11 +83,5 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
         write_fit_results(sub, d, products[name], fit_report(d), drop_tables(d, products[name]))
         reconciled[name] = products[name].reconciled_summary
     write_json(out / "parameters.json", joint_parameters_document(result))
-    write_json(out / "summary.json", {
-        "name": result.config.name, "converged": True, "status": result.status, "iterations": result.iterations,
-        "drops": [d.scenario.config.name for d in result.drops], "shared": list(result.shared),
-        "chi2": result.chi2, "dof": result.dof, "reduced_chi2": result.reduced_chi2, "timings": result.timings,
-        **{k: result.timings[k] for k in ("build_s", "solve_s", "covariance_s", "total_s")},
-        "chi2_per_drop": {d.scenario.config.name: d.chi2 for d in result.drops},
-        "single_drop_sigma": single, "reconciled": reconciled})
+    write_json(out / "summary.json", joint_summary_document(result, single, reconciled))
     (out / "tables.md").write_text(joint_tables(result, single, reconciled))

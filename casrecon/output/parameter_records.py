@@ -30,7 +30,8 @@ class Parameter:
     stderr_scaled : float
         ``stderr`` times sqrt(reduced chi-square), in ``unit``.
     unit : str
-        ``"-"`` for dimensionless factors, else SI (``"m/s"``, ...); empty when not recorded.
+        ``"-"`` for dimensionless factors, else SI (``"m/s"``, ...) except angular rates in deg/s
+        (gyro biases), as ``parameters.json`` writes them; empty when not recorded.
     group : str
         Prior group (``"aero"``, ``"atmosphere"``, ``"imu"``, ...); empty when not recorded.
     prior_sigma : float or None

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from casrecon.io.errors import InputError
+from casrecon.io.units import TIME_UNIX
 from casrecon.output.drop_fit import history_columns, read_document, read_frame, sample_frame
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.pointmass_results import write_pointmass_results
@@ -24,8 +25,8 @@ if TYPE_CHECKING:
 
     from casrecon.estimation.pointmass_fit import PointMassResult
 
-#: Time columns of ``trajectory`` (s): UTC (Unix seconds, ms resolution) and time since the segment start.
-TIME_COLUMNS = ("time_utc_unix_s", "time_s")
+#: Time columns of ``trajectory`` (s): UTC (Unix seconds, us resolution) and time since the segment start.
+TIME_COLUMNS = (TIME_UNIX, "time_s")
 REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
 
 
@@ -40,11 +41,13 @@ class PointMassFit:
         Estimated parameters (wind bias, drag-area spline weights, ...); no correlations are
         recorded for point-mass fits (``correl`` empty).
     trajectory : pandas.DataFrame
-        ``time_utc_unix_s``, ``time_s`` (s), antenna NED position (m) and velocity (m/s), ``h_msl_m``,
-        drag area ``cda_m2`` (and lift areas, m^2), each with ``_3sigma``: trajectory.csv as written
-        (9 significant digits, UTC to 1 ms), also for a fresh fit.
+        ``time_unix_s`` (UTC, s), ``utc`` (pandas UTC timestamps), ``time_s`` (s since the segment
+        start), the antenna's ``latitude_deg``, ``longitude_deg``, ``h_msl_m``, NED position (m) and
+        velocity (m/s), drag area ``cda_m2`` (and lift areas, m^2), each with ``_3sigma``:
+        trajectory.csv as written (9 significant digits, UTC to 1 us), also for a fresh fit.
     residuals : dict of str to pandas.DataFrame
-        ``{"gps": ...}``: normalised residuals of the fitted and the constant-drag model (-).
+        ``{"gps": ...}``: normalised residuals of the fitted and the constant-drag model
+        (``<component>_fit_z``, ``<component>_constant_z``; -).
     summary : dict
         ``summary.json``: the fit's and the constant model's convergence, chi-square, residual statistics.
     report_text : str
@@ -127,7 +130,7 @@ class PointMassFit:
     def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
                time: str = "time_s") -> pd.DataFrame:
         """Columns (e.g. ``"cda_m2"``) and their 3-sigma interpolated linearly at ``times_s`` (s since the
-        segment start, or UTC Unix seconds with ``time="time_utc_unix_s"``); ValueError for an unknown
+        segment start, or UTC Unix seconds with ``time="time_unix_s"``); ValueError for an unknown
         column (listing the available ones) or a time outside the segment."""
         return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
 

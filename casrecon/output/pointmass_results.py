@@ -1,10 +1,11 @@
 """The results folder of a GPS-only (point-mass) fit: the fitted model (usually the drag-area
 spline) next to the constant-drag model, so the residuals show what the constant model misses.
 
-Files: ``trajectory.csv`` (antenna NED position/velocity, MSL height, drag area, each with 3-sigma),
-``parameters.json``, ``summary.json`` (convergence, chi-square per group, normalised-residual RMS
-and lag-1 autocorrelation per component for both models, timings, segment notes),
-``residuals_gps.csv`` (normalised residuals of both models), ``report.txt``, ``figures/``.
+Files: ``trajectory.csv`` (UTC, the antenna's latitude, longitude and h_MSL, NED position and
+velocity, drag area, each with 3-sigma), ``parameters.json``, ``summary.json`` (convergence,
+chi-square per group, normalised-residual RMS and lag-1 autocorrelation per component for both
+models, timings, segment notes), ``residuals_gps.csv`` (normalised residuals of both models, ``_z``),
+``gps_fixes.csv``, ``report.txt``, ``figures/``. Units in every name (:mod:`casrecon.io.units`).
 """
 
 from __future__ import annotations
@@ -12,9 +13,10 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-import numpy as np
-
-from casrecon.output.results import write_columns, write_json
+from casrecon.io.gps_rules import ned_to_geodetic
+from casrecon.io.units import GEODETIC, GPS_COMPONENT_UNITS, TIME_UNIX, UTC, utc_text
+from casrecon.output.columns import write_table
+from casrecon.output.results import write_json
 
 NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
 
@@ -22,7 +24,8 @@ NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
 def _model_summary(r) -> dict:
     return {"model": r.model_name, "lift": r.areas.shape[1] > 1, "converged": r.solver.converged,
             "status": r.solver.status, "iterations": r.solver.iterations, "chi2": r.chi2,
-            "n_measurements": r.n_measurements, "reduced_chi2": r.reduced_chi2, "residuals": r.residual_stats(),
+            "n_measurements": r.n_measurements, "reduced_chi2": r.reduced_chi2,
+            "normalised_residuals": r.residual_stats(),
             "timings": r.timings}
 
 
@@ -40,23 +43,21 @@ def write_pointmass_results(out: Path, main, constant, report_text: str) -> None
     """
     out = Path(out)
     t0 = main.t_unix[0]
-    cols, data = ["time_utc_unix_s", "time_s"], [main.t_unix, main.t_unix - t0]
+    times = {TIME_UNIX: main.t_unix, "time_s": main.t_unix - t0}
+    cols = {TIME_UNIX: main.t_unix, UTC: utc_text(main.t_unix), "time_s": main.t_unix - t0,
+            **dict(zip(GEODETIC, ned_to_geodetic(main.states[:, :3], main.config.site)))}
     for i, n in enumerate(NAMES):
-        unit = "m" if i < 3 else "mps"
-        cols += [f"{n}_{unit}", f"{n}_{unit}_3sigma"]
-        data += [main.states[:, i], 3 * main.state_sigma[:, i]]
-    cols += ["h_msl_m"]
-    data += [main.config.site.ground_alt_msl_m - main.states[:, 2]]
+        name = f"{n}_{GPS_COMPONENT_UNITS[n]}"
+        cols[name], cols[f"{name}_3sigma"] = main.states[:, i], 3 * main.state_sigma[:, i]
     for j, name in enumerate(("cda_m2", "lift_n_m2", "lift_e_m2")[:main.areas.shape[1]]):
-        cols += [name, f"{name}_3sigma"]
-        data += [main.areas[:, j], 3 * main.area_sigma[:, j]]
-    # UTC seconds need ms resolution: the default 9 significant digits round 1.5e9 s to 10 s
-    write_columns(out / "trajectory.csv", cols, np.column_stack(data), fmt=["%.3f"] + ["%.9g"] * (len(cols) - 1))
-    rcols = ["time_s"] + [f"{n}_{m}" for m in ("fit", "constant") for n in NAMES]
-    write_columns(out / "residuals_gps.csv", rcols, np.column_stack(
-        [main.t_unix - t0, main.normalized_residuals, constant.normalized_residuals]))
-    write_columns(out / "gps_fixes.csv", ["time_s"] + [f"{n}_measured" for n in NAMES] + ["used"],
-                  np.column_stack([main.t_unix - t0, main.y, main.inv_sigma[:, 0] > 0]))
+        cols[name], cols[f"{name}_3sigma"] = main.areas[:, j], 3 * main.area_sigma[:, j]
+    write_table(out / "trajectory.csv", cols)
+    residuals = {f"{n}_{m}_z": r[:, i] for m, r in (("fit", main.normalized_residuals),
+                                                    ("constant", constant.normalized_residuals))
+                 for i, n in enumerate(NAMES)}
+    write_table(out / "residuals_gps.csv", {**times, **residuals})
+    fixes = {f"{n}_{GPS_COMPONENT_UNITS[n]}": main.y[:, i] for i, n in enumerate(NAMES)}
+    write_table(out / "gps_fixes.csv", {**times, **fixes, "used": (main.inv_sigma[:, 0] > 0).astype(float)})
     params = {s.name: {"value": float(v), "sigma": float(sg), "three_sigma": 3 * float(sg), "unit": s.unit}
               for s, v, sg in zip(main.params.specs, main.values, main.sigma)}
     write_json(out / "parameters.json", {"parameters": params})

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from casrecon.io.units import output_unit
 from casrecon.physics.aero import DISPERSION_NAMES
 
 #: Correlations above this magnitude are flagged.
@@ -17,12 +18,13 @@ def _parameter_lines(result) -> list[str]:
     scale = np.sqrt(result.reduced_chi2)
     lines = []
     for i, spec in enumerate(result.params.specs):
-        v, s = result.values[i], result.sigma[i]
+        unit, f = output_unit(spec.unit)  # gyro biases in deg/s, as in parameters.json
+        v, s = result.values[i] * f, result.sigma[i] * f
         note = ""
-        if spec.prior_sigma and s > PRIOR_DOMINATED * spec.prior_sigma:
+        if spec.prior_sigma and s > PRIOR_DOMINATED * spec.prior_sigma * f:
             note = "  <- set mostly by its prior (the data add little)"
         lines.append(f"    {spec.name:16s} = {v: .6g} +/- {3 * s:.3g} (3-sigma; chi2-scaled {3 * s * scale:.3g})"
-                     f" [{spec.unit}]{note}")
+                     f" [{unit}]{note}")
     fixed = [n for n in DISPERSION_NAMES if n not in result.params.names]
     for name in fixed:
         lines.append(f"    {name:16s} = 0 (fixed: not estimated, its database size U is 0 or "

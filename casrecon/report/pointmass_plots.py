@@ -4,14 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-
-def _csv(path: Path) -> dict[str, np.ndarray]:
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    return {n: data[n] for n in data.dtype.names}
+from casrecon.report.results_folder import read_csv
 
 
 def plot_track_fit(folder: Path) -> Path:
@@ -19,7 +15,7 @@ def plot_track_fit(folder: Path) -> Path:
     dots, fitted line), normalised residuals of the fitted and the constant-drag model, and the
     drag area with its 3-sigma band."""
     folder = Path(folder)
-    tr, res, fix = _csv(folder / "trajectory.csv"), _csv(folder / "residuals_gps.csv"), _csv(folder / "gps_fixes.csv")
+    tr, res, fix = (read_csv(folder / name) for name in ("trajectory.csv", "residuals_gps.csv", "gps_fixes.csv"))
     import json
 
     name = json.loads((folder / "summary.json").read_text()).get("problem", folder.name)
@@ -28,23 +24,23 @@ def plot_track_fit(folder: Path) -> Path:
     ax = fig.subplots(3, 2, sharex=True)
     used = fix["used"] > 0.5
     t = tr["time_s"]
-    ax[0, 0].plot(fix["time_s"][used], -fix["pos_d_measured"][used], ".", ms=3, label="GPS")
+    ax[0, 0].plot(fix["time_s"][used], -fix["pos_d_m"][used], ".", ms=3, label="GPS")
     ax[0, 0].plot(t, -tr["pos_d_m"], lw=1.2, label="fit")
     ax[0, 0].set_ylabel("height above ground, m")
-    ax[0, 1].plot(fix["time_s"][used], fix["vel_d_measured"][used], ".", ms=3, label="GPS")
+    ax[0, 1].plot(fix["time_s"][used], fix["vel_d_mps"][used], ".", ms=3, label="GPS")
     ax[0, 1].plot(t, tr["vel_d_mps"], lw=1.2, label="fit")
     ax[0, 1].set_ylabel("vertical speed (down), m/s")
     for k, comp in enumerate(("pos_d", "vel_d")):
         a = ax[1, k]
-        a.plot(res["time_s"], res[f"{comp}_constant"], ".", ms=3, color="C3", label="constant drag area")
-        a.plot(res["time_s"], res[f"{comp}_fit"], ".", ms=3, color="C0", label="fitted model")
+        a.plot(res["time_s"], res[f"{comp}_constant_z"], ".", ms=3, color="C3", label="constant drag area")
+        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=3, color="C0", label="fitted model")
         for s in (-3, 3):
             a.axhline(s, color="k", ls=":", lw=0.8)
         a.set_ylabel(f"{comp} residual / receiver sigma")
         a.set_yscale("symlog", linthresh=3)
     a = ax[2, 0]
     for comp, c in (("pos_n", "C0"), ("pos_e", "C1"), ("vel_n", "C2"), ("vel_e", "C4")):
-        a.plot(res["time_s"], res[f"{comp}_fit"], ".", ms=2, color=c, label=comp)
+        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=2, color=c, label=comp)
     a.axhline(3, color="k", ls=":", lw=0.8)
     a.axhline(-3, color="k", ls=":", lw=0.8)
     a.set_ylabel("horizontal residual / sigma (fit)")

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from casrecon.io.units import gps_residual_column, gps_sigma_column, imu_residual_column, imu_sigma_key
 from casrecon.report import figure_style as style
 from casrecon.report.results_folder import DropFolder, MissingInput
 
@@ -31,11 +32,10 @@ def residuals_imu_figure(drop: DropFolder) -> Figure:
     fig, axes = style.new_figure(3, 2, (13, 9))
     for k, ch in enumerate(IMU_CHANNELS):
         ax = axes[k % 3, k // 3]
-        gyro = ch.startswith("w")
-        scale, unit = (np.degrees(1.0), "deg/s") if gyro else (1.0, "m/s^2")
-        r = res[f"{ch}_residual"] * scale
+        unit = "deg/s" if ch.startswith("w") else "m/s^2"
+        r = res[imu_residual_column(ch)]
         used = res.get(f"{ch}_used", np.ones_like(r)) > 0.5
-        sig = float(sigma[ch]) * scale if ch in sigma else None
+        sig = float(sigma[imu_sigma_key(ch)]) if imu_sigma_key(ch) in sigma else None
         lim = _residual_limit(r[used], sig)
         ax.plot(t[used], r[used], ".", ms=1.5, color="C0", alpha=0.6,
                 label=f"used in the fit ({used.sum()})")
@@ -78,9 +78,9 @@ def residuals_gps_figure(drop: DropFolder) -> Figure:
     for k, ch in enumerate(GPS_CHANNELS):
         ax = axes[k % 3, k // 3]
         unit = "m" if ch.startswith("pos") else "m/s"
-        ax.plot(t, res[f"{ch}_residual"], "o", ms=3, color="C0", label="residual")
-        if f"{ch}_sigma" in res:
-            style.sigma_lines(ax, t, res[f"{ch}_sigma"])
+        ax.plot(t, res[gps_residual_column(ch)], "o", ms=3, color="C0", label="residual")
+        if gps_sigma_column(ch) in res:
+            style.sigma_lines(ax, t, res[gps_sigma_column(ch)])
         ax.set_ylabel(f"{ch} residual, {unit}")
         ax.legend(fontsize=7, loc="upper right")
     for ax in axes[-1]:

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.io.units import TEXT_COLUMNS
+
 #: Files without which a folder is not a per-drop results folder.
 REQUIRED_FILES = ("summary.json", "trajectory.csv")
 
@@ -16,17 +18,20 @@ class MissingInput(Exception):
 
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
-    """Columns of a CSV file with a one-line header, as float arrays keyed by header name."""
+    """Numeric columns of a CSV file with a one-line header, as float arrays keyed by header name
+    (text columns such as ``utc`` are left out; the numbers hold the same time as ``time_unix_s``)."""
     if not path.is_file():
         raise MissingInput(f"{path.name} not found in {path.parent}")
     with path.open() as f:
-        names = [n.strip() for n in f.readline().strip().split(",")]
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+        header = [n.strip() for n in f.readline().strip().split(",")]
+        first = f.readline().strip()
+    if first and len(first.split(",")) != len(header):
+        raise ValueError(f"{path}: {len(first.split(','))} columns but {len(header)} header names")
+    keep = [k for k, name in enumerate(header) if name not in TEXT_COLUMNS]
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, usecols=keep)
     if data.shape[0] == 0:
-        data = np.zeros((0, len(names)))
-    if data.shape[1] != len(names):
-        raise ValueError(f"{path}: {data.shape[1]} columns but {len(names)} header names")
-    return {name: data[:, k] for k, name in enumerate(names)}
+        data = np.zeros((0, len(keep)))
+    return {header[k]: data[:, j] for j, k in enumerate(keep)}
 
 
 def read_json(path: Path) -> dict:

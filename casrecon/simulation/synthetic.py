@@ -15,7 +15,9 @@ What is made, and the simplifications kept (documented for whoever fits it):
   values per axis (north and east from hAcc, down from vAcc, each velocity component from sAcc).
   The first fixes are a cold start (accuracies from tens of metres down to nominal), and fixes
   after impact are poor (a receiver on its side in the dirt: accuracies growing, numSV falling).
-- **truth.json**: every parameter the estimator may estimate, by the names it uses.
+- **truth.json**: every parameter the estimator may estimate, by the names it uses, in the units
+  of the results' ``parameters.json`` (gyro biases in deg/s, as ``[truth] gyro_bias_dps``), each
+  named in ``units``.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import pymap3d
 from casrecon.io.baro import write_baro_csv
 from casrecon.io.flysight import GpsTrack, write_flysight1
 from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, write_imu_csv
+from casrecon.io.units import output_unit
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.physics.rotations import dcm_body_to_ned
@@ -213,6 +216,22 @@ def _accuracies(gps, t: np.ndarray, t_impact: float, rng: np.random.Generator):
     return np.round(h_acc, 3), np.round(v_acc, 3), np.round(s_acc, 3), num_sv.astype(np.int64)
 
 
+#: SI unit of each truth parameter that is not a normalised aero factor (those are "-").
+TRUTH_UNITS = {"wind_bias_n": "m/s", "wind_bias_e": "m/s", "density_factor": "-", "clock_offset_s": "s",
+               "downwash_mps": "m/s", "baro_bias_pa": "Pa", "baro_qbar_coef": "-",
+               **{f"accel_bias_{a}": "m/s^2" for a in "xyz"}, **{f"gyro_bias_{a}": "rad/s" for a in "xyz"}}
+
+
+def truth_document_parameters(values: dict[str, float]) -> tuple[dict[str, float], dict[str, str]]:
+    """The truth parameters (SI, :func:`truth_parameters_by_name`) in their output units
+    (:func:`~casrecon.io.units.output_unit`: gyro biases in deg/s) and those units, by name."""
+    out, units = {}, {}
+    for name, value in values.items():
+        units[name], factor = output_unit(TRUTH_UNITS.get(name, "-"))
+        out[name] = value * factor
+    return out, units
+
+
 def truth_parameters_by_name(scenario: Scenario) -> dict[str, float]:
     """Every estimable parameter's true value, by the estimator's names (SI units)."""
     truth = scenario.config.truth
@@ -239,8 +258,8 @@ def make_synthetic(scenario: Scenario, seed: int | None = None) -> SyntheticData
     traj, t_zero = simulate_truth(scenario, seed)
     imu_t, accel, gyro = _noisy_imu(scenario, traj, t_zero, rng)
     gps = _gps_track(scenario, traj, rng)
-    truth = {"problem": cfg.name, "seed": seed,
-             "parameters": truth_parameters_by_name(scenario),
+    parameters, units = truth_document_parameters(truth_parameters_by_name(scenario))
+    truth = {"problem": cfg.name, "seed": seed, "parameters": parameters, "units": units,
              "release_imu_time_s": t_zero, "release_utc": cfg.release.time_utc.isoformat(),
              "summary": traj.summary()}
     baro = _baro_samples(scenario, traj, seed) if cfg.baro is not None else (None, None)

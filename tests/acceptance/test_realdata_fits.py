@@ -23,7 +23,6 @@ absolute ceiling (< 15), and does not claim chi2 ~ 1 on real data.
 from __future__ import annotations
 
 import contextlib
-import csv
 import io
 import json
 from pathlib import Path
@@ -32,6 +31,7 @@ import numpy as np
 import pytest
 
 from casrecon.cli import main
+from casrecon.report.results_folder import read_csv
 
 REPO = Path(__file__).resolve().parents[2]
 PROBLEMS = REPO / "problems"
@@ -78,19 +78,16 @@ def test_fit_converges_and_writes_the_folder(fitted):
 
 def test_trajectory_has_drag_area_with_three_sigma(fitted):
     name, out, _, _ = fitted
-    with open(out / "trajectory.csv") as fh:
-        header = next(csv.reader(fh))
-    data = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1)
-    col = {c: data[:, i] for i, c in enumerate(header)}
+    col = read_csv(out / "trajectory.csv")  # the numeric columns (not the ISO 8601 utc text)
     for c in ("cda_m2", "cda_m2_3sigma", "lift_n_m2", "lift_n_m2_3sigma", "lift_e_m2", "lift_e_m2_3sigma",
-              "pos_d_m", "pos_d_m_3sigma", "vel_d_mps", "h_msl_m"):
+              "pos_d_m", "pos_d_m_3sigma", "vel_d_mps", "h_msl_m", "latitude_deg", "longitude_deg"):
         assert c in col, c
-    assert np.all(np.isfinite(data))
+    assert all(np.all(np.isfinite(v)) for v in col.values())
     assert np.all(col["cda_m2_3sigma"] > 0) and np.all(col["pos_d_m_3sigma"] > 0)
     assert col["cda_m2"].min() > -1e-6                     # B-spline coefficients >= 0
     # UTC times tie each row to its fix: one receiver period apart, spanning the summary's segment
     s = _summary(out)
-    t = col["time_utc_unix_s"]
+    t = col["time_unix_s"]
     assert t[0] == pytest.approx(s["segment_utc_unix_s"][0], abs=1e-3)
     assert t[-1] == pytest.approx(s["segment_utc_unix_s"][1], abs=1e-3)
     period = np.median(np.diff(t))
@@ -120,17 +117,17 @@ def test_constant_drag_model_leaves_structure(fitted):
     s = _summary(out)
     fit, const = s["fit"], s["constant_drag"]
     ratio = const["reduced_chi2"] / fit["reduced_chi2"]
-    vd = const["residuals"]["vel_d"]
+    vd = const["normalised_residuals"]["vel_d"]
     print(f"{name}: reduced chi2 fitted {fit['reduced_chi2']:.2f}, constant {const['reduced_chi2']:.1f} "
           f"(x{ratio:.0f}); constant vel_d RMS {vd['rms']:.1f}, lag-1 {vd['lag1_autocorrelation']:.3f}; "
-          f"fitted vel_d RMS {fit['residuals']['vel_d']['rms']:.2f}")
+          f"fitted vel_d RMS {fit['normalised_residuals']['vel_d']['rms']:.2f}")
     assert ratio > 20
     assert fit["reduced_chi2"] < 15
     for comp in ("pos_d", "vel_d"):
-        r = const["residuals"][comp]
+        r = const["normalised_residuals"][comp]
         assert r["rms"] > 5 and r["lag1_autocorrelation"] > 0.9, (comp, r)
     # the fitted model removes most of it in every component
-    for comp, r in fit["residuals"].items():
-        assert r["rms"] < const["residuals"][comp]["rms"] / 4, comp
+    for comp, r in fit["normalised_residuals"].items():
+        assert r["rms"] < const["normalised_residuals"][comp]["rms"] / 4, comp
     # same segment and fixes for both models
     assert fit["n_measurements"]["gps"] == const["n_measurements"]["gps"]

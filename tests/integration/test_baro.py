@@ -66,10 +66,11 @@ def test_barometer_sharpens_the_clock_and_leaves_the_rest(fits):
 def test_residuals_file_is_written(products, tmp_path):
     write_diagnostics(tmp_path, products)
     header = (tmp_path / "residuals_baro.csv").read_text().splitlines()[0]
-    assert header == "time_imu_s,pressure_residual_pa,pressure_sigma_pa"
+    assert header == "time_imu_s,time_unix_s,pressure_residual_pa,pressure_sigma_pa"
 
 
 def test_api_result_has_one_residual_frame_per_kind(fits, products):
     result = DropFit.from_fit(fits[0], products, "")
     assert set(result.residuals) == {"imu", "gps", "baro"}
-    assert list(result.residuals["baro"].columns) == ["time_imu_s", "pressure_residual_pa", "pressure_sigma_pa"]
+    assert list(result.residuals["baro"].columns) == ["time_imu_s", "time_unix_s", "pressure_residual_pa",
+                                                      "pressure_sigma_pa"]

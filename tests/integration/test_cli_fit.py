@@ -5,6 +5,7 @@ import json
 from conftest import PROBLEMS
 
 from casrecon.cli import main
+from casrecon.io.units import unnamed_json_numbers
 
 
 def _with_estimation(problem_toml, text: str) -> None:
@@ -59,8 +60,11 @@ def test_bad_estimation_setting_is_a_located_error(problem_copy, tmp_path, capsy
 def test_sensitivity_fisher_names_the_weakest_combination(tmp_path, capsys):
     out = tmp_path / "fisher"
     assert main(["sensitivity", "fisher", str(PROBLEMS / "ees-drop-2"), "--out", str(out)]) == 0
-    directions = json.loads((out / "fisher.json").read_text())
+    doc = json.loads((out / "fisher.json").read_text())
+    directions = doc["directions"]
     weakest = directions[0]["weights"]
     # the balloon's density uncertainty scales every aero force alike: the least determined direction
     assert max(weakest, key=lambda n: abs(weakest[n])) == "density_factor"
-    assert directions[0]["sigma"] > 10 * directions[-1]["sigma"]
+    assert directions[0]["sigma_normalised"] > 10 * directions[-1]["sigma_normalised"]
+    # every number names its unit; the gyro biases' scales in deg/s, as the problem gives them
+    assert unnamed_json_numbers(doc) == [] and doc["scales"]["gyro_bias_x"]["unit"] == "deg/s"

@@ -100,7 +100,9 @@ def test_truth_parameter_names(drop1):
     assert set(p) == expected
     t = sc.config.truth
     assert p["CA_mult"] == 0.1641 and p["wind_bias_e"] == -0.6782 and p["clock_offset_s"] == -0.011
-    assert p["gyro_bias_y"] == pytest.approx(np.radians(0.1061))  # SI in the truth file
+    # the truth file keeps the problem's units: gyro biases in deg/s, as [truth] gyro_bias_dps gives them
+    assert p["gyro_bias_y"] == pytest.approx(0.1061) and data.truth["units"]["gyro_bias_y"] == "deg/s"
+    assert data.truth["units"]["accel_bias_z"] == "m/s^2" and data.truth["units"]["CA_mult"] == "-"
     assert p["accel_bias_z"] == t.accel_bias_mps2[2]
 
 

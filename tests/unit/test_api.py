@@ -13,7 +13,8 @@ import pytest
 from matplotlib.figure import Figure
 
 import casrecon
-from casrecon.output.fit_results import write_table
+from casrecon.io.units import IMU_CHANNEL_UNITS, imu_residual_column, imu_sigma_key, utc_text
+from casrecon.output.columns import write_table
 from casrecon.output.results import write_json
 
 NAMES = ("CA_mult", "Cmq_mult", "wind_bias_n")
@@ -32,17 +33,18 @@ def make_folder(folder: Path, n: int = 50) -> Path:
     rng = np.random.default_rng(0)
     t_imu = np.linspace(3.0, 13.0, n)
     ft = t_imu - 2.0
-    traj = {"time_imu_s": t_imu, "flight_time_s": ft}
+    t_unix = 1696347130.25 + ft
+    traj = {"time_imu_s": t_imu, "flight_time_s": ft, "time_unix_s": t_unix, "utc": utc_text(t_unix)}
     for name, values in (("h_agl_m", 400.0 - 35.0 * ft), ("vel_n_mps", 0 * ft), ("vel_e_mps", 0 * ft),
                          ("vel_d_mps", 35.0 + 0 * ft), ("alpha_t_deg", 10 + np.sin(ft)), ("qbar_pa", 700 + ft),
                          ("p_dps", np.cos(ft))):
         traj[name], traj[f"{name}_3sigma"] = values, 0.01 + 0.001 * ft
     write_table(folder / "trajectory.csv", traj)
     imu = {"time_imu_s": t_imu}
-    imu.update({f"{c}_residual": rng.normal(0, 0.01, n) for c in ("ax", "ay", "az", "wx", "wy", "wz")})
-    imu.update({f"{c}_used": np.ones(n) for c in ("ax", "ay", "az", "wx", "wy", "wz")})
+    imu.update({imu_residual_column(c): rng.normal(0, 0.01, n) for c in IMU_CHANNEL_UNITS})
+    imu.update({f"{c}_used": np.ones(n) for c in IMU_CHANNEL_UNITS})
     write_table(folder / "residuals_imu.csv", imu)
-    write_json(folder / "imu_sigma.json", {c: 0.01 for c in ("ax", "ay", "az", "wx", "wy", "wz")})
+    write_json(folder / "imu_sigma.json", {imu_sigma_key(c): 0.01 for c in IMU_CHANNEL_UNITS})
     sigma = rng.uniform(0.01, 0.1, len(NAMES))
     red = 1.0371
     write_json(folder / "parameters.json", {
@@ -81,7 +83,7 @@ def test_parameter_records(loaded):
     assert loaded.converged and loaded.reduced_chi2 == 1.0371 and loaded.chi2 == {"imu": 100.0, "gps": 20.0}
     assert loaded.report() == "[[Fit: synthetic]]"
     assert repr(loaded).startswith("<DropFit 'synthetic': converged") and len(repr(loaded)) < 200
-    assert set(loaded.residuals) == {"imu"} and "ax_residual" in loaded.residuals["imu"]
+    assert set(loaded.residuals) == {"imu"} and "ax_residual_mps2" in loaded.residuals["imu"]
 
 
 def test_sample_interpolates_values_and_3sigma(loaded):
@@ -94,6 +96,21 @@ def test_sample_interpolates_values_and_3sigma(loaded):
     np.testing.assert_array_equal(out["alpha_t_deg"], np.interp(t, tr["flight_time_s"], tr["alpha_t_deg"]))
     imu = loaded.sample("qbar_pa", 5.0, time="time_imu_s")
     np.testing.assert_allclose(imu["qbar_pa"], 703.0, rtol=1e-8)
+    utc = loaded.sample("qbar_pa", 1696347130.25 + 3.0, time="time_unix_s")
+    np.testing.assert_allclose(utc["qbar_pa"], 703.0, rtol=1e-8)
+
+
+def test_utc_column_reads_as_timestamps(loaded):
+    import pandas as pd
+
+    tr = loaded.trajectory
+    assert isinstance(tr["utc"].dtype, pd.DatetimeTZDtype) and str(tr["utc"].dt.tz) == "UTC"
+    # the ISO text and the Unix seconds name the same instants (to the microsecond they are written in)
+    seconds = (tr["utc"] - pd.Timestamp("1970-01-01", tz="UTC")).dt.total_seconds().to_numpy()
+    np.testing.assert_allclose(seconds, tr["time_unix_s"].to_numpy(), rtol=0, atol=1e-6)
+    assert "utc" not in loaded.columns and "time_unix_s" not in loaded.columns
+    again = pd.read_csv(loaded.source / "trajectory.csv", parse_dates=["utc"])
+    assert again["utc"].iloc[0] == tr["utc"].iloc[0]
 
 
 def test_sample_errors_name_what_is_available(loaded):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
+from casrecon.io.units import gps_residual_column, gps_sigma_column, imu_residual_column, imu_sigma_key
 from casrecon.report import figure_style
 from casrecon.report.plots import draw_figures
 
@@ -55,18 +56,18 @@ def make_drop_folder(folder: Path, name: str = "synthetic-drop", n: int = 200) -
         "time_imu_s": tg, "pos_n_m": 0 * tg, "pos_e_m": 0 * tg, "pos_d_m": -(400 - 35 * (tg - 2)),
         "vel_n_mps": 0 * tg, "vel_e_mps": 0 * tg, "vel_d_mps": 35 + rng.normal(0, 0.2, tg.size)})
     gps = {"time_imu_s": tg}
-    gps.update({f"{c}_residual": rng.normal(0, 1, tg.size) for c in
+    gps.update({gps_residual_column(c): rng.normal(0, 1, tg.size) for c in
                 ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")})
-    gps.update({f"{c}_sigma": np.full(tg.size, 1.5) for c in
+    gps.update({gps_sigma_column(c): np.full(tg.size, 1.5) for c in
                 ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")})
     _write_csv(folder / "residuals_gps.csv", gps)
     imu = {"time_imu_s": t_imu}
     chans = ("ax", "ay", "az", "wx", "wy", "wz")
-    imu.update({f"{c}_residual": rng.normal(0, 0.05 if c[0] == "a" else 0.002, n) for c in chans})
+    imu.update({imu_residual_column(c): rng.normal(0, 0.05 if c[0] == "a" else 0.1, n) for c in chans})
     imu.update({f"{c}_used": (np.arange(n) > 5).astype(float) for c in chans})
     _write_csv(folder / "residuals_imu.csv", imu)
     (folder / "imu_sigma.json").write_text(json.dumps(
-        {c: 0.05 if c[0] == "a" else 0.00175 for c in chans}))
+        {imu_sigma_key(c): 0.05 if c[0] == "a" else 0.1 for c in chans}))
     _write_csv(folder / "pitching_moment.csv", {
         "time_imu_s": t_imu, "alpha_deg": alpha, "qbar_pa": values["qbar_pa"],
         "cm_recon": -0.002 * alpha + rng.normal(0, 1e-3, n)})

@@ -25,7 +25,7 @@ import numpy as np
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
 from casrecon.estimation.fitdata import FitData, FitDataError
 from casrecon.estimation.kinds.base import DropContext
-from casrecon.estimation.kinds.gps import CLOCK
+from casrecon.estimation.kinds.gps import CLOCK, clock_offset
 from casrecon.estimation.layout import BlockLocals
 from casrecon.estimation.parameters import ParameterSpec
 from casrecon.estimation.transcription import disturbance_selection, hermite
@@ -121,6 +121,6 @@ class BaroKind:
         whitened = result.residuals[result.nlp.groups[result.group(self.name)]]
         clock = 0.0
         if samples.receiver_clock:
-            clock = result.parameter(CLOCK)[0] if CLOCK in result.params.names else result.part.guess_clock_s
+            clock = clock_offset(result)
         return {"time_imu_s": samples.time_s - clock, "pressure_residual_pa": whitened * samples.noise_pa,
                 "pressure_sigma_pa": np.full(samples.time_s.size, samples.noise_pa)}

@@ -53,7 +53,15 @@ class GpsKind:
 
     def residuals(self, result) -> dict[str, np.ndarray]:
         """GPS antenna position/velocity residuals (NED, SI) at every fix used, with the fix sigmas."""
-        data, layout = result.data, result.part
+        data = result.data
         whitened = result.residuals[result.nlp.groups[result.group(self.name)]].reshape(-1, 6)
-        clock = result.parameter(CLOCK)[0] if CLOCK in result.params.names else layout.guess_clock_s
-        return {"time_imu_s": data.gps_time_s - clock, "residual": whitened * data.gps_sigma, "sigma": data.gps_sigma}
+        return {"time_imu_s": data.gps_time_s - clock_offset(result), "residual": whitened * data.gps_sigma,
+                "sigma": data.gps_sigma}
+
+
+def clock_offset(result) -> float:
+    """The IMU-to-GPS clock offset (s) of a fit: its estimate, or the guess it was held at. A fix
+    stamped UTC u happened at IMU time u - utc_at_zero - offset."""
+    if CLOCK in result.params.names:
+        return result.parameter(CLOCK)[0]
+    return float(result.part.guess_clock_s)

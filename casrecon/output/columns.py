@@ -1,0 +1,26 @@
+"""CSV tables of named columns with units in their names (:mod:`casrecon.io.units`): numbers to 9
+significant digits (Unix times to the microsecond), text columns (``utc``) as they are."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.io.units import column_format
+
+
+def column_cells(name: str, values) -> np.ndarray:
+    """The CSV cells of one column: text as it is, numbers in :func:`~casrecon.io.units.column_format`."""
+    v = np.asarray(values)
+    if v.dtype.kind in "US":
+        return v.astype(str)
+    return np.char.mod(column_format(name), v.astype(float))
+
+
+def write_table(path: str | Path, columns: dict[str, np.ndarray], every: int = 1) -> None:
+    """Write named columns (1-D arrays of one length, numbers or text) as CSV with a header row,
+    keeping every ``every``-th row."""
+    cells = [column_cells(name, np.asarray(values)[::every]) for name, values in columns.items()]
+    lines = [",".join(columns)] + [",".join(row) for row in zip(*cells)]
+    Path(path).write_text("\n".join(lines) + "\n")
