@@ -326,7 +326,8 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
         reasons.append(f"{c.name} reduced chi-square {c.reduced_chi2:.3g} {side} "
                        f"[{c.chi2_interval[0]:.3g}, {c.chi2_interval[1]:.3g}]")
     if off:
-        line.append("reduced chi-square outside its interval: " + _some([f"{c.name} {c.reduced_chi2:.3g}" for c in off]))
+        line.append("reduced chi-square outside its interval: "
+                    + _some([f"{c.name} {c.reduced_chi2:.3g}" for c in off]))
     far = [d for d in deviations if abs(d.z) > z_limit]
     reasons += [f"{d.name} {d.z:+.1f} sigma from its prior" for d in far]
     if far:

@@ -3,6 +3,8 @@ GPS-only point-mass fit: their residual channels, priors and ground check."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
@@ -56,32 +58,38 @@ def impact_check(result) -> tuple[GroundCheck | None, tuple[str, ...]]:
     return GroundCheck("impact", at_impact, limit, text), ()
 
 
-def drop_channels(imu: dict, imu_sigma: dict, gps: dict, others: dict) -> dict[str, np.ndarray]:
-    """Normalised residual series per channel from the columns of
-    :class:`~casrecon.analysis.fit_products.FitProducts` (IMU samples where used; GPS fixes; the
-    barometer)."""
+def drop_channels(imu: dict, gps: dict, others: dict) -> dict[str, np.ndarray]:
+    """Normalised residual series per channel: IMU samples where used, GPS fixes, the barometer.
+
+    Parameters
+    ----------
+    imu, gps : dict
+        :func:`casrecon.estimation.diagnostics.imu_residuals` (``residual`` (N, 6), ``valid``,
+        ``sigma`` (6,)) and :func:`~casrecon.estimation.diagnostics.gps_residuals` (``residual`` and
+        ``sigma``, (M, 6)), SI.
+    others : dict of str to dict
+        Other kinds' residual columns (``"baro"``: ``pressure_residual_pa``, ``pressure_sigma_pa``).
+    """
     channels = {}
-    for c, name in IMU_NAMES.items():
-        used = np.asarray(imu[f"{c}_used"]) > 0
-        channels[name] = np.asarray(imu[f"{c}_residual"])[used] / imu_sigma[c]
-    for c, name in GPS_NAMES.items():
-        channels[name] = np.asarray(gps[f"{c}_residual"]) / np.asarray(gps[f"{c}_sigma"])
+    for k, name in enumerate(IMU_NAMES.values()):
+        used = np.asarray(imu["valid"][:, k], dtype=bool)
+        channels[name] = np.asarray(imu["residual"][:, k])[used] / float(imu["sigma"][k])
+    for k, name in enumerate(GPS_NAMES.values()):
+        channels[name] = np.asarray(gps["residual"][:, k]) / np.asarray(gps["sigma"][:, k])
     baro = others.get("baro")
     if baro is not None:
         channels["baro"] = np.asarray(baro["pressure_residual_pa"]) / np.asarray(baro["pressure_sigma_pa"])
     return channels
 
 
-def drop_adequacy(result, imu: dict, imu_sigma: dict, gps: dict, others: dict,
-                  alpha: float = FAMILY_ALPHA) -> Adequacy:
-    """Verdict of a 6-DOF fit (its part of a joint fit).
+def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAMILY_ALPHA) -> Adequacy:
+    """Verdict of a 6-DOF fit (or of one drop's part of a joint fit).
 
     Parameters
     ----------
     result : casrecon.estimation.fit.FitResult
-    imu, imu_sigma, gps, others : dict
-        ``imu_residuals``, ``imu_sigma``, ``gps_residuals`` and ``kind_residuals`` of its
-        :class:`~casrecon.analysis.fit_products.FitProducts`.
+    imu, gps, others : dict
+        Its residuals, as :func:`drop_channels` takes them.
     alpha : float
         Family-wise level.
     """
@@ -90,8 +98,7 @@ def drop_adequacy(result, imu: dict, imu_sigma: dict, gps: dict, others: dict,
     ground, notes = impact_check(result)
     if result.part.n_u:
         notes += ("the Gauss-Markov priors of the disturbance states are not tested",)
-    return assess(drop_channels(imu, imu_sigma, gps, others), names, values, prior_sigma, post, units, ground,
-                  alpha, notes)
+    return assess(drop_channels(imu, gps, others), names, values, prior_sigma, post, units, ground, alpha, notes)
 
 
 def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
@@ -113,3 +120,47 @@ def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
                          f"(3-sigma {3 * result.state_sigma[k, 2]:.1f} m + {GROUND_TOLERANCE_M:g} m)")
     notes = ("the drag-area smoothness prior is not tested",) if len(names) < len(specs) else ()
     return assess(channels, names, values, prior_sigma, post, units, ground, alpha, notes)
+
+
+@dataclass(frozen=True)
+class JointAdequacy:
+    """The verdict of a joint fit: each drop's own (:class:`Adequacy`, each at the family-wise
+    :data:`FAMILY_ALPHA`), trusted only when every drop's is.
+
+    Attributes
+    ----------
+    trusted : bool
+    line : str
+        One line naming each drop whose bands are not to be trusted, with its reasons.
+    drops : tuple of (str, Adequacy)
+        Drop name and verdict, in the joint fit's order.
+    """
+
+    trusted: bool
+    line: str
+    drops: tuple[tuple[str, Adequacy], ...]
+
+    def drop(self, name: str) -> Adequacy:
+        """The verdict of drop ``name``."""
+        return dict(self.drops)[name]
+
+    def to_dict(self) -> dict:
+        """JSON-ready content (joint ``summary.json`` ``adequacy``)."""
+        return {"trusted": self.trusted, "line": self.line, "drops": {n: a.to_dict() for n, a in self.drops}}
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> JointAdequacy:
+        return cls(bool(doc["trusted"]), str(doc["line"]),
+                   tuple((n, Adequacy.from_dict(a)) for n, a in doc["drops"].items()))
+
+
+def joint_adequacy(per_drop: dict[str, Adequacy]) -> JointAdequacy:
+    """:class:`JointAdequacy` of the drops' verdicts (drop name -> :class:`Adequacy`)."""
+    bad = [(n, a) for n, a in per_drop.items() if not a.trusted]
+    if not bad:
+        line = (f"bands can be trusted: every drop's tests passed ({len(per_drop)} drops, each at a family-wise "
+                f"{100 * FAMILY_ALPHA:g} %)")
+    else:
+        line = "bands NOT to be trusted: " + "; ".join(
+            f"{n}: {a.line.removeprefix('bands NOT to be trusted: ')}" for n, a in bad)
+    return JointAdequacy(not bad, line, tuple(per_drop.items()))

@@ -1,6 +1,7 @@
 """The results folder of a joint fit: global parameters and correlations, a Table 5, per-drop
-summary and a sigma comparison with single-drop fits at the top (:mod:`casrecon.report.joint_tables`);
-one per-drop results folder (the same files as a per-drop fit) under ``drops/<name>/``."""
+summary, the model-adequacy verdict and a sigma comparison with single-drop fits at the top
+(:mod:`casrecon.report.joint_tables`); one per-drop results folder (the same files as a per-drop
+fit) under ``drops/<name>/``."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.analysis.fit_adequacy import joint_adequacy
 from casrecon.output.fit_results import write_fit_results
 from casrecon.output.results import write_json
 from casrecon.report.fit_report import fit_report
@@ -45,8 +47,10 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
         name = d.scenario.config.name
         sub = out / "drops" / name
         sub.mkdir(parents=True)
-        write_fit_results(sub, d, products[name], fit_report(d), drop_tables(d, products[name]))
+        write_fit_results(sub, d, products[name], fit_report(d, products[name].adequacy),
+                          drop_tables(d, products[name]))
         reconciled[name] = products[name].reconciled_summary
+    adequacy = joint_adequacy({n: p.adequacy for n, p in products.items() if p.adequacy is not None})
     write_json(out / "parameters.json", joint_parameters_document(result))
     write_json(out / "summary.json", {
         "name": result.config.name, "converged": True, "status": result.status, "iterations": result.iterations,
@@ -54,5 +58,5 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
         "chi2": result.chi2, "dof": result.dof, "reduced_chi2": result.reduced_chi2, "timings": result.timings,
         **{k: result.timings[k] for k in ("build_s", "solve_s", "covariance_s", "total_s")},
         "chi2_per_drop": {d.scenario.config.name: d.chi2 for d in result.drops},
-        "single_drop_sigma": single, "reconciled": reconciled})
-    (out / "tables.md").write_text(joint_tables(result, single, reconciled))
+        "single_drop_sigma": single, "adequacy": adequacy.to_dict(), "reconciled": reconciled})
+    (out / "tables.md").write_text(joint_tables(result, single, reconciled, adequacy))
