@@ -292,8 +292,8 @@ class Adequacy:
 HINTS = {
     "gps_correlated": "real GPS errors are time-correlated (FlySight: lag-1 0.8 to 1.0) and the fit assumes white "
                       "noise, so its sigmas and bands are too narrow",
-    "prior": "an input (mass, aero database, IMU mounting, site) may be wrong: the fit moved parameters far to make "
-             "up for it",
+    "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
+             "moved parameters far to make up for it",
     "ground": "the site's ground altitude or the GPS height is wrong",
 }
 #: Items of one kind named in the verdict line before "+N more".
