@@ -65,7 +65,7 @@ def test_ground_altitude_300_m_low_is_flagged_by_the_impact_check(problem_copy, 
 
 def test_imu_mounted_1_deg_off_is_flagged_by_the_gyro_residuals(problem_copy):
     vehicle = problem_copy.parents[1] / "vehicles" / "ees-test-article.toml"
-    c, s = np.cos(np.radians(1.0)), np.sin(np.radians(1.0))
+    c, s = float(np.cos(np.radians(1.0))), float(np.sin(np.radians(1.0)))
     _edit(vehicle, "[imu]\n", f"[imu]\nto_native = [[{c!r}, 0.0, {s!r}], [0.0, 1.0, 0.0], [{-s!r}, 0.0, {c!r}]]\n")
     a = casrecon.fit(problem_copy.parent).adequacy
     assert not a.trusted
