@@ -161,9 +161,10 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
     if not hasattr(scenario, "model"):
         return _fit_point_mass(scenario, print_level)
     result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level)
-    report = fit_report(result)
+    products = fit_products(result)
+    report = fit_report(result, products.adequacy)
     result.timings["total_s"] = time.perf_counter() - t0
-    return DropFit.from_fit(result, fit_products(result), report)
+    return DropFit.from_fit(result, products, report)
 
 
 def _fit_point_mass(cfg: PointMassConfig, print_level: int) -> PointMassFit:

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from casrecon.analysis.adequacy import Adequacy
+from casrecon.analysis.fit_adequacy import drop_adequacy
 from casrecon.estimation import diagnostics as dg
 from casrecon.estimation.drop import MEASUREMENT_KINDS
 from casrecon.estimation.kinds.gps import clock_offset
@@ -68,6 +70,9 @@ class FitProducts:
     kind_residuals : dict of str to Columns
         Residual columns of every other measurement kind present (e.g. ``"baro"``), as the kind's
         ``residuals`` names them (units in the column names), with ``time_unix_s`` after ``time_imu_s``.
+    adequacy : Adequacy or None
+        The model-adequacy verdict (:mod:`casrecon.analysis.adequacy`) of these residuals and the
+        fit's priors.
     """
 
     imu_residuals: Columns
@@ -81,6 +86,7 @@ class FitProducts:
     summary: dict
     roll_rate: list[dict] | None = None
     kind_residuals: dict[str, Columns] = field(default_factory=dict)
+    adequacy: Adequacy | None = None
 
     @property
     def reconciled_summary(self) -> dict:
@@ -148,6 +154,7 @@ def fit_products(result) -> FitProducts:
     rec = dg.reconciled_simulation(result)
     nom = dg.reconciled_simulation(result, nominal=True)
     vanes = result.scenario.config.aero.vanes is not None
+    others = other_kind_residuals(result)
     return FitProducts(
         imu_residuals=imu_cols,
         imu_sigma={imu_sigma_key(c): float(sg * f) for c, sg, f in zip(dg.IMU_CHANNELS, imu["sigma"], factors)},
@@ -158,8 +165,15 @@ def fit_products(result) -> FitProducts:
         reconciled={k: rec[k] for k in SIMULATION_COLUMNS},
         nominal={k: nom[k] for k in SIMULATION_COLUMNS},
         summary={**rec["summary"], "nominal_database": nom["summary"]},
-        kind_residuals=other_kind_residuals(result),
-        roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None)
+        kind_residuals=others,
+        roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None,
+        adequacy=drop_adequacy(result, imu, gps, others))
+
+
+def result_adequacy(result) -> Adequacy:
+    """The model-adequacy verdict of a fit alone (its residuals, without the simulations of
+    :func:`fit_products`; the same verdict)."""
+    return drop_adequacy(result, dg.imu_residuals(result), dg.gps_residuals(result), other_kind_residuals(result))
 
 
 def other_kind_residuals(result) -> dict[str, Columns]:

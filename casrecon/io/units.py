@@ -41,7 +41,11 @@ UNIT_SUFFIXES = {"s": "s", "m": "m", "mps": "m/s", "mps2": "m/s^2", "deg": "deg"
 DIMENSIONLESS_NAMES = frozenset({
     "mach", "q0", "q1", "q2", "q3", "case", "index", "impacted", "used", "seed", "iterations", "objective",
     "condition", "dof", "chi2", "reduced_chi2", "nees", "nees_sum", "eigenvalue", "weights", "correlation",
-    "matrix", "workers", "chi2_95_interval"})
+    "matrix", "workers", "chi2_95_interval",
+    # the model-adequacy tests (summary.json "adequacy"): counts, autocorrelation, test statistics,
+    # probabilities and normalised limits
+    "n", "lags", "lag1", "ljung_box_q", "ljung_box_p", "p_value", "alpha", "per_test_alpha", "z", "z_limit",
+    "n_tests"})
 #: Dimensionless name endings.
 DIMENSIONLESS_SUFFIXES = ("_mult", "_add", "_coef", "_factor", "_used", "_z", "_ratio", "_autocorrelation", "_chi2")
 #: Dimensionless name beginnings.

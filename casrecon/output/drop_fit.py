@@ -13,11 +13,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from casrecon.analysis.adequacy import Adequacy
 from casrecon.io.errors import InputError
 from casrecon.io.units import TEXT_COLUMNS, TIME_UNIX, UTC
 from casrecon.output.fit_results import (
     parameters_document,
     product_tables,
+    products_summary,
     summary_document,
     trajectory_table,
     write_fit_results,
@@ -92,7 +94,8 @@ class DropFit:
         column name, gyros in deg/s) or use flags. A loaded result holds the files as written (9
         significant digits).
     summary : dict
-        ``summary.json``: convergence, chi-square per group, dof, timings (s), reconciled simulation.
+        ``summary.json``: convergence, chi-square per group, dof, timings (s), the model-adequacy
+        verdict (:attr:`adequacy`), reconciled simulation.
     report_text : str
         The text report (``report.txt``).
     tables : dict of str to pandas.DataFrame
@@ -127,8 +130,7 @@ class DropFit:
         import pandas as pd
 
         params_doc = json.loads(json.dumps(parameters_document(fit)))  # exactly what parameters.json holds
-        summary = json.loads(json.dumps({**summary_document(fit), "reconciled": products.reconciled_summary},
-                                        default=to_builtin))
+        summary = json.loads(json.dumps({**summary_document(fit), **products_summary(products)}, default=to_builtin))
         trajectory = with_timestamps(pd.DataFrame(trajectory_table(fit)))
         tables = {"trajectory.csv": trajectory}
         tables.update({k: pd.DataFrame({c: np.asarray(v, dtype=float) for c, v in t.items()})
@@ -187,6 +189,13 @@ class DropFit:
     def chi2(self) -> dict[str, float]:
         """Chi-square per residual group (``imu``, ``gps``, ``prior_aero``, ...), -."""
         return dict(self.summary.get("chi2", {}))
+
+    @property
+    def adequacy(self) -> Adequacy | None:
+        """The model-adequacy verdict (``summary.json`` ``adequacy``): ``.trusted``, ``.line``, per-channel
+        tests, parameters beyond 3 sigma of their prior, prior NEES, ground check; None for a folder
+        written before it existed."""
+        return adequacy_of(self.summary, self.source, Adequacy.from_dict)
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -291,6 +300,19 @@ def sample_frame(name: str, frame: pd.DataFrame, time_columns: Sequence[str], co
         if f"{n}_3sigma" in frame:
             out[f"{n}_3sigma"] = np.interp(t, grid, frame[f"{n}_3sigma"].to_numpy())
     return pd.DataFrame(out)
+
+
+def adequacy_of(summary: dict, source: Path | None, read):
+    """``summary["adequacy"]`` read by ``read`` (a ``from_dict``); None when absent; InputError naming
+    ``source/summary.json`` when malformed."""
+    doc = summary.get("adequacy")
+    if not doc:
+        return None
+    try:
+        return read(doc)
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        where = Path(source or ".") / "summary.json"
+        raise InputError(where, f"field 'adequacy': malformed ({type(err).__name__}: {err})") from None
 
 
 def _residuals_of(tables: dict[str, pd.DataFrame]) -> dict[str, pd.DataFrame]:

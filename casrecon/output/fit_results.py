@@ -3,10 +3,10 @@
 Every column and JSON key names its unit (:mod:`casrecon.io.units`; gyro quantities in deg/s).
 Files: ``trajectory.csv`` (time history with 3-sigma columns, UTC, latitude, longitude, h_MSL),
 ``parameters.json`` (values, 1- and 3-sigma absolute and chi-square-scaled, correlations),
-``summary.json`` (convergence,
-chi-square per group, timings, reconciled-simulation differences), ``tables.md`` (EES Tables 3,
-4, 5 style), ``report.txt`` (the console report), ``config/`` (the exact input files and the
-resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv`` (and
+``summary.json`` (convergence, chi-square per group, timings, the model-adequacy verdict,
+reconciled-simulation differences), ``tables.md`` (EES Tables 3, 4, 5 style), ``report.txt``
+(the console report), ``config/`` (the exact input files and the resolved settings), and for the
+figures: ``residuals_imu.csv``, ``residuals_gps.csv`` (and
 ``residuals_<kind>.csv`` of every other measurement kind, e.g. ``residuals_baro.csv``),
 ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv`` (forward simulation with the fitted
 dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``.
@@ -81,6 +81,13 @@ def summary_document(result) -> dict:
             "notes": list(result.notes)}
 
 
+def products_summary(products) -> dict:
+    """``summary.json`` entries from a fit's products: ``adequacy`` (the model-adequacy verdict,
+    :meth:`casrecon.analysis.adequacy.Adequacy.to_dict`) and ``reconciled``."""
+    out = {} if products.adequacy is None else {"adequacy": products.adequacy.to_dict()}
+    return {**out, "reconciled": products.reconciled_summary}
+
+
 def trajectory_table(result) -> dict[str, np.ndarray]:
     """``trajectory.csv`` columns: ``time_imu_s``, ``flight_time_s``, ``time_unix_s`` and ``utc`` (the
     GPS receiver's UTC, :func:`~casrecon.analysis.fit_products.unix_time`), the centre of mass's
@@ -142,7 +149,7 @@ def write_fit_results(out: Path, result, products, report_text: str, tables_md: 
     write_table(out / "trajectory.csv", trajectory_table(result))
     write_json(out / "parameters.json", parameters_document(result))
     write_diagnostics(out, products)
-    write_json(out / "summary.json", {**summary_document(result), "reconciled": products.reconciled_summary})
+    write_json(out / "summary.json", {**summary_document(result), **products_summary(products)})
     (out / "tables.md").write_text(tables_md)
     (out / "report.txt").write_text(report_text + "\n")
     cfg = result.scenario.config

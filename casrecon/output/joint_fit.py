@@ -11,8 +11,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from casrecon.analysis.fit_adequacy import JointAdequacy, joint_adequacy
 from casrecon.io.errors import InputError
-from casrecon.output.drop_fit import DropFit, read_document
+from casrecon.output.drop_fit import DropFit, adequacy_of, read_document
 from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.results import save_results_folder, to_builtin
@@ -41,7 +42,8 @@ class JointFit:
     summary : dict
         ``summary.json``: status, iterations, the joint chi-square, dof and reduced chi-square, each
         drop's own chi-square per group, dof and reduced chi-square, timings (s), single-drop sigmas
-        when computed (output units, named in ``units``), reconciled-simulation differences per drop.
+        when computed (output units, named in ``units``), the model-adequacy verdict
+        (:attr:`adequacy`), reconciled-simulation differences per drop.
     tables_md : str
         ``tables.md``: shared factors (Table 5 style), per-drop summary, joint vs single sigmas.
     fit : casrecon.estimation.joint.JointResult or None
@@ -72,13 +74,16 @@ class JointFit:
         from casrecon.report.joint_tables import joint_tables
 
         single = single or {}
-        drops = {d.scenario.config.name: DropFit.from_fit(d, products[d.scenario.config.name], fit_report(d))
+        drops = {d.scenario.config.name: DropFit.from_fit(d, products[d.scenario.config.name],
+                                                          fit_report(d, products[d.scenario.config.name].adequacy))
                  for d in result.drops}
         reconciled = {n: products[n].reconciled_summary for n in drops}
+        adequacy = joint_adequacy({n: p.adequacy for n, p in products.items() if p.adequacy is not None})
         doc = json.loads(json.dumps(joint_parameters_document(result)))
-        summary = json.loads(json.dumps(joint_summary_document(result, single, reconciled), default=to_builtin))
+        summary = json.loads(json.dumps(joint_summary_document(result, single, reconciled, adequacy),
+                                        default=to_builtin))
         return cls(name=result.config.name, params=from_document(doc), drops=drops, summary=summary,
-                   tables_md=joint_tables(result, single, reconciled), fit=result, products=products,
+                   tables_md=joint_tables(result, single, reconciled, adequacy), fit=result, products=products,
                    single=single)
 
     @classmethod
@@ -131,11 +136,20 @@ class JointFit:
         """Chi-square per drop and residual group (``{"ees-drop-1": {"imu": ..., "gps": ...}}``), -."""
         return {k: dict(v) for k, v in self.summary.get("chi2_per_drop", {}).items()}
 
+    @property
+    def adequacy(self) -> JointAdequacy | None:
+        """The model-adequacy verdict (``summary.json`` ``adequacy``): ``.trusted``, ``.line`` and each
+        drop's :class:`~casrecon.analysis.adequacy.Adequacy` (``.drop(name)``); None for an older folder."""
+        return adequacy_of(self.summary, self.source, JointAdequacy.from_dict)
+
     def report(self) -> str:
-        """Text report: the joint chi-square, then ``tables.md`` (shared factors, per-drop summary)."""
+        """Text report: the joint chi-square and the model-adequacy verdict, then ``tables.md`` (shared
+        factors, per-drop summary, each drop's verdict)."""
         head = (f"[[Joint fit: {self.name}]] {len(self.drops)} drops, shared {', '.join(self.shared) or 'none'}; "
                 f"chi-square {self.summary.get('chi2', float('nan')):.1f}, dof {self.summary.get('dof')}, "
                 f"reduced chi-square {self.reduced_chi2:.4f}")
+        if self.adequacy is not None:
+            head += f"\n    VERDICT: {self.adequacy.line}"
         return head + "\n\n" + self.tables_md.rstrip("\n")
 
     def __repr__(self) -> str:

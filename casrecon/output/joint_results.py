@@ -1,6 +1,7 @@
 """The results folder of a joint fit: global parameters and correlations, a Table 5, per-drop
-summary and a sigma comparison with single-drop fits at the top (:mod:`casrecon.report.joint_tables`);
-one per-drop results folder (the same files as a per-drop fit) under ``drops/<name>/``."""
+summary, the model-adequacy verdict and a sigma comparison with single-drop fits at the top
+(:mod:`casrecon.report.joint_tables`); one per-drop results folder (the same files as a per-drop
+fit) under ``drops/<name>/``."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.analysis.fit_adequacy import joint_adequacy
 from casrecon.io.units import output_unit
 from casrecon.output.fit_results import parameter_record, write_fit_results
 from casrecon.output.results import write_json
@@ -41,10 +43,12 @@ def joint_parameters_document(result) -> dict:
             "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix"}}
 
 
-def joint_summary_document(result, single: dict[str, dict[str, float]], reconciled: dict[str, dict]) -> dict:
+def joint_summary_document(result, single: dict[str, dict[str, float]], reconciled: dict[str, dict],
+                           adequacy=None) -> dict:
     """``summary.json`` of a joint fit: the joint chi-square over the joint dof (``reduced_chi2``),
     each drop's own chi-square per group, dof and reduced chi-square, the single-drop sigmas (each
-    parameter's output unit, named in ``units``) and the reconciled simulations."""
+    parameter's output unit, named in ``units``), the model-adequacy verdict (``adequacy``, a
+    :class:`~casrecon.analysis.adequacy.Adequacy` or None) and the reconciled simulations."""
     drops = {d.scenario.config.name: d for d in result.drops}
     units = {}
     for d in result.drops:
@@ -57,7 +61,8 @@ def joint_summary_document(result, single: dict[str, dict[str, float]], reconcil
             "chi2_per_drop": {n: dict(d.chi2) for n, d in drops.items()},
             "dof_per_drop": {n: int(d.dof) for n, d in drops.items()},
             "reduced_chi2_per_drop": {n: float(d.reduced_chi2) for n, d in drops.items()},
-            "single_drop_sigma": single, "units": units, "reconciled": reconciled}
+            "single_drop_sigma": single, "units": units,
+            **({} if adequacy is None else {"adequacy": adequacy.to_dict()}), "reconciled": reconciled}
 
 
 def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], products: dict) -> None:
@@ -80,8 +85,10 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
         name = d.scenario.config.name
         sub = out / "drops" / name
         sub.mkdir(parents=True)
-        write_fit_results(sub, d, products[name], fit_report(d), drop_tables(d, products[name]))
+        write_fit_results(sub, d, products[name], fit_report(d, products[name].adequacy),
+                          drop_tables(d, products[name]))
         reconciled[name] = products[name].reconciled_summary
+    adequacy = joint_adequacy({n: p.adequacy for n, p in products.items() if p.adequacy is not None})
     write_json(out / "parameters.json", joint_parameters_document(result))
-    write_json(out / "summary.json", joint_summary_document(result, single, reconciled))
-    (out / "tables.md").write_text(joint_tables(result, single, reconciled))
+    write_json(out / "summary.json", joint_summary_document(result, single, reconciled, adequacy))
+    (out / "tables.md").write_text(joint_tables(result, single, reconciled, adequacy))

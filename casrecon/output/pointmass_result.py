@@ -13,9 +13,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from casrecon.analysis.adequacy import Adequacy
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
-from casrecon.output.drop_fit import history_columns, read_document, read_frame, sample_frame
+from casrecon.output.drop_fit import adequacy_of, history_columns, read_document, read_frame, sample_frame
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.pointmass_results import write_pointmass_results
 from casrecon.output.results import save_results_folder
@@ -49,7 +50,8 @@ class PointMassFit:
         ``{"gps": ...}``: normalised residuals of the fitted and the constant-drag model
         (``<component>_fit_z``, ``<component>_constant_z``; -).
     summary : dict
-        ``summary.json``: the fit's and the constant model's convergence, chi-square, residual statistics.
+        ``summary.json``: the fit's and the constant model's convergence, chi-square, residual statistics,
+        the fitted model's model-adequacy verdict (:attr:`adequacy`).
     report_text : str
     fit, constant : PointMassResult or None
         The estimator's results (None when loaded).
@@ -113,6 +115,11 @@ class PointMassFit:
     def chi2(self) -> dict[str, float]:
         """Chi-square per residual group of the fitted model, -."""
         return dict((self.summary.get("fit") or {}).get("chi2", {}))
+
+    @property
+    def adequacy(self) -> Adequacy | None:
+        """The fitted model's model-adequacy verdict (``summary.json`` ``adequacy``); None for an older folder."""
+        return adequacy_of(self.summary, self.source, Adequacy.from_dict)
 
     @property
     def columns(self) -> tuple[str, ...]:

@@ -4,7 +4,8 @@ spline) next to the constant-drag model, so the residuals show what the constant
 Files: ``trajectory.csv`` (UTC, the antenna's latitude, longitude and h_MSL, NED position and
 velocity, drag area, each with 3-sigma), ``parameters.json``, ``summary.json`` (convergence,
 chi-square per group, normalised-residual RMS and lag-1 autocorrelation per component for both
-models, timings, segment notes), ``residuals_gps.csv`` (normalised residuals of both models, ``_z``),
+models, timings, segment notes, the fitted model's model-adequacy verdict), ``residuals_gps.csv``
+(normalised residuals of both models, ``_z``),
 ``gps_fixes.csv``, ``report.txt``, ``figures/``. Units in every name (:mod:`casrecon.io.units`).
 """
 
@@ -13,6 +14,8 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+from casrecon.analysis.adequacy import Adequacy
+from casrecon.analysis.fit_adequacy import pointmass_adequacy
 from casrecon.io.gps_rules import ned_to_geodetic
 from casrecon.io.units import GEODETIC, GPS_COMPONENT_UNITS, TIME_UNIX, UTC, utc_text
 from casrecon.output.columns import write_table
@@ -29,7 +32,7 @@ def _model_summary(r) -> dict:
             "timings": r.timings}
 
 
-def write_pointmass_results(out: Path, main, constant, report_text: str) -> None:
+def write_pointmass_results(out: Path, main, constant, report_text: str, adequacy: Adequacy | None = None) -> None:
     """Write the folder into ``out`` (an atomic temporary folder).
 
     Parameters
@@ -40,6 +43,9 @@ def write_pointmass_results(out: Path, main, constant, report_text: str) -> None
         The fitted model and the constant-drag model (the same object when the model is constant).
     report_text : str
         Written as ``report.txt`` (:func:`casrecon.report.pointmass_report.pointmass_report`).
+    adequacy : Adequacy, optional
+        The model-adequacy verdict of ``main`` for ``summary.json`` (``adequacy``); the
+        deterministic :func:`~casrecon.analysis.fit_adequacy.pointmass_adequacy` of ``main`` when None.
     """
     out = Path(out)
     t0 = main.t_unix[0]
@@ -65,7 +71,8 @@ def write_pointmass_results(out: Path, main, constant, report_text: str) -> None
         "problem": main.config.name, "kind": "point-mass", "converged": main.solver.converged,
         "fit": _model_summary(main), "constant_drag": _model_summary(constant),
         "segment_utc_unix_s": [float(main.t_unix[0]), float(main.t_unix[-1])], "notes": list(main.notes),
-        "mass_kg": main.config.mass_kg, "total_s": main.timings["total_s"] + constant.timings["total_s"]})
+        "mass_kg": main.config.mass_kg, "total_s": main.timings["total_s"] + constant.timings["total_s"],
+        "adequacy": (adequacy if adequacy is not None else pointmass_adequacy(main)).to_dict()})
     (out / "report.txt").write_text(report_text + "\n")
     config_dir = out / "config"
     config_dir.mkdir()

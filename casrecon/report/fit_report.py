@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from casrecon.analysis.adequacy import Adequacy, report_lines
+from casrecon.analysis.fit_products import result_adequacy
 from casrecon.io.units import output_unit
 from casrecon.physics.aero import DISPERSION_NAMES
 
@@ -41,8 +43,9 @@ def _correlation_lines(result) -> list[str]:
     return lines or ["    none above 0.5"]
 
 
-def fit_report(result) -> str:
-    """Multi-line text report of a :class:`~casrecon.estimation.fit.FitResult`."""
+def fit_report(result, adequacy: Adequacy | None = None) -> str:
+    """Multi-line text report of a :class:`~casrecon.estimation.fit.FitResult`, ending with its
+    model-adequacy verdict (``adequacy``, computed from the fit's residuals when not given)."""
     cfg, sol, d = result.scenario.config, result.solver, result.data
     chi2 = sum(result.chi2.values())
     t = result.timings
@@ -60,4 +63,5 @@ def fit_report(result) -> str:
              "[[Correlations]] (largest, |r| > 0.5)", *_correlation_lines(result)]
     if result.notes:
         lines += ["[[Data notes]]", *[f"    {n}" for n in result.notes]]
+    lines += report_lines(adequacy if adequacy is not None else result_adequacy(result))
     return "\n".join(lines)

@@ -1,5 +1,5 @@
-"""Markdown tables of a joint fit: the shared factors (EES Table 5 style), a per-drop summary, and
-the joint against the single-drop sigmas."""
+"""Markdown tables of a joint fit: the shared factors (EES Table 5 style), a per-drop summary, the
+model-adequacy verdict, and the joint against the single-drop sigmas."""
 
 from __future__ import annotations
 
@@ -52,10 +52,19 @@ def _sigma_comparison(result, single: dict[str, dict[str, float]]) -> list[str]:
     return lines
 
 
-def joint_tables(result, single: dict, reconciled: dict) -> str:
+def _adequacy(adequacy) -> list[str]:
+    if adequacy is None:
+        return []
+    lines = ["### Model adequacy", "", f"**{adequacy.line}**", "", "| drop | verdict |", "|---|---|"]
+    lines += [f"| {n} | {a.line} |" for n, a in adequacy.drops]
+    return lines + [""]
+
+
+def joint_tables(result, single: dict, reconciled: dict, adequacy=None) -> str:
     """``tables.md`` of a joint fit: ``single`` maps drop -> parameter -> single-drop 1-sigma (may be
-    empty), ``reconciled`` maps drop -> reconciled-simulation summary (s, m/s)."""
+    empty), ``reconciled`` maps drop -> reconciled-simulation summary (s, m/s), ``adequacy`` is the
+    :class:`~casrecon.analysis.fit_adequacy.JointAdequacy` verdict (its section left out when None)."""
     head = [f"# {result.config.name}: joint aero fit of {len(result.drops)} drops", "",
             f"{result.status} in {result.iterations} iterations; reduced chi-square {result.reduced_chi2:.4f}.", ""]
-    return "\n".join(head + _table5(result) + [""] + _per_drop(result, reconciled) + [""]
+    return "\n".join(head + _table5(result) + [""] + _per_drop(result, reconciled) + [""] + _adequacy(adequacy)
                      + _sigma_comparison(result, single)) + "\n"

@@ -1,12 +1,17 @@
-"""Text report of a GPS-only (point-mass) fit: both drag models' fit quality and the fitted parameters."""
+"""Text report of a GPS-only (point-mass) fit: both drag models' fit quality, the fitted parameters and
+the model-adequacy verdict."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from casrecon.analysis.adequacy import Adequacy, report_lines
+from casrecon.analysis.fit_adequacy import pointmass_adequacy
 
-def pointmass_report(main, constant) -> str:
-    """Text report: both models' fit quality and the main model's parameters."""
+
+def pointmass_report(main, constant, adequacy: Adequacy | None = None) -> str:
+    """Text report: both models' fit quality, the main model's parameters and its model-adequacy
+    verdict (``adequacy``, computed from ``main`` when not given)."""
     cfg = main.config
     lines = [f"[[GPS-only fit: {cfg.name}]] point mass {cfg.mass_kg:g} kg, atmosphere "
              f"{'ICAO standard (no wind)' if cfg.sounding is None else cfg.sounding.name}"]
@@ -24,4 +29,5 @@ def pointmass_report(main, constant) -> str:
     lines.append(f"    drag area CdA(t): {main.cda.min():.3f} to {main.cda.max():.3f} m^2 "
                  f"(median 3-sigma {3 * np.median(main.cda_sigma):.3g} m^2)")
     lines += ["[[Data notes]]", *[f"    {n}" for n in main.notes]]
+    lines += report_lines(adequacy if adequacy is not None else pointmass_adequacy(main))
     return "\n".join(lines)

@@ -131,3 +131,17 @@ def test_constant_drag_model_leaves_structure(fitted):
         assert r["rms"] < const["normalised_residuals"][comp]["rms"] / 4, comp
     # same segment and fixes for both models
     assert fit["n_measurements"]["gps"] == const["n_measurements"]["gps"]
+
+
+def test_verdict_flags_the_correlated_gps_errors(fitted):
+    """Real FlySight errors are correlated over seconds (lag-1 0.8 to 1.0): the verdict says the white-noise
+    bands are not to be trusted, and why, consistently with its own residual tests."""
+    name, out, _, stdout = fitted
+    a = _summary(out)["adequacy"]
+    correlated = [c for c in a["channels"] if c["ljung_box_p"] < a["per_test_alpha"]]
+    assert a["trusted"] is False and len(correlated) >= 4
+    assert all(c["lag1"] > 0.6 for c in correlated)
+    assert a["line"].startswith("bands NOT to be trusted: ") and "residuals correlated" in a["line"]
+    assert "real GPS errors are time-correlated" in a["line"]
+    assert f"VERDICT: {a['line']}" in stdout
+

@@ -35,6 +35,11 @@ def test_fit_writes_the_results_folder(problem_copy, tmp_path, capsys):
                 "alpha_t_deg", "qbar_pa", "mach"):
         assert col in header and f"{col}_3sigma" in header
     assert "Table 5" in (out / "tables.md").read_text()
+    # the model-adequacy verdict of an exact-model synthetic fit, in summary.json and report.txt
+    adequacy = summary["adequacy"]
+    assert adequacy["trusted"] is True and adequacy["line"].startswith("bands can be trusted")
+    assert [c["name"] for c in adequacy["channels"]][:3] == ["IMU accel x", "IMU accel y", "IMU accel z"]
+    assert f"VERDICT: {adequacy['line']}" in (out / "report.txt").read_text()
 
 
 def test_non_converged_fit_exits_nonzero_and_keeps_the_old_folder(problem_copy, tmp_path, capsys):

@@ -1,0 +1,427 @@
+"""Model-adequacy verdict: can a fit's 3-sigma bands be trusted? (pure numpy/scipy)
+
+A fit's sigmas are right only while its model is: white noise with the stated sigmas, the
+priors' Gaussians, the vehicle and site as given. After a fit that is tested, family-wise:
+
+- per residual channel (each IMU axis, each GPS component, the barometer), on the residuals
+  divided by their sigma: the reduced chi-square against its two-sided interval (chi-square with
+  n degrees of freedom over n), and whiteness by the Ljung-Box test over :func:`ljung_box_lags`
+  lags (Q = n (n + 2) sum_k rho_k^2 / (n - k) against chi-square(lags)), the lag-1
+  autocorrelation reported with it;
+- the priors: each parameter's z = (estimate - prior mean) / prior sigma (all priors are
+  zero-mean), and the NEES of the prior deviations u = D0^-1 theta_hat against chi-square. Under
+  the model u ~ N(0, S) with S = I - D0^-1 P D0^-1 (prior minus posterior covariance, in prior
+  units), so NEES = u^T S^+ u on the directions the data inform (eigenvalues of S above
+  :data:`INFORMED`), with as many degrees of freedom;
+- the ground: where the fit says the vehicle was at the detected impact (or lowest), against the
+  site's ground altitude (:class:`GroundCheck`, made by the caller).
+
+Every test runs at alpha / (number of tests) (Bonferroni, :data:`FAMILY_ALPHA` = 1 % in all), so
+a fit of an exact model is declared trusted with probability at least 99 % (the ground check is a
+tolerance, not a probability, and is not counted). Parameters beyond 3 sigma of their prior are
+always named; they fail the verdict beyond the family-wise limit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+from scipy import stats
+
+#: Family-wise false-alarm probability of the verdict on an exact model.
+FAMILY_ALPHA = 0.01
+#: Parameters at least this many prior sigmas from their prior mean are named in the report.
+NAMED_Z = 3.0
+#: Eigenvalues of S (share of a direction's prior variance the data remove) kept in the NEES.
+INFORMED = 0.1
+#: Most lags of the Ljung-Box test.
+MAX_LAGS = 10
+
+
+def lag1_autocorrelation(x: np.ndarray) -> float:
+    """Lag-1 autocorrelation of a series about its mean (NaN for fewer than 3 samples or a constant)."""
+    x = np.asarray(x, dtype=float)
+    if x.size < 3:
+        return float("nan")
+    d = x - x.mean()
+    den = float(d @ d)
+    return float(d[:-1] @ d[1:] / den) if den > 0 else float("nan")
+
+
+def ljung_box_lags(n: int) -> int:
+    """Lags of the Ljung-Box test for n samples: min(10, n // 5) (at least 1)."""
+    return max(1, min(MAX_LAGS, n // 5))
+
+
+def ljung_box(x: np.ndarray, lags: int) -> tuple[float, float]:
+    """Ljung-Box statistic Q = n (n + 2) sum_{k=1}^{lags} rho_k^2 / (n - k) of a series (about its
+    mean) and its p-value from chi-square(lags); white noise gives p uniform on [0, 1]."""
+    x = np.asarray(x, dtype=float)
+    n = x.size
+    d = x - x.mean()
+    den = float(d @ d)
+    if n <= lags + 1 or den <= 0:
+        return float("nan"), float("nan")
+    rho = np.array([d[:-k] @ d[k:] for k in range(1, lags + 1)]) / den
+    q = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, lags + 1))))
+    return q, float(stats.chi2.sf(q, lags))
+
+
+@dataclass(frozen=True)
+class ChannelTest:
+    """Whiteness and scale of one residual channel (residuals divided by their sigma).
+
+    Attributes
+    ----------
+    name : str
+        E.g. ``"IMU accel x"``, ``"GPS vel n"``, ``"baro"``.
+    n : int
+        Samples tested.
+    reduced_chi2 : float
+        Mean squared normalised residual, -.
+    chi2_interval : tuple of float
+        Its two-sided interval at the per-test level (chi-square(n) quantiles over n).
+    lag1 : float
+        Lag-1 autocorrelation, -.
+    lags : int
+        Lags of the Ljung-Box test.
+    ljung_box_q, ljung_box_p : float
+        Ljung-Box statistic and its p-value.
+    alpha : float
+        Per-test level.
+    """
+
+    name: str
+    n: int
+    reduced_chi2: float
+    chi2_interval: tuple[float, float]
+    lag1: float
+    lags: int
+    ljung_box_q: float
+    ljung_box_p: float
+    alpha: float
+
+    @property
+    def scale_ok(self) -> bool:
+        lo, hi = self.chi2_interval
+        return bool(lo <= self.reduced_chi2 <= hi) if self.n else True
+
+    @property
+    def white(self) -> bool:
+        return not (self.ljung_box_p < self.alpha)
+
+
+def channel_test(name: str, normalized: np.ndarray, alpha: float) -> ChannelTest:
+    """:class:`ChannelTest` of one channel's normalised residuals (NaN entries dropped) at level ``alpha``."""
+    r = np.asarray(normalized, dtype=float)
+    r = r[np.isfinite(r)]
+    n = int(r.size)
+    if n == 0:
+        return ChannelTest(name, 0, float("nan"), (float("nan"), float("nan")), float("nan"), 0,
+                           float("nan"), float("nan"), alpha)
+    lags = ljung_box_lags(n)
+    q, p = ljung_box(r, lags)
+    interval = (float(stats.chi2.ppf(alpha / 2, n) / n), float(stats.chi2.isf(alpha / 2, n) / n))
+    return ChannelTest(name, n, float(r @ r / n), interval, lag1_autocorrelation(r), lags, q, p, alpha)
+
+
+@dataclass(frozen=True)
+class PriorDeviation:
+    """A parameter's estimate against its zero-mean prior: z = value / prior_sigma."""
+
+    name: str
+    value: float
+    prior_sigma: float
+    z: float
+    unit: str = "-"
+
+
+@dataclass(frozen=True)
+class PriorNees:
+    """NEES of the prior deviations (see the module docstring).
+
+    Attributes
+    ----------
+    nees : float
+        u^T S^+ u on the informed directions, -.
+    dof : int
+        Informed directions (eigenvalues of S above :data:`INFORMED`).
+    interval : tuple of float
+        Two-sided chi-square(dof) interval at the per-test level.
+    p_value : float
+        Upper-tail probability of chi-square(dof) beyond ``nees``.
+    prior_chi2 : float
+        sum u_i^2, the prior residual groups' chi-square (expected below the number of priors).
+    n_priors : int
+    """
+
+    nees: float
+    dof: int
+    interval: tuple[float, float]
+    p_value: float
+    prior_chi2: float
+    n_priors: int
+
+    @property
+    def too_large(self) -> bool:
+        return bool(self.dof and self.nees > self.interval[1])
+
+
+def prior_nees(values: np.ndarray, prior_sigma: np.ndarray, posterior_cov: np.ndarray, alpha: float) -> PriorNees:
+    """:class:`PriorNees` of estimates with zero-mean priors ``prior_sigma`` and posterior covariance
+    ``posterior_cov`` (same units), at the per-test level ``alpha``."""
+    s0 = np.asarray(prior_sigma, dtype=float)
+    u = np.asarray(values, dtype=float) / s0
+    n = u.size
+    if n == 0:
+        return PriorNees(0.0, 0, (0.0, 0.0), 1.0, 0.0, 0)
+    s = np.eye(n) - np.asarray(posterior_cov, dtype=float) / np.outer(s0, s0)
+    lam, vec = np.linalg.eigh(0.5 * (s + s.T))
+    keep = lam > INFORMED
+    proj = vec[:, keep].T @ u
+    nees = float(np.sum(proj ** 2 / lam[keep]))
+    dof = int(keep.sum())
+    interval = (float(stats.chi2.ppf(alpha / 2, dof)), float(stats.chi2.isf(alpha / 2, dof))) if dof else (0.0, 0.0)
+    p = float(stats.chi2.sf(nees, dof)) if dof else 1.0
+    return PriorNees(nees, dof, interval, p, float(u @ u), n)
+
+
+@dataclass(frozen=True)
+class GroundCheck:
+    """Where the fit puts the vehicle against the site's ground.
+
+    Attributes
+    ----------
+    what : str
+        ``"impact"`` (height above ground at the detected impact) or ``"lowest"`` (lowest point of
+        a track that ends in the air).
+    h_agl_m : float
+        That height above the site's ground altitude, m.
+    limit_m : float
+        Largest magnitude accepted (``"impact"``) or deepest accepted below ground (``"lowest"``), m.
+    explanation : str
+        How ``h_agl_m`` and ``limit_m`` were obtained.
+    """
+
+    what: str
+    h_agl_m: float
+    limit_m: float
+    explanation: str
+
+    @property
+    def ok(self) -> bool:
+        if self.what == "impact":
+            return bool(abs(self.h_agl_m) <= self.limit_m)
+        return bool(self.h_agl_m >= -self.limit_m)
+
+
+def p_text(p: float) -> str:
+    """A p-value for a report line (``p<1e-10`` below 1e-10)."""
+    return "p<1e-10" if p < 1e-10 else f"p={p:.2g}"
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """The model-adequacy verdict of one fit (see the module docstring).
+
+    Attributes
+    ----------
+    trusted : bool
+        Whether every test passed.
+    line : str
+        One line: ``"bands can be trusted: ..."`` or ``"bands NOT to be trusted: <reasons>"``.
+    reasons : tuple of str
+        Each failed test, worst first within its kind.
+    channels : tuple of ChannelTest
+    deviations : tuple of PriorDeviation
+        Parameters at least :data:`NAMED_Z` prior sigmas from their prior mean.
+    z_limit : float
+        |z| beyond which a parameter fails the verdict (family-wise).
+    nees : PriorNees or None
+    ground : GroundCheck or None
+    alpha : float
+        Family-wise level.
+    n_tests : int
+        Tests it is shared among (2 per channel, the NEES, one per prior).
+    notes : tuple of str
+        What was not tested and why.
+    """
+
+    trusted: bool
+    line: str
+    reasons: tuple[str, ...]
+    channels: tuple[ChannelTest, ...]
+    deviations: tuple[PriorDeviation, ...]
+    z_limit: float
+    nees: PriorNees | None
+    ground: GroundCheck | None
+    alpha: float
+    n_tests: int
+    notes: tuple[str, ...] = field(default=())
+
+    def channel(self, name: str) -> ChannelTest:
+        """The test of channel ``name`` (KeyError listing the channels)."""
+        for c in self.channels:
+            if c.name == name:
+                return c
+        raise KeyError(f"no channel {name!r}; channels: {', '.join(c.name for c in self.channels)}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready content (``summary.json`` ``adequacy``); :meth:`from_dict` reads it back."""
+        doc = asdict(self)
+        doc["channels"] = [asdict(c) for c in self.channels]
+        doc["per_test_alpha"] = self.alpha / max(self.n_tests, 1)
+        return doc
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> Adequacy:
+        """Read :meth:`to_dict` content back."""
+        chans = tuple(ChannelTest(**{**c, "chi2_interval": tuple(c["chi2_interval"])}) for c in doc["channels"])
+        nees = doc.get("nees")
+        ground = doc.get("ground")
+        return cls(trusted=bool(doc["trusted"]), line=str(doc["line"]), reasons=tuple(doc["reasons"]),
+                   channels=chans, deviations=tuple(PriorDeviation(**d) for d in doc["deviations"]),
+                   z_limit=float(doc["z_limit"]),
+                   nees=PriorNees(**{**nees, "interval": tuple(nees["interval"])}) if nees else None,
+                   ground=GroundCheck(**ground) if ground else None, alpha=float(doc["alpha"]),
+                   n_tests=int(doc["n_tests"]), notes=tuple(doc.get("notes", ())))
+
+
+#: Why a kind of failure matters, appended once to the verdict line.
+HINTS = {
+    "gps_correlated": "real GPS errors are time-correlated (FlySight: lag-1 0.8 to 1.0) and the fit assumes white "
+                      "noise, so its sigmas and bands are too narrow",
+    "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
+             "moved parameters far to make up for it",
+    "ground": "the site's ground altitude or the GPS height is wrong",
+}
+#: Items of one kind named in the verdict line before "+N more".
+LINE_ITEMS = 3
+
+
+def _some(items: list[str]) -> str:
+    more = len(items) - LINE_ITEMS
+    return ", ".join(items[:LINE_ITEMS]) + (f", +{more} more" if more > 0 else "")
+
+
+def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], z_limit: float,
+              nees: PriorNees | None, ground: GroundCheck | None) -> tuple[list[str], list[str], set[str]]:
+    """Every failed test (``reasons``), the same condensed for the verdict line, and their kinds."""
+    reasons, line, kinds = [], [], set()
+    correlated = sorted((c for c in tests if not c.white), key=lambda c: (c.ljung_box_p, -abs(c.lag1)))
+    reasons += [f"{c.name} residuals correlated (lag-1 {c.lag1:.2f}, Ljung-Box {p_text(c.ljung_box_p)})"
+                for c in correlated]
+    if correlated:
+        lag1 = [c.lag1 for c in correlated]
+        worst_p = max(c.ljung_box_p for c in correlated)
+        lags = f"{lag1[0]:.2f}" if len(lag1) == 1 else f"{min(lag1):.2f} to {max(lag1):.2f}"
+        line.append(f"{_some([c.name for c in correlated])} residuals correlated (lag-1 {lags}, Ljung-Box "
+                    f"{p_text(worst_p) if len(lag1) == 1 or worst_p < 1e-10 else f'p<={worst_p:.2g}'})")
+        if all(c.name.startswith("GPS") for c in correlated):
+            kinds.add("gps_correlated")
+    off = sorted((c for c in tests if not c.scale_ok), key=lambda c: -abs(np.log(c.reduced_chi2)))
+    for c in off:
+        side = "above" if c.reduced_chi2 > c.chi2_interval[1] else "below"
+        reasons.append(f"{c.name} reduced chi-square {c.reduced_chi2:.3g} {side} "
+                       f"[{c.chi2_interval[0]:.3g}, {c.chi2_interval[1]:.3g}]")
+    if off:
+        line.append("reduced chi-square outside its interval: "
+                    + _some([f"{c.name} {c.reduced_chi2:.3g}" for c in off]))
+    far = [d for d in deviations if abs(d.z) > z_limit]
+    reasons += [f"{d.name} {d.z:+.1f} sigma from its prior" for d in far]
+    if far:
+        line.append(_some([f"{d.name} {d.z:+.1f}" for d in far]) + " sigma from the prior")
+        kinds.add("prior")
+    if nees is not None and nees.too_large:
+        text = f"prior NEES {nees.nees:.1f} above [{nees.interval[0]:.1f}, {nees.interval[1]:.1f}] ({nees.dof} dof)"
+        reasons.append(text)
+        line.append(text)
+        kinds.add("prior")
+    if ground is not None and not ground.ok:
+        where = "above" if ground.h_agl_m > 0 else "below"
+        text = (f"{'impact' if ground.what == 'impact' else 'track'} {abs(ground.h_agl_m):.0f} m {where} the site's "
+                f"ground (limit {ground.limit_m:.0f} m)")
+        reasons.append(text)
+        line.append(text)
+        kinds.add("ground")
+    return reasons, line, kinds
+
+
+def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.ndarray, prior_sigma: np.ndarray,
+           posterior_cov: np.ndarray, units: list[str] | None = None, ground: GroundCheck | None = None,
+           alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = ()) -> Adequacy:
+    """The verdict of one fit.
+
+    Parameters
+    ----------
+    channels : dict of str to ndarray
+        Channel name -> residuals divided by their sigma (NaN where there is no sample), in time order.
+    prior_names : list of str
+        Parameters with a (zero-mean) prior.
+    values, prior_sigma : ndarray
+        Their estimates and prior 1-sigma (same units each).
+    posterior_cov : ndarray
+        Their posterior covariance (same units).
+    units : list of str, optional
+        Their units, for the report.
+    ground : GroundCheck, optional
+    alpha : float
+        Family-wise level.
+    notes : tuple of str
+        Carried to :attr:`Adequacy.notes`.
+
+    Returns
+    -------
+    Adequacy
+    """
+    n_priors = len(prior_names)
+    n_tests = 2 * len(channels) + (1 if n_priors else 0) + n_priors
+    a = alpha / max(n_tests, 1)
+    tests = [channel_test(name, r, a) for name, r in channels.items()]
+    values, prior_sigma = np.asarray(values, dtype=float), np.asarray(prior_sigma, dtype=float)
+    z = values / prior_sigma if n_priors else np.zeros(0)
+    z_limit = float(stats.norm.isf(a / 2))
+    units = units or ["-"] * n_priors
+    deviations = tuple(PriorDeviation(prior_names[i], float(values[i]), float(prior_sigma[i]), float(z[i]), units[i])
+                       for i in np.argsort(-np.abs(z)) if abs(z[i]) >= NAMED_Z)
+    nees = prior_nees(values, prior_sigma, posterior_cov, a) if n_priors else None
+    reasons, items, kinds = _findings(tests, deviations, z_limit, nees, ground)
+    if not reasons:
+        named = [f"{d.name} {d.z:+.1f} sigma" for d in deviations]
+        extra = f"; {', '.join(named)} from its prior, within the family-wise {z_limit:.2f}" if named else ""
+        line = (f"bands can be trusted: all {n_tests} tests passed at a family-wise {100 * alpha:g} % "
+                f"(residuals white and at their sigmas, priors consistent){extra}")
+    else:
+        line = "bands NOT to be trusted: " + "; ".join(items)
+        hints = [HINTS[k] for k in ("gps_correlated", "prior", "ground") if k in kinds]
+        if hints:
+            line += " (" + "; ".join(hints) + ")"
+    return Adequacy(not reasons, line, tuple(reasons), tuple(tests), deviations, z_limit, nees, ground, alpha, n_tests,
+                    tuple(notes))
+
+
+def report_lines(adequacy: Adequacy) -> list[str]:
+    """The ``[[Model adequacy]]`` block of a text report (indented lines, the verdict last)."""
+    a = adequacy
+    lines = [f"[[Model adequacy]] {a.n_tests} tests, Bonferroni at {100 * a.alpha:g} % family-wise "
+             f"({a.alpha / max(a.n_tests, 1):.2g} each); residuals / sigma per channel:"]
+    for c in a.channels:
+        if not c.n:
+            lines.append(f"    {c.name:14s} no samples")
+            continue
+        flag = "" if c.scale_ok and c.white else "  <-"
+        lines.append(f"    {c.name:14s} n {c.n:6d}  reduced chi2 {c.reduced_chi2:7.3f} in [{c.chi2_interval[0]:.3f}, "
+                     f"{c.chi2_interval[1]:.3f}]  lag-1 {c.lag1:+.2f}  Ljung-Box({c.lags}) {p_text(c.ljung_box_p)}"
+                     f"{flag}")
+    if a.nees is not None:
+        n = a.nees
+        lines.append(f"    priors: NEES {n.nees:.1f} on {n.dof} informed directions in [{n.interval[0]:.1f}, "
+                     f"{n.interval[1]:.1f}]; sum of squared z {n.prior_chi2:.1f} over {n.n_priors} priors")
+    beyond = ", ".join(f"{d.name} z {d.z:+.1f}" for d in a.deviations) or "none"
+    lines.append(f"    beyond {NAMED_Z:g} sigma of their prior: {beyond} (verdict limit |z| {a.z_limit:.2f})")
+    if a.ground is not None:
+        lines.append(f"    ground: {a.ground.explanation}")
+    lines += [f"    note: {n}" for n in a.notes]
+    lines.append(f"    VERDICT: {a.line}")
+    return lines

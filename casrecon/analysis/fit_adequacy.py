@@ -1,0 +1,166 @@
+"""The model-adequacy verdict (:mod:`casrecon.analysis.adequacy`) of a per-drop 6-DOF fit and of a
+GPS-only point-mass fit: their residual channels, priors and ground check."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
+from casrecon.estimation import diagnostics as dg
+
+#: Accepted distance (m) between the fitted height at impact and the site's ground altitude, on top
+#: of 3 sigma of the fitted height: terrain relief over a landing area of a few kilometres, the
+#: vehicle's size and the GPS height error.
+GROUND_TOLERANCE_M = 30.0
+#: Longest extrapolation (s) from the last node to the detected impact for the impact check.
+MAX_EXTRAPOLATION_S = 2.0
+#: Report names of the IMU channels (IMU axes) and GPS components (NED).
+IMU_NAMES = dict(zip(dg.IMU_CHANNELS, ("IMU accel x", "IMU accel y", "IMU accel z", "IMU gyro x", "IMU gyro y",
+                                       "IMU gyro z")))
+GPS_NAMES = {"pos_n": "GPS pos n", "pos_e": "GPS pos e", "pos_d": "GPS pos d", "vel_n": "GPS vel n",
+             "vel_e": "GPS vel e", "vel_d": "GPS vel d"}
+
+
+def prior_arrays(specs, values: np.ndarray, covariance: np.ndarray) -> tuple[list[str], np.ndarray, np.ndarray,
+                                                                              np.ndarray, list[str]]:
+    """Names, estimates, prior sigmas, posterior covariance and units of the parameters with a prior.
+
+    Parameters
+    ----------
+    specs : sequence of casrecon.estimation.parameters.ParameterSpec
+    values : ndarray
+        Estimates of every spec (SI).
+    covariance : ndarray
+        Posterior covariance of every spec (SI).
+    """
+    idx = [i for i, s in enumerate(specs) if s.prior_sigma]
+    return ([specs[i].name for i in idx], np.asarray(values)[idx], np.array([specs[i].prior_sigma for i in idx]),
+            np.asarray(covariance)[np.ix_(idx, idx)], [specs[i].unit for i in idx])
+
+
+def impact_check(result) -> tuple[GroundCheck | None, tuple[str, ...]]:
+    """Height above the site's ground at the detected impact: the last node's, moved on at its
+    vertical speed to the impact time (at most MAX_EXTRAPOLATION_S), against 3 sigma of the last
+    node's height plus GROUND_TOLERANCE_M."""
+    h, h_sigma = result.column("h_agl_m")
+    dt = float(result.data.impact_imu_s - result.node_time_s[-1])
+    if not 0.0 <= dt <= MAX_EXTRAPOLATION_S:
+        return None, (f"ground not checked: the fit window ends {dt:.2f} s before the detected impact "
+                      f"(checked within 0 to {MAX_EXTRAPOLATION_S:g} s)",)
+    vel_d = float(result.states[-1, 5])
+    at_impact = float(h[-1] - vel_d * dt)
+    limit = float(3 * h_sigma[-1] + GROUND_TOLERANCE_M)
+    text = (f"height above the site's ground at the detected impact {at_impact:+.1f} m (last node {h[-1]:.1f} m, "
+            f"{dt:.2f} s earlier, descending {vel_d:.1f} m/s); accepted within {limit:.1f} m "
+            f"(3-sigma {3 * h_sigma[-1]:.1f} m + {GROUND_TOLERANCE_M:g} m)")
+    return GroundCheck("impact", at_impact, limit, text), ()
+
+
+def drop_channels(imu: dict, gps: dict, others: dict) -> dict[str, np.ndarray]:
+    """Normalised residual series per channel: IMU samples where used, GPS fixes, the barometer.
+
+    Parameters
+    ----------
+    imu, gps : dict
+        :func:`casrecon.estimation.diagnostics.imu_residuals` (``residual`` (N, 6), ``valid``,
+        ``sigma`` (6,)) and :func:`~casrecon.estimation.diagnostics.gps_residuals` (``residual`` and
+        ``sigma``, (M, 6)), SI.
+    others : dict of str to dict
+        Other kinds' residual columns (``"baro"``: ``pressure_residual_pa``, ``pressure_sigma_pa``).
+    """
+    channels = {}
+    for k, name in enumerate(IMU_NAMES.values()):
+        used = np.asarray(imu["valid"][:, k], dtype=bool)
+        channels[name] = np.asarray(imu["residual"][:, k])[used] / float(imu["sigma"][k])
+    for k, name in enumerate(GPS_NAMES.values()):
+        channels[name] = np.asarray(gps["residual"][:, k]) / np.asarray(gps["sigma"][:, k])
+    baro = others.get("baro")
+    if baro is not None:
+        channels["baro"] = np.asarray(baro["pressure_residual_pa"]) / np.asarray(baro["pressure_sigma_pa"])
+    return channels
+
+
+def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAMILY_ALPHA) -> Adequacy:
+    """Verdict of a 6-DOF fit (or of one drop's part of a joint fit).
+
+    Parameters
+    ----------
+    result : casrecon.estimation.fit.FitResult
+    imu, gps, others : dict
+        Its residuals, as :func:`drop_channels` takes them.
+    alpha : float
+        Family-wise level.
+    """
+    cov = result.correlation * np.outer(result.sigma, result.sigma)
+    names, values, prior_sigma, post, units = prior_arrays(result.params.specs, result.values, cov)
+    ground, notes = impact_check(result)
+    if result.part.n_u:
+        notes += ("the Gauss-Markov priors of the disturbance states are not tested",)
+    return assess(drop_channels(imu, gps, others), names, values, prior_sigma, post, units, ground, alpha, notes)
+
+
+def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
+    """Verdict of a GPS-only fit
+    (:class:`~casrecon.estimation.pointmass_fit.PointMassResult`): its six GPS channels, the
+    wind-bias priors, and the track's lowest point against the ground (a track that ends in the air
+    has no impact to check)."""
+    specs = result.params.specs
+    col_of = {name: col for col, name in result.nlp.parameter_names.items()}
+    cols = np.array([col_of[s.name] for s in specs])
+    cov = result.covariance.covariance_of(cols, result.params.scales)
+    names, values, prior_sigma, post, units = prior_arrays(specs, result.values, cov)
+    channels = {name: result.normalized_residuals[:, i] for i, name in enumerate(GPS_NAMES.values())}
+    h = -result.states[:, 2]
+    k = int(np.argmin(h))
+    limit = float(3 * result.state_sigma[k, 2] + GROUND_TOLERANCE_M)
+    ground = GroundCheck("lowest", float(h[k]), limit,
+                         f"lowest fitted point {h[k]:.1f} m above the site's ground; accepted down to -{limit:.1f} m "
+                         f"(3-sigma {3 * result.state_sigma[k, 2]:.1f} m + {GROUND_TOLERANCE_M:g} m)")
+    notes = ("the drag-area smoothness prior is not tested",) if len(names) < len(specs) else ()
+    return assess(channels, names, values, prior_sigma, post, units, ground, alpha, notes)
+
+
+@dataclass(frozen=True)
+class JointAdequacy:
+    """The verdict of a joint fit: each drop's own (:class:`Adequacy`, each at the family-wise
+    :data:`FAMILY_ALPHA`), trusted only when every drop's is.
+
+    Attributes
+    ----------
+    trusted : bool
+    line : str
+        One line naming each drop whose bands are not to be trusted, with its reasons.
+    drops : tuple of (str, Adequacy)
+        Drop name and verdict, in the joint fit's order.
+    """
+
+    trusted: bool
+    line: str
+    drops: tuple[tuple[str, Adequacy], ...]
+
+    def drop(self, name: str) -> Adequacy:
+        """The verdict of drop ``name``."""
+        return dict(self.drops)[name]
+
+    def to_dict(self) -> dict:
+        """JSON-ready content (joint ``summary.json`` ``adequacy``)."""
+        return {"trusted": self.trusted, "line": self.line, "drops": {n: a.to_dict() for n, a in self.drops}}
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> JointAdequacy:
+        return cls(bool(doc["trusted"]), str(doc["line"]),
+                   tuple((n, Adequacy.from_dict(a)) for n, a in doc["drops"].items()))
+
+
+def joint_adequacy(per_drop: dict[str, Adequacy]) -> JointAdequacy:
+    """:class:`JointAdequacy` of the drops' verdicts (drop name -> :class:`Adequacy`)."""
+    bad = [(n, a) for n, a in per_drop.items() if not a.trusted]
+    if not bad:
+        line = (f"bands can be trusted: every drop's tests passed ({len(per_drop)} drops, each at a family-wise "
+                f"{100 * FAMILY_ALPHA:g} %)")
+    else:
+        line = "bands NOT to be trusted: " + "; ".join(
+            f"{n}: {a.line.removeprefix('bands NOT to be trusted: ')}" for n, a in bad)
+    return JointAdequacy(not bad, line, tuple(per_drop.items()))
