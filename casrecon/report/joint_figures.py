@@ -72,9 +72,12 @@ OVERLAYS: dict[str, tuple[str, tuple[Quantity, ...]]] = {
 }
 
 
-#: Colours of the drops, in order: matplotlib's cycle without red (C3: simulation and best fit, as in
-#: the per-drop figures) and grey (C7).
-DROP_COLORS = ("C0", "C1", "C2", "C4", "C5", "C6", "C8", "C9")
+#: Colours of the drops, in order: matplotlib's cycle without the colours the EES paper's Fig. 12
+#: gives a meaning (black reconstructed, blue nominal database, red best fit).
+DROP_COLORS = ("tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan",
+               "tab:gray")
+#: The nominal database's curve (blue, as in the EES paper's Fig. 12); the best fit is style.SIM_COLOR (red).
+NOMINAL_COLOR = "tab:blue"
 
 
 def drop_color(k: int) -> str:
@@ -170,9 +173,9 @@ def pitching_moment_overlay(drops: list[DropFolder | DropTables], title: str = "
     if curves is not None:
         a, fitted, nominal = curves[CURVE_ALPHA], curves[CURVE_FITTED], curves[CURVE_NOMINAL]
         ax.plot(a, fitted, color=style.SIM_COLOR, lw=1.3, zorder=3)
-        ax.plot(a, nominal, "k--", lw=1.3, zorder=4)
+        ax.plot(a, nominal, color=NOMINAL_COLOR, ls="--", lw=1.3, zorder=4)
         handles += [Line2D([], [], color=style.SIM_COLOR, lw=1.3, label="best-fit dispersed database (joint)"),
-                    Line2D([], [], color="k", ls="--", lw=1.3, label="nominal database")]
+                    Line2D([], [], color=NOMINAL_COLOR, ls="--", lw=1.3, label="nominal database")]
         low = axes[1, 0]
         diffs = [cm - np.interp(alpha, a, fitted) for _, alpha, cm in points]
         lim = 1.15 * max(float(np.max(np.abs(nominal - fitted))),
@@ -180,7 +183,7 @@ def pitching_moment_overlay(drops: list[DropFolder | DropTables], title: str = "
         beyond = sum(int((np.abs(d) > lim).sum()) for d in diffs)
         for (k, alpha, _), d in zip(points, diffs):
             low.scatter(alpha, np.clip(d, -lim, lim), s=7, color=drop_color(k), alpha=0.6, linewidths=0)
-        low.plot(a, nominal - fitted, "k--", lw=1.3)
+        low.plot(a, nominal - fitted, color=NOMINAL_COLOR, ls="--", lw=1.3)
         low.axhline(0, color=style.SIM_COLOR, lw=1.3)
         low.set_ylim(-lim, lim)
         low.set_ylabel(r"$C_m - C_{m,\mathrm{best\,fit}}$, -")

@@ -34,7 +34,8 @@ def _draw_one(results_dir: Path, drop_dirs: list[Path], title: str, suffix: str,
               name: str) -> tuple[list[Path], list[str]]:
     try:
         fig = joint_figure(results_dir, drop_dirs, name, title)
-        return [style.save_figure(fig, Path(results_dir) / "figures" / f"{name}{suffix}")], []
+        saved = style.save_figure(fig, Path(results_dir) / "figures" / f"{name}{suffix}")
+        return (list(saved) if isinstance(saved, (list, tuple)) else [saved]), []
     except (MissingInput, KeyError, ValueError, OSError) as exc:
         what = f"missing column {exc}" if isinstance(exc, KeyError) else str(exc)
         return [], [f"skipped joint {name}: {what}"]
