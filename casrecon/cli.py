@@ -270,6 +270,7 @@ def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.output.results import atomic_folder, write_json
+    from casrecon.output.sensitivity_results import fisher_document, profile_document
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario
 
@@ -288,17 +289,15 @@ def _sensitivity(args: argparse.Namespace) -> int:
             print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
             return 3
         directions = obs.fisher_directions(result)
-        write_json(out / "fisher.json", [{"eigenvalue": d.eigenvalue, "sigma": d.sigma, "weights": d.weights}
-                                         for d in directions])
+        fisher = fisher_document(scenario.config.name, directions, result.params.specs)
+        write_json(out / "fisher.json", fisher)
+        sensitivity_plots.plot_fisher(fisher, out)
         print("weakest parameter combinations (parameters in units of their scale):")
         for d in directions[:5]:
             print("   " + d.describe())
         if args.study == "profile":
             prof = obs.profile_likelihood(result, args.parameter, args.points)
-            write_json(out / f"profile_{prof.name}.json", {
-                "values": prof.values, "delta_chi2": prof.delta_chi2, "estimate": prof.estimate,
-                "interval_delta_chi2_9": prof.interval, "fisher_three_sigma": prof.fisher_three_sigma,
-                "half_width_over_fisher": prof.agreement})
+            write_json(out / f"profile_{prof.name}.json", profile_document(prof))
             sensitivity_plots.plot_profile(prof, out)
             print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
                   f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")

@@ -59,8 +59,12 @@ def test_bad_estimation_setting_is_a_located_error(problem_copy, tmp_path, capsy
 def test_sensitivity_fisher_names_the_weakest_combination(tmp_path, capsys):
     out = tmp_path / "fisher"
     assert main(["sensitivity", "fisher", str(PROBLEMS / "ees-drop-2"), "--out", str(out)]) == 0
-    directions = json.loads((out / "fisher.json").read_text())
-    weakest = directions[0]["weights"]
+    doc = json.loads((out / "fisher.json").read_text())
+    directions = doc["directions"]
+    weakest = directions[0]["loadings"]
     # the balloon's density uncertainty scales every aero force alike: the least determined direction
-    assert max(weakest, key=lambda n: abs(weakest[n])) == "density_factor"
+    assert max(weakest, key=lambda n: abs(weakest[n])) == directions[0]["largest_loading"] == "density_factor"
+    assert weakest["density_factor"] > 0 and directions[0]["rank"] == 1
     assert directions[0]["sigma"] > 10 * directions[-1]["sigma"]
+    assert [d["eigenvalue"] for d in directions] == sorted(d["eigenvalue"] for d in directions)
+    assert set(doc["parameters"]) == set(weakest) and (out / "fisher.png").is_file()
