@@ -3,7 +3,8 @@ altitude, speed, total angle of attack and pitch across the cases at each time o
 
 Each case's history is kept on a fixed grid (default every :data:`HISTORY_DT_S` = 0.1 s, float32),
 so memory is :data:`~casrecon.simulation.batch.HISTORY_SAMPLE_BYTES` = 16 bytes per case and grid
-time: 6.4 kB per case for a 40 s drop (64 MB for 10 000 cases), besides the per-case columns.
+time: 6.4 kB per case for a 40 s drop, besides the per-case columns; only the first
+:data:`HISTORY_MAX_CASES` cases keep one (64 MB for a 40 s drop, however many cases are run).
 
 At a time t the altitude's percentiles are over every case, a landed case counting as on the ground
 (0 m), so they stay exact through the touchdown window (p1 reaches 0 when 1 % of the cases have
@@ -22,6 +23,10 @@ from casrecon.simulation.batch import HISTORY_CHANNELS
 
 #: Default spacing of the history grid, s.
 HISTORY_DT_S = 0.1
+#: Histories are kept for the first this many cases only (the envelopes' sample: the 1st and 99th
+#: percentiles of 10 000 cases are each 100 cases deep), which bounds their memory whatever the
+#: number of cases.
+HISTORY_MAX_CASES = 10_000
 #: Percentiles of the envelopes, %.
 PERCENTILES = (1, 50, 99)
 #: Column of the time grid (flight time since release) and of the number of cases in flight.
@@ -44,10 +49,10 @@ class Histories:
     ----------
     dt_s : float
         Grid spacing, s; sample k is at k dt_s after release.
-    data : (n_cases, n_times, 4) float32 array
+    data : (n, n_times, 4) float32 array
         :data:`~casrecon.simulation.batch.HISTORY_CHANNELS` per case and time; NaN once the case
-        has landed.
-    impacted : (n_cases,) bool array
+        has landed (the first n cases of the run, at most :data:`HISTORY_MAX_CASES`).
+    impacted : (n,) bool array
         The case reached the ground (its NaNs mean "landed", not "not simulated").
     nominal : (n_times_nominal, 4) float32 array
         The centre (undispersed) flight's history.
@@ -62,6 +67,11 @@ class Histories:
     def time_s(self) -> np.ndarray:
         """The grid, s since release."""
         return self.dt_s * np.arange(self.data.shape[1])
+
+    @property
+    def n_cases(self) -> int:
+        """Cases with a history (the envelopes' sample)."""
+        return int(self.data.shape[0])
 
     @property
     def nbytes(self) -> int:

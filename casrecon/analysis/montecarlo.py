@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.mc_envelopes import HISTORY_DT_S, Histories
+from casrecon.analysis.mc_envelopes import HISTORY_DT_S, HISTORY_MAX_CASES, Histories
 from casrecon.parallel import parallel_map
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import PARAMETER_NAMES
@@ -269,7 +269,8 @@ class MonteCarloResult:
                      "seed": self.seed, "dt_s": self.dt_s, "dispersions_1sigma": self.dispersions.to_dict(),
                      "nominal": self.nominal}
         if self.histories is not None:
-            out.update(history_dt_s=self.histories.dt_s, history_memory_bytes=self.histories.nbytes)
+            out.update(history_dt_s=self.histories.dt_s, history_cases=self.histories.n_cases,
+                       history_memory_bytes=self.histories.nbytes)
         for name in STATISTIC_NAMES:
             v = self.columns[name][ok]
             if v.size == 0:
@@ -290,12 +291,13 @@ def _chunks(indices: list[int], chunk_size: int) -> list[tuple[int, ...]]:
 def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions = Dispersions(), *,
               workers: int = 1, scheduler: str | None = None, chunk_size: int = 250, dt_s: float = DEFAULT_DT_S,
               t_max_s: float = 300.0, backend: str = "auto", progress: bool = False,
-              history_every: int = 0) -> dict[str, np.ndarray]:
+              history_every: int = 0, history_cases: int | None = None) -> dict[str, np.ndarray]:
     """Simulate cases ``indices`` of ``seed``; columns in the order of ``indices``.
 
     ``scheduler`` (a Dask distributed address) takes precedence over ``workers``. With
-    ``history_every`` > 0 the result also holds ``"history"`` (float32 (n, k, 4), NaN-padded): each
-    case's history every ``history_every`` RK4 steps.
+    ``history_every`` > 0 the result also holds ``"history"`` (float32 (m, k, 4), NaN-padded): the
+    history every ``history_every`` RK4 steps of the first m cases of ``indices`` (m = all, or
+    ``history_cases``; only the chunks that hold them record any).
     """
     problem = str(Path(problem).resolve())
     indices = [int(i) for i in indices]
@@ -304,26 +306,35 @@ def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions 
     if chunk_size < 1 or workers < 1:
         raise ValueError(f"chunk_size and workers must be >= 1, got {chunk_size}, {workers}")
     batch = min(chunk_size, 250)
+    limit = len(indices) if history_cases is None else max(0, int(history_cases))
+    chunks = _chunks(indices, chunk_size)
+    starts = np.cumsum([0] + [len(c) for c in chunks])
     tasks = [ChunkTask(problem, int(seed), c, dispersions, float(dt_s), float(t_max_s), batch, backend,
-                       int(history_every)) for c in _chunks(indices, chunk_size)]
+                       int(history_every) if start < limit else 0) for c, start in zip(chunks, starts)]
     parts = parallel_map(simulate_chunk, tasks, workers=workers, scheduler=scheduler,
                          progress="montecarlo" if progress else None, weight=lambda t: len(t.indices))
     if not parts:
         return {}
-    return {name: pad_histories([p[name] for p in parts]) if name == HISTORY_KEY
-            else np.concatenate([p[name] for p in parts]) for name in parts[0]}
+    out = {name: np.concatenate([p[name] for p in parts]) for name in parts[0] if name != HISTORY_KEY}
+    recorded = [p[HISTORY_KEY] for p in parts if HISTORY_KEY in p]
+    if recorded:
+        out[HISTORY_KEY] = pad_histories(recorded)[:limit]
+    return out
 
 
 def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions: Dispersions = Dispersions(), *,
                    workers: int = 1, scheduler: str | None = None, chunk_size: int | None = None,
                    dt_s: float = DEFAULT_DT_S, t_max_s: float = 300.0, backend: str = "auto",
-                   progress: bool = False, history_dt_s: float | None = HISTORY_DT_S) -> MonteCarloResult:
+                   progress: bool = False, history_dt_s: float | None = HISTORY_DT_S,
+                   history_cases: int = HISTORY_MAX_CASES) -> MonteCarloResult:
     """Cases 0 .. ``n_cases`` - 1 of ``seed``, plus the nominal (undispersed) flight.
 
     ``chunk_size`` defaults to 250 cases, fewer when that would leave workers idle. Each case's
     altitude, speed, total angle of attack and pitch are kept every ``history_dt_s`` s (rounded to
-    whole RK4 steps; None keeps none): float32, :data:`~casrecon.simulation.batch.HISTORY_SAMPLE_BYTES`
-    = 16 bytes per case and sample, 6.4 kB per case for a 40 s flight at the default 0.1 s.
+    whole RK4 steps; None keeps none) for the first ``history_cases`` cases (the envelopes' sample):
+    float32, :data:`~casrecon.simulation.batch.HISTORY_SAMPLE_BYTES` = 16 bytes per case and sample,
+    6.4 kB per case for a 40 s flight at the default 0.1 s, at most 64 MB with the default
+    :data:`~casrecon.analysis.mc_envelopes.HISTORY_MAX_CASES` = 10 000 cases whatever ``n_cases``.
     """
     if n_cases < 1:
         raise ValueError(f"n_cases must be >= 1, got {n_cases}")
@@ -340,13 +351,13 @@ def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions
     t0 = time.perf_counter()
     cols = run_cases(problem, range(n_cases), seed, resolved, workers=workers, scheduler=scheduler,
                      chunk_size=chunk_size, dt_s=dt_s, t_max_s=t_max_s, backend=backend, progress=progress,
-                     history_every=every)
+                     history_every=every, history_cases=history_cases)
     wall = time.perf_counter() - t0
     nom = simulate_chunk(ChunkTask(str(Path(problem).resolve()), 0, (0,), Dispersions.none(dispersions.center),
                                    float(dt_s), float(t_max_s), 1, backend, every))
     nominal = {k: float(nom[k][0]) for k in OUTPUT_COLUMNS}
     histories = None
-    if every:
-        histories = Histories(every * float(dt_s), cols.pop(HISTORY_KEY), cols["impacted"] > 0.5,
-                              nom[HISTORY_KEY][0])
+    if HISTORY_KEY in cols:
+        data = cols.pop(HISTORY_KEY)
+        histories = Histories(every * float(dt_s), data, cols["impacted"][:data.shape[0]] > 0.5, nom[HISTORY_KEY][0])
     return MonteCarloResult(cols, int(seed), resolved, float(dt_s), wall, nominal, sc.config.name, histories)

@@ -160,7 +160,7 @@ def montecarlo_envelope_figure(result) -> Figure:
         raise ValueError("the Monte Carlo result has no histories (run with history_dt_s)")
     ft = result.statistics()["flight_time_s"]
     window = (ft["p1"], ft["p99"]) if ft else None
-    return envelope_figure(result.histories.envelopes(), _title(result), result.n_cases, window)
+    return envelope_figure(result.histories.envelopes(), _title(result), result.histories.n_cases, window)
 
 
 def plot_montecarlo(result, folder: str | Path, suffix: str = ".png") -> list[Path]:

@@ -111,6 +111,17 @@ def test_zero_dispersions_reproduce_the_nominal_flight(scenario):
     assert np.all(np.isnan(env[envelope_column("speed_mps", 50)][~flying]))  # landed: no speed
 
 
+def test_histories_are_kept_for_the_first_cases_only():
+    every = run_montecarlo(DROP1, 10, seed=3, chunk_size=4)
+    first = run_montecarlo(DROP1, 10, seed=3, chunk_size=4, history_cases=5)
+    assert every.histories.n_cases == 10 and first.histories.n_cases == 5
+    assert first.histories.nbytes == 5 * first.histories.data.shape[1] * 16
+    k = first.histories.data.shape[1]
+    np.testing.assert_array_equal(first.histories.data, every.histories.data[:5, :k])
+    assert first.statistics()["history_cases"] == 5
+    assert run_montecarlo(DROP1, 3, seed=3, history_dt_s=None).histories is None
+
+
 def test_histories_follow_the_500hz_simulator(scenario):
     """Each case's history on the 0.1 s grid against the 500 Hz Simulator flown from the same draw."""
     mc = run_montecarlo(DROP1, 4, seed=11, history_dt_s=0.1)
