@@ -33,10 +33,16 @@ if TYPE_CHECKING:
     from casrecon.output.pointmass_result import PointMassFit
     from casrecon.report.result_figures import (
         plot_correlation,
+        plot_joint_altitude_speed,
+        plot_joint_flow_angles,
+        plot_joint_pitching_moment,
+        plot_joint_qbar_alpha_t,
+        plot_joint_rates,
         plot_pitching_moment,
         plot_qbar_alpha_t,
         plot_reconciled,
         plot_residuals,
+        plot_shared_correlation,
         plot_trajectory,
     )
     from casrecon.scenario import Scenario
@@ -58,6 +64,12 @@ __all__ = [
     "plot_reconciled",
     "plot_residuals",
     "plot_correlation",
+    "plot_joint_altitude_speed",
+    "plot_joint_qbar_alpha_t",
+    "plot_joint_flow_angles",
+    "plot_joint_rates",
+    "plot_joint_pitching_moment",
+    "plot_shared_correlation",
     "InputError",
     "FitError",
 ]
@@ -72,7 +84,8 @@ _LAZY = {
     "Parameters": ("casrecon.output.parameter_records", "Parameters"),
     **{name: ("casrecon.report.result_figures", name) for name in (
         "plot_trajectory", "plot_qbar_alpha_t", "plot_pitching_moment", "plot_reconciled", "plot_residuals",
-        "plot_correlation")},
+        "plot_correlation", "plot_joint_altitude_speed", "plot_joint_qbar_alpha_t", "plot_joint_flow_angles",
+        "plot_joint_rates", "plot_joint_pitching_moment", "plot_shared_correlation")},
 }
 
 

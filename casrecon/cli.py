@@ -173,12 +173,12 @@ def _montecarlo(args: argparse.Namespace) -> int:
 def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
                            *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
                            figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
-    """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
-    ``figures/*.png``); ``dt_s`` is the RK4 step, s (the Monte Carlo default,
+    """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``envelopes.csv``,
+    ``statistics.json``, ``figures/*.png``); ``dt_s`` is the RK4 step, s (the Monte Carlo default,
     :data:`casrecon.simulation.batch.DEFAULT_DT_S`).
     Returns 0, or 2 after printing one located line on bad input."""
     from casrecon.analysis.montecarlo import Dispersions, run_montecarlo
-    from casrecon.output.montecarlo_results import write_cases_csv
+    from casrecon.output.montecarlo_results import write_cases_csv, write_envelopes_csv
     from casrecon.output.results import atomic_folder, write_json
     from casrecon.parallel import import_distributed
     from casrecon.report.montecarlo_plots import plot_montecarlo
@@ -228,6 +228,8 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
                  cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
     with atomic_folder(out) as tmp:
         write_cases_csv(tmp / "cases.csv", result)
+        if result.histories is not None:
+            write_envelopes_csv(tmp / "envelopes.csv", result.histories.envelopes())
         write_json(tmp / "statistics.json", stats)
         if figures:
             plot_montecarlo(result, tmp / "figures")
@@ -284,7 +286,9 @@ def _sensitivity(args: argparse.Namespace) -> int:
             print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
             return 3
         directions = obs.fisher_directions(result)
-        write_json(out / "fisher.json", fisher_document(result, directions))
+        fisher = fisher_document(scenario.config.name, directions, result.params.specs)
+        write_json(out / "fisher.json", fisher)
+        sensitivity_plots.plot_fisher(fisher, out)
         print("weakest parameter combinations (parameters in units of their scale):")
         for d in directions[:5]:
             print("   " + d.describe())

@@ -33,10 +33,17 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.analysis.mc_envelopes import HISTORY_DT_S, HISTORY_MAX_CASES, Histories
 from casrecon.parallel import parallel_map
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import PARAMETER_NAMES
-from casrecon.simulation.batch import DEFAULT_DT_S, BatchSimulator, euler_deg_from_quats, quats_from_euler_deg
+from casrecon.simulation.batch import (
+    DEFAULT_DT_S,
+    BatchSimulator,
+    euler_deg_from_quats,
+    pad_histories,
+    quats_from_euler_deg,
+)
 
 #: Standard normals drawn per case: h_agl, vel NED (3), Euler (3), rates (3), wind bias N/E,
 #: density factor, then the aero factors (last, so that a new factor changes no other draw).
@@ -49,6 +56,8 @@ INPUT_NAMES = (("h_agl_m", "vel_n_mps", "vel_e_mps", "vel_d_mps", "roll_deg", "p
 #: Outputs per case.
 OUTPUT_COLUMNS = ("impacted", "flight_time_s", "impact_speed_mps", "impact_vel_n_mps", "impact_vel_e_mps",
                   "impact_vel_d_mps", "impact_roll_deg", "impact_pitch_deg", "impact_yaw_deg", "max_alpha_t_deg")
+#: Key of the per-case histories in a chunk's columns (not a column of cases.csv).
+HISTORY_KEY = "history"
 #: Outputs with statistics in :meth:`MonteCarloResult.statistics`.
 STATISTIC_NAMES = ("flight_time_s", "impact_speed_mps", "max_alpha_t_deg")
 
@@ -158,6 +167,7 @@ class ChunkTask:
     t_max_s: float = 300.0
     batch: int = 250
     backend: str = "auto"
+    history_every: int = 0
 
 
 _CACHE: dict = {}
@@ -176,7 +186,9 @@ def _scenario_and_simulator(problem: str, dt_s: float, batch: int, backend: str)
 
 
 def simulate_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
-    """Run one chunk; returns ``case`` and every :data:`INPUT_NAMES` and :data:`OUTPUT_COLUMNS` column.
+    """Run one chunk; returns ``case`` and every :data:`INPUT_NAMES` and :data:`OUTPUT_COLUMNS` column,
+    and with ``task.history_every`` > 0 ``"history"``: the cases' histories (float32 (n, k, 4), see
+    :meth:`~casrecon.simulation.batch.BatchSimulator.run_with_history`).
 
     Top-level and picklable, so process pools and Dask workers can call it.
     """
@@ -187,7 +199,7 @@ def simulate_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     xs, ps = np.empty((13, n)), np.empty((len(p0), n))
     for j, i in enumerate(task.indices):
         xs[:, j], ps[:, j] = draw_case(task.seed, i, x0, p0, disp)
-    res = sim.run(xs, ps, task.t_max_s)
+    res, history = sim.run_with_history(xs, ps, task.t_max_s, task.history_every)
     cols = {"case": np.asarray(task.indices, int)}
     euler = euler_deg_from_quats(xs[6:10])
     inputs = [-xs[2], xs[3], xs[4], xs[5], *euler, *np.degrees(xs[10:13])]
@@ -197,6 +209,8 @@ def simulate_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     outputs = [res.impacted.astype(float), res.flight_time_s, res.impact_speed_mps, *res.impact_state[3:6],
                *res.impact_euler_deg, res.max_alpha_t_deg]
     cols.update(zip(OUTPUT_COLUMNS, outputs))
+    if history is not None:
+        cols[HISTORY_KEY] = history
     return cols
 
 
@@ -221,6 +235,9 @@ class MonteCarloResult:
     dt_s, backend, wall_s : run settings and wall time (s).
     nominal : dict
         The centre flight (zero dispersions): flight time, impact speed, etc.
+    histories : Histories or None
+        Every case's altitude, speed, total angle of attack and pitch on a fixed time grid, and the
+        centre flight's (None when not recorded); :meth:`Histories.envelopes` gives p1/p50/p99.
     """
 
     columns: dict[str, np.ndarray]
@@ -230,6 +247,7 @@ class MonteCarloResult:
     wall_s: float = 0.0
     nominal: dict = field(default_factory=dict)
     problem: str = ""
+    histories: Histories | None = None
 
     @property
     def n_cases(self) -> int:
@@ -250,6 +268,9 @@ class MonteCarloResult:
         out: dict = {"problem": self.problem, "n_cases": self.n_cases, "n_impacted": int(ok.sum()),
                      "seed": self.seed, "dt_s": self.dt_s, "dispersions_1sigma": self.dispersions.to_dict(),
                      "nominal": self.nominal}
+        if self.histories is not None:
+            out.update(history_dt_s=self.histories.dt_s, n_history_cases=self.histories.n_cases,
+                       history_memory_mb=self.histories.nbytes / 1e6)
         for name in STATISTIC_NAMES:
             v = self.columns[name][ok]
             if v.size == 0:
@@ -269,10 +290,14 @@ def _chunks(indices: list[int], chunk_size: int) -> list[tuple[int, ...]]:
 
 def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions = Dispersions(), *,
               workers: int = 1, scheduler: str | None = None, chunk_size: int = 250, dt_s: float = DEFAULT_DT_S,
-              t_max_s: float = 300.0, backend: str = "auto", progress: bool = False) -> dict[str, np.ndarray]:
+              t_max_s: float = 300.0, backend: str = "auto", progress: bool = False,
+              history_every: int = 0, history_cases: int | None = None) -> dict[str, np.ndarray]:
     """Simulate cases ``indices`` of ``seed``; columns in the order of ``indices``.
 
-    ``scheduler`` (a Dask distributed address) takes precedence over ``workers``.
+    ``scheduler`` (a Dask distributed address) takes precedence over ``workers``. With
+    ``history_every`` > 0 the result also holds ``"history"`` (float32 (m, k, 4), NaN-padded): the
+    history every ``history_every`` RK4 steps of the first m cases of ``indices`` (m = all, or
+    ``history_cases``; only the chunks that hold them record any).
     """
     problem = str(Path(problem).resolve())
     indices = [int(i) for i in indices]
@@ -281,22 +306,35 @@ def run_cases(problem: str | Path, indices, seed: int, dispersions: Dispersions 
     if chunk_size < 1 or workers < 1:
         raise ValueError(f"chunk_size and workers must be >= 1, got {chunk_size}, {workers}")
     batch = min(chunk_size, 250)
-    tasks = [ChunkTask(problem, int(seed), c, dispersions, float(dt_s), float(t_max_s), batch, backend)
-             for c in _chunks(indices, chunk_size)]
+    limit = len(indices) if history_cases is None else max(0, int(history_cases))
+    chunks = _chunks(indices, chunk_size)
+    starts = np.cumsum([0] + [len(c) for c in chunks])
+    tasks = [ChunkTask(problem, int(seed), c, dispersions, float(dt_s), float(t_max_s), batch, backend,
+                       int(history_every) if start < limit else 0) for c, start in zip(chunks, starts)]
     parts = parallel_map(simulate_chunk, tasks, workers=workers, scheduler=scheduler,
                          progress="montecarlo" if progress else None, weight=lambda t: len(t.indices))
     if not parts:
         return {}
-    return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
+    out = {name: np.concatenate([p[name] for p in parts]) for name in parts[0] if name != HISTORY_KEY}
+    recorded = [p[HISTORY_KEY] for p in parts if HISTORY_KEY in p]
+    if recorded:
+        out[HISTORY_KEY] = pad_histories(recorded)[:limit]
+    return out
 
 
 def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions: Dispersions = Dispersions(), *,
                    workers: int = 1, scheduler: str | None = None, chunk_size: int | None = None,
                    dt_s: float = DEFAULT_DT_S, t_max_s: float = 300.0, backend: str = "auto",
-                   progress: bool = False) -> MonteCarloResult:
+                   progress: bool = False, history_dt_s: float | None = HISTORY_DT_S,
+                   history_cases: int = HISTORY_MAX_CASES) -> MonteCarloResult:
     """Cases 0 .. ``n_cases`` - 1 of ``seed``, plus the nominal (undispersed) flight.
 
-    ``chunk_size`` defaults to 250 cases, fewer when that would leave workers idle.
+    ``chunk_size`` defaults to 250 cases, fewer when that would leave workers idle. Each case's
+    altitude, speed, total angle of attack and pitch are kept every ``history_dt_s`` s (rounded to
+    whole RK4 steps; None keeps none) for the first ``history_cases`` cases (the envelopes' sample):
+    float32, :data:`~casrecon.simulation.batch.HISTORY_SAMPLE_BYTES` = 16 bytes per case and sample,
+    6.4 kB per case for a 40 s flight at the default 0.1 s, at most 64 MB with the default
+    :data:`~casrecon.analysis.mc_envelopes.HISTORY_MAX_CASES` = 10 000 cases whatever ``n_cases``.
     """
     if n_cases < 1:
         raise ValueError(f"n_cases must be >= 1, got {n_cases}")
@@ -309,11 +347,17 @@ def run_montecarlo(problem: str | Path, n_cases: int, seed: int = 0, dispersions
     if chunk_size is None:
         par = max(workers, 1) if scheduler is None else 8
         chunk_size = max(1, min(250, math.ceil(n_cases / par)))
+    every = max(1, round(history_dt_s / dt_s)) if history_dt_s else 0
     t0 = time.perf_counter()
     cols = run_cases(problem, range(n_cases), seed, resolved, workers=workers, scheduler=scheduler,
-                     chunk_size=chunk_size, dt_s=dt_s, t_max_s=t_max_s, backend=backend, progress=progress)
+                     chunk_size=chunk_size, dt_s=dt_s, t_max_s=t_max_s, backend=backend, progress=progress,
+                     history_every=every, history_cases=history_cases)
     wall = time.perf_counter() - t0
     nom = simulate_chunk(ChunkTask(str(Path(problem).resolve()), 0, (0,), Dispersions.none(dispersions.center),
-                                   float(dt_s), float(t_max_s), 1, backend))
+                                   float(dt_s), float(t_max_s), 1, backend, every))
     nominal = {k: float(nom[k][0]) for k in OUTPUT_COLUMNS}
-    return MonteCarloResult(cols, int(seed), resolved, float(dt_s), wall, nominal, sc.config.name)
+    histories = None
+    if HISTORY_KEY in cols:
+        data = cols.pop(HISTORY_KEY)
+        histories = Histories(every * float(dt_s), data, cols["impacted"][:data.shape[0]] > 0.5, nom[HISTORY_KEY][0])
+    return MonteCarloResult(cols, int(seed), resolved, float(dt_s), wall, nominal, sc.config.name, histories)

@@ -39,11 +39,13 @@ class FisherDirection:
 def fisher_directions(result: FitResult) -> list[FisherDirection]:
     """Eigen-decomposition of the parameters' Fisher information (the inverse of their marginal
     covariance, states marginalised), weakest direction first. Parameters are normalised by their
-    scale (for dispersions the database 3-sigma/3) so the directions do not depend on units."""
+    scale (for dispersions the database 3-sigma/3) so the directions do not depend on units; each
+    direction's sign makes its largest loading positive."""
     scale = result.params.scales
     cov = (result.correlation * np.outer(result.sigma, result.sigma)) / np.outer(scale, scale)
     info = np.linalg.inv(cov)
     eig, vec = np.linalg.eigh(0.5 * (info + info.T))
+    vec = vec * np.sign(vec[np.argmax(np.abs(vec), axis=0), np.arange(vec.shape[1])])  # largest loading > 0
     return [FisherDirection(float(e), float(1 / np.sqrt(e)), dict(zip(result.params.names, map(float, v))))
             for e, v in zip(eig, vec.T)]
 

@@ -36,7 +36,8 @@ import numpy as np
 
 #: Name suffix (after the last underscore) -> unit.
 UNIT_SUFFIXES = {"s": "s", "m": "m", "mps": "m/s", "mps2": "m/s^2", "deg": "deg", "dps": "deg/s", "pa": "Pa",
-                 "m2": "m^2", "kg": "kg", "kgm2": "kg m^2", "kgm3": "kg/m^3", "nm": "N m", "hz": "Hz", "k": "K"}
+                 "m2": "m^2", "kg": "kg", "kgm2": "kg m^2", "kgm3": "kg/m^3", "nm": "N m", "hz": "Hz", "k": "K",
+                 "mb": "MB (1e6 bytes)"}
 #: Dimensionless names.
 DIMENSIONLESS_NAMES = frozenset({
     "mach", "q0", "q1", "q2", "q3", "case", "index", "impacted", "used", "seed", "iterations", "objective",
@@ -45,7 +46,9 @@ DIMENSIONLESS_NAMES = frozenset({
     # the model-adequacy tests (summary.json "adequacy"): counts, autocorrelation, test statistics,
     # probabilities and normalised limits
     "n", "lags", "lag1", "ljung_box_q", "ljung_box_p", "p_value", "alpha", "per_test_alpha", "z", "z_limit",
-    "n_tests"})
+    "n_tests",
+    # fisher.json: a direction's rank and its loadings (components of a unit vector)
+    "rank", "loadings"})
 #: Dimensionless name endings.
 DIMENSIONLESS_SUFFIXES = ("_mult", "_add", "_coef", "_factor", "_used", "_z", "_ratio", "_autocorrelation", "_chi2")
 #: Dimensionless name beginnings.

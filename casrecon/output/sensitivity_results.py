@@ -3,29 +3,56 @@ design study, each number named with its unit (:mod:`casrecon.io.units`)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from casrecon.io.units import output_unit
 
+#: What the numbers of fisher.json are in (written into the document).
+FISHER_UNITS = {
+    "parameters": "each parameter divided by its scale (scale in the parameter's output unit, named beside it; "
+                  "dispersion factors: the database 3-sigma / 3), so every loading, eigenvalue and sigma is "
+                  "dimensionless",
+    "eigenvalue": "Fisher information along the direction, per (scaled parameter)^2: dimensionless",
+    "sigma_normalised": "1-sigma along the unit direction, in scaled parameters: 1 / sqrt(eigenvalue)",
+    "loadings": "components of the unit direction (sum of squares 1), dimensionless",
+}
 
-def fisher_document(result, directions) -> dict:
-    """``fisher.json``: the scale of each parameter (in its output unit) and the eigen-directions of
-    the Fisher information of the scaled, dimensionless parameters, weakest first.
+
+def fisher_document(problem: str, directions: Sequence, specs: Sequence) -> dict:
+    """``fisher.json``: the eigen-directions of the parameters' Fisher information, weakest first.
 
     Parameters
     ----------
-    result : casrecon.estimation.fit.FitResult
-        The fit.
-    directions : list of casrecon.analysis.observability.FisherDirection
-        :func:`~casrecon.analysis.observability.fisher_directions` of ``result``.
+    problem : str
+        Problem name.
+    directions : sequence of casrecon.analysis.observability.FisherDirection
+        Weakest first (:func:`~casrecon.analysis.observability.fisher_directions`).
+    specs : sequence of casrecon.estimation.parameters.ParameterSpec
+        The fit's parameters (name, scale, SI unit), in fit order.
+
+    Returns
+    -------
+    dict
+        ``problem``, ``order``, ``units`` (what each number is in), ``parameters`` (name -> ``scale``
+        in its output unit and that ``unit``, e.g. deg/s for gyro biases), ``directions``: per
+        direction ``rank`` (1 = weakest), ``eigenvalue``, ``sigma_normalised``,
+        ``three_sigma_normalised``, ``largest_loading`` (the parameter it is mostly made of) and
+        ``loadings`` (parameter name -> component).
     """
-    scales = {}
-    for spec in result.params.specs:
+    out = []
+    for rank, d in enumerate(directions, start=1):
+        loadings = {name: float(w) for name, w in d.weights.items()}
+        largest = max(loadings, key=lambda n: abs(loadings[n]))
+        out.append({"rank": rank, "eigenvalue": float(d.eigenvalue), "sigma_normalised": float(d.sigma),
+                    "three_sigma_normalised": 3.0 * float(d.sigma), "largest_loading": largest,
+                    "loadings": loadings})
+    parameters = {}
+    for spec in specs:
         unit, f = output_unit(spec.unit)
-        scales[spec.name] = {"value": float(spec.scale) * f, "unit": unit}
-    return {"scaling": "each parameter divided by its scale; eigenvalues, sigmas and weights are of the scaled "
-                       "(dimensionless) parameters",
-            "scales": scales,
-            "directions": [{"eigenvalue": d.eigenvalue, "sigma_normalised": d.sigma, "weights": dict(d.weights)}
-                           for d in directions]}
+        parameters[spec.name] = {"scale": float(spec.scale) * f, "unit": unit}
+    return {"problem": problem,
+            "order": "weakest first: ascending eigenvalue (least information), descending sigma",
+            "units": FISHER_UNITS, "parameters": parameters, "directions": out}
 
 
 def profile_document(profile, unit: str) -> dict:

@@ -2,8 +2,9 @@
 
 ``draw_figures(results_dir)`` reads the CSV/JSON files that ``casrecon fit`` writes (no CasADi, no
 re-fit) and saves PNGs (150 dpi) into ``results_dir / "figures"``. A joint folder (one sub-folder per
-drop under ``drops/``) gets each drop's figures in ``drops/<name>/figures`` and the top-level
-parameter correlation matrix in ``results_dir / "figures"``.
+drop under ``drops/``) gets each drop's figures in ``drops/<name>/figures`` and the joint figures
+(multi-drop overlays, readable correlation figures; :mod:`casrecon.report.joint_plots`) in
+``results_dir / "figures"``.
 
 Figures of one drop (flight time t = time_imu_s - release_imu_s, in s):
 
@@ -33,6 +34,7 @@ from functools import partial
 from pathlib import Path
 
 from casrecon.parallel import parallel_map
+from casrecon.report.joint_plots import draw_joint_figures
 from casrecon.report.residual_figures import plot_correlation, plot_residuals_gps, plot_residuals_imu
 from casrecon.report.results_folder import DropFolder, MissingInput, drop_folders, read_json
 from casrecon.report.trajectory_figures import (
@@ -103,8 +105,9 @@ def draw_figures(results_dir: Path, notes: list[str] | None = None) -> list[Path
     """Draw every figure of a results folder and return the PNG paths.
 
     A per-drop folder gets its figures in ``results_dir / "figures"``. A joint folder (sub-folders
-    ``drops/<name>/``) gets each drop's figures in ``drops/<name>/figures`` and the top-level
-    correlation matrix (from ``results_dir / "parameters.json"``) in ``results_dir / "figures"``.
+    ``drops/<name>/``) gets each drop's figures in ``drops/<name>/figures`` and the joint figures
+    (:mod:`casrecon.report.joint_plots`: multi-drop overlays, the blocked correlation matrix of
+    ``results_dir / "parameters.json"`` and the shared factors' correlations) in ``results_dir / "figures"``.
     Skipped figures are logged and their reasons appended to ``notes`` when a list is given.
     Raises FileNotFoundError if ``results_dir`` (or a drop sub-folder) is not a results folder.
     """
@@ -120,8 +123,7 @@ def draw_figures(results_dir: Path, notes: list[str] | None = None) -> list[Path
         paths += draw_drop_figures(folder, notes, correlation=False)
     title = _joint_title(results_dir, drops)
     joint_notes: list[str] = []
-    paths += _attempt("joint correlation", lambda: plot_correlation(
-        read_json(results_dir / "parameters.json"), title, results_dir / "figures"), joint_notes)
+    paths += draw_joint_figures(results_dir, drops, title, joint_notes)
     for note in joint_notes:
         log.warning(note)
     notes += joint_notes

@@ -5,6 +5,11 @@ Each function takes a :class:`~casrecon.output.drop_fit.DropFit` (from ``casreco
 / :class:`~casrecon.report.results_folder.DropTables`, and draws the same figure as ``casrecon
 report`` does, without writing anything: ``fig.savefig("x.png")`` saves it. Figures use matplotlib's
 object API on an Agg canvas (no pyplot state); in a notebook, display ``fig`` itself.
+
+The ``plot_joint_*`` functions and :func:`plot_shared_correlation` take a
+:class:`~casrecon.output.joint_fit.JointFit` (``casrecon.fit_joint``, ``casrecon.load_results`` on a
+joint folder) or a joint results folder and draw the figures ``casrecon joint`` puts in its
+``figures/`` (every drop on one plot).
 """
 
 from __future__ import annotations
@@ -15,8 +20,8 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from casrecon.report import residual_figures, trajectory_figures
-from casrecon.report.results_folder import DropFolder, DropTables
+from casrecon.report import joint_correlation, joint_figures, residual_figures, trajectory_figures
+from casrecon.report.results_folder import DropFolder, DropTables, drop_folders, read_json
 
 
 def _source(result: Any) -> DropFolder | DropTables:
@@ -67,10 +72,89 @@ def plot_residuals(result: Any, kind: str = "imu") -> Figure:
 
 
 def plot_correlation(result: Any) -> Figure:
-    """The parameter correlation matrix (-1..1) of a per-drop or joint result, names on both axes."""
+    """The parameter correlation matrix (-1..1) of a per-drop or joint result, names on both axes;
+    a joint result's is blocked (shared factors, then each drop's parameters), with short labels and
+    values where the cells are large enough (:func:`casrecon.report.joint_correlation.joint_correlation_figure`)."""
+    if _is_joint(result):
+        doc, title = _joint_parameters(result)
+        return joint_correlation.joint_correlation_figure(doc, title)
     params = getattr(result, "params", None)
     if params is not None and hasattr(params, "correlation"):
         doc = {"correlation": {"names": list(params.names), "matrix": np.asarray(params.correlation).tolist()}}
         return residual_figures.correlation_figure(doc, str(getattr(result, "name", "fit")))
     source = _source(result)
     return residual_figures.correlation_figure(source.json("parameters.json"), source.name)
+
+
+def _is_joint(result: Any) -> bool:
+    if isinstance(result, (str, Path)):
+        return (Path(result) / "drops").is_dir()
+    return isinstance(getattr(result, "drops", None), dict)
+
+
+def _joint_parameters(result: Any) -> tuple[dict, str]:
+    """``parameters.json``-like document and title of a JointFit or joint folder."""
+    if isinstance(result, (str, Path)):
+        folder = Path(result)
+        summary = read_json(folder / "summary.json")
+        return read_json(folder / "parameters.json"), str(summary.get("name") or folder.name)
+    params = result.params
+    doc = {"correlation": {"names": list(params.names), "matrix": np.asarray(params.correlation).tolist()}}
+    return doc, str(result.name)
+
+
+def _joint_drops(result: Any) -> tuple[list[DropFolder | DropTables], str]:
+    """Each drop's tables and the title of a JointFit (``casrecon.fit_joint``, ``load_results``) or a
+    joint results folder."""
+    if isinstance(result, (str, Path)):
+        folder = Path(result)
+        drops = drop_folders(folder)
+        if not drops:
+            raise TypeError(f"{folder} is not a joint results folder (no drops/)")
+        return [DropFolder(p) for p in drops], _joint_parameters(folder)[1]
+    if not _is_joint(result):
+        raise TypeError(f"expected a joint result (casrecon.fit_joint / casrecon.load_results) or a joint "
+                        f"results folder, got {type(result).__name__}")
+    return [d.figure_source() for d in result.drops.values()], str(result.name)
+
+
+def plot_joint_altitude_speed(result: Any) -> Figure:
+    """Altitude AGL (m) and speed (m/s) of every drop of a joint fit against flight time (s), one
+    colour per drop, 3-sigma bands light (left) and the 3-sigma itself (right) (EES Fig. 10)."""
+    return joint_figures.overlay_figure(*_overlay_args(result, "joint_altitude_speed"))
+
+
+def plot_joint_qbar_alpha_t(result: Any) -> Figure:
+    """Dynamic pressure (Pa) and total angle of attack (deg) of every drop of a joint fit, as
+    :func:`plot_joint_altitude_speed` (EES Fig. 11)."""
+    return joint_figures.overlay_figure(*_overlay_args(result, "joint_qbar_alpha_t"))
+
+
+def plot_joint_flow_angles(result: Any) -> Figure:
+    """Angle of attack and sideslip (deg) of every drop of a joint fit, as :func:`plot_joint_altitude_speed`."""
+    return joint_figures.overlay_figure(*_overlay_args(result, "joint_flow_angles"))
+
+
+def plot_joint_rates(result: Any) -> Figure:
+    """Body rates p, q, r (deg/s) of every drop of a joint fit, as :func:`plot_joint_altitude_speed`."""
+    return joint_figures.overlay_figure(*_overlay_args(result, "joint_rates"))
+
+
+def plot_joint_pitching_moment(result: Any) -> Figure:
+    """C_m about the MRP against angle of attack (deg) of every drop of a joint fit, with the nominal
+    and jointly fitted database, and each drop's difference from the fit (EES Fig. 12)."""
+    drops, title = _joint_drops(result)
+    return joint_figures.pitching_moment_overlay(drops, title)
+
+
+def plot_shared_correlation(result: Any) -> Figure:
+    """A joint fit's shared factors' correlations with each other and with each drop's own parameters."""
+    doc, title = _joint_parameters(result) if _is_joint(result) else (None, "")
+    if doc is None:
+        raise TypeError(f"expected a joint result or a joint results folder, got {type(result).__name__}")
+    return joint_correlation.shared_correlation_figure(doc, title)
+
+
+def _overlay_args(result: Any, name: str) -> tuple[list, str, str]:
+    drops, title = _joint_drops(result)
+    return drops, name, title

@@ -85,6 +85,35 @@ def quats_from_euler_deg(euler_deg: np.ndarray) -> np.ndarray:
                       cy * sp * cr + sy * cp * sr, sy * cp * cr - cy * sp * sr])
 
 
+#: Quantities of a case's history (:meth:`BatchSimulator.run_with_history`): altitude above ground
+#: (m), inertial speed (m/s), total angle of attack (deg) and pitch angle (deg; roll and yaw are
+#: left out: a capsule falls near pitch -90 deg, where they are not defined).
+HISTORY_CHANNELS = ("h_agl_m", "speed_mps", "alpha_t_deg", "pitch_deg")
+#: Bytes per case per history sample (float32).
+HISTORY_SAMPLE_BYTES = 4 * len(HISTORY_CHANNELS)
+
+
+def history_sample(x: np.ndarray, alpha_t: np.ndarray, flying: np.ndarray) -> np.ndarray:
+    """:data:`HISTORY_CHANNELS` (float32, (n, 4)) of states ``x`` (13, n) and total angles of attack
+    ``alpha_t`` (rad, (n,)); NaN for the cases not ``flying``."""
+    out = np.vstack([-x[2], np.linalg.norm(x[3:6], axis=0), np.degrees(alpha_t),
+                     euler_deg_from_quats(x[6:10])[1]]).T.astype(np.float32)
+    out[~flying] = np.nan
+    return out
+
+
+def pad_histories(parts: list[np.ndarray | None]) -> np.ndarray:
+    """Histories (n_i, k_i, c) of several batches as one (sum n_i, max k_i, c) array, NaN-padded."""
+    parts = [p for p in parts if p is not None]
+    k = max(p.shape[1] for p in parts)
+    out = np.full((sum(p.shape[0] for p in parts), k, parts[0].shape[2]), np.nan, dtype=np.float32)
+    row = 0
+    for p in parts:
+        out[row:row + p.shape[0], :p.shape[1]] = p
+        row += p.shape[0]
+    return out
+
+
 def _compiler() -> str | None:
     return os.environ.get("CC") or shutil.which("gcc") or shutil.which("cc") or shutil.which("clang")
 
@@ -158,22 +187,30 @@ class BatchSimulator:
 
     def run(self, x0: np.ndarray, params: np.ndarray, t_max_s: float = 300.0) -> BatchResult:
         """Integrate cases ``x0`` (13, n) with parameters ``params`` (np, n) from release (t = 0)."""
+        return self.run_with_history(x0, params, t_max_s)[0]
+
+    def run_with_history(self, x0: np.ndarray, params: np.ndarray, t_max_s: float = 300.0,
+                         every: int = 0) -> tuple[BatchResult, np.ndarray | None]:
+        """:meth:`run`, and, if ``every`` > 0, each case's :data:`HISTORY_CHANNELS` at release and
+        every ``every`` steps (``every * dt_s`` s apart) while it flies: a float32 (n, k, 4) array,
+        NaN once the case has landed (k samples up to the last landing, or ``t_max_s``)."""
         x0 = np.asarray(x0, float)
         params = np.asarray(params, float)
         n = x0.shape[1]
         if params.shape != (self.model.n_params, n) or x0.shape[0] != self.model.n_states:
             raise ValueError(f"x0 must be (13, n) and params ({self.model.n_params}, n), got {x0.shape}, "
                              f"{params.shape}")
-        parts = [self._run_block(x0[:, s:s + self.batch], params[:, s:s + self.batch], t_max_s)
+        parts = [self._run_block(x0[:, s:s + self.batch], params[:, s:s + self.batch], t_max_s, every)
                  for s in range(0, n, self.batch)]
-        return BatchResult(*[np.concatenate([getattr(r, f) for r in parts], axis=-1)
-                             for f in BatchResult.__dataclass_fields__])
+        result = BatchResult(*[np.concatenate([getattr(r, f) for r, _ in parts], axis=-1)
+                               for f in BatchResult.__dataclass_fields__])
+        return result, (pad_histories([h for _, h in parts]) if every > 0 else None)
 
     def _call(self, x, p, h):
         xn, at = self._step(x, p, h)
         return xn.full(), at.full().ravel()
 
-    def _run_block(self, x0, p, t_max_s) -> BatchResult:
+    def _run_block(self, x0, p, t_max_s, every: int = 0) -> tuple[BatchResult, np.ndarray | None]:
         m, b, dt = x0.shape[1], self.batch, self.dt_s
         pad = b - m
         x = np.hstack([x0, np.repeat(x0[:, -1:], pad, axis=1)]).copy()
@@ -183,6 +220,7 @@ class BatchSimulator:
         flying[m:] = False                               # padding does not fly
         x_above, k_above = x.copy(), np.zeros(b, int)
         amax = np.asarray(self._alpha_t0(x, p)).ravel()
+        samples = [history_sample(x[:, :m], amax[:m], flying[:m])] if every > 0 else []
         n_steps = int(np.floor(t_max_s / dt + 1e-9))
         for k in range(n_steps):
             if not flying.any():
@@ -195,6 +233,8 @@ class BatchSimulator:
             amax[still] = np.maximum(amax[still], at[still])
             flying = still
             x = xn
+            if every > 0 and (k + 1) % every == 0 and flying[:m].any():
+                samples.append(history_sample(x[:, :m], at[:m], flying[:m]))
         impacted = np.zeros(b, bool)
         impacted[:m] = ~flying[:m]
         # Cases still flying at t_max: report their state at the last step.
@@ -206,8 +246,9 @@ class BatchSimulator:
             x_above[:, impacted] = x_imp[:, impacted]
         t = k_above * dt + h_imp
         xi = x_above[:, :m]
+        history = np.stack(samples, axis=1) if samples else None
         return BatchResult(impacted[:m], t[:m], xi, np.linalg.norm(xi[3:6], axis=0),
-                           euler_deg_from_quats(xi[6:10]), np.degrees(amax[:m]))
+                           euler_deg_from_quats(xi[6:10]), np.degrees(amax[:m])), history
 
     def _secant(self, x_above, p, mask):
         """Step length from ``x_above`` to the ground (secant method, as :class:`Simulator`)."""

@@ -1,7 +1,7 @@
 """The model-adequacy verdict after a fit (issue 17's audit cases) on copies of ees-drop-1 (synthetic,
 exact model): the exact problem is trusted; a vehicle mass 30 % high, a site ground altitude 40 m
-low (300 m is refused before solving by the data check) and an IMU mounted 1 deg off its declared axes are each flagged, by the test that should see
-them. Four fits of ~25 s each (longer on a loaded machine).
+low (300 m is refused before solving by the data check) and an IMU mounted 1 deg off its declared
+axes are each flagged, by the test that should see them. Four fits of ~25 s each (longer on a loaded machine).
 
 Measured when written (ees-drop-1): exact: 44 tests passed, prior NEES 29.4 on 19 dof, impact
 -0.2 m from the ground; mass x1.3: CA_mult z +10.5, density_factor -6.1, CN_add -4.1, prior NEES

@@ -67,9 +67,12 @@ def test_sensitivity_fisher_names_the_weakest_combination(tmp_path, capsys):
     assert main(["sensitivity", "fisher", str(PROBLEMS / "ees-drop-2"), "--out", str(out)]) == 0
     doc = json.loads((out / "fisher.json").read_text())
     directions = doc["directions"]
-    weakest = directions[0]["weights"]
+    weakest = directions[0]["loadings"]
     # the balloon's density uncertainty scales every aero force alike: the least determined direction
-    assert max(weakest, key=lambda n: abs(weakest[n])) == "density_factor"
+    assert max(weakest, key=lambda n: abs(weakest[n])) == directions[0]["largest_loading"] == "density_factor"
+    assert weakest["density_factor"] > 0 and directions[0]["rank"] == 1
     assert directions[0]["sigma_normalised"] > 10 * directions[-1]["sigma_normalised"]
+    assert [d["eigenvalue"] for d in directions] == sorted(d["eigenvalue"] for d in directions)
+    assert set(doc["parameters"]) == set(weakest) and (out / "fisher.png").is_file()
     # every number names its unit; the gyro biases' scales in deg/s, as the problem gives them
-    assert unnamed_json_numbers(doc) == [] and doc["scales"]["gyro_bias_x"]["unit"] == "deg/s"
+    assert unnamed_json_numbers(doc) == [] and doc["parameters"]["gyro_bias_x"]["unit"] == "deg/s"

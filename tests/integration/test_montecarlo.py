@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
+from casrecon.analysis.mc_envelopes import PERCENTILES, envelope_column
 from casrecon.analysis.montecarlo import (
     INPUT_NAMES,
     OUTPUT_COLUMNS,
@@ -20,7 +21,7 @@ from casrecon.analysis.montecarlo import (
 )
 from casrecon.cli import run_montecarlo_command
 from casrecon.scenario import Scenario
-from casrecon.simulation.batch import BatchSimulator
+from casrecon.simulation.batch import HISTORY_CHANNELS, BatchSimulator
 from casrecon.simulation.simulate import Simulator
 
 DROP1 = PROBLEMS / "ees-drop-1"
@@ -98,6 +99,48 @@ def test_zero_dispersions_reproduce_the_nominal_flight(scenario):
     assert abs(mc["flight_time_s"][0] - ref["flight_time_s"]) < TOL_TIME_S
     assert abs(mc["impact_speed_mps"][0] - ref["impact_speed_mps"]) < TOL_SPEED_MPS
     assert mc.nominal["flight_time_s"] == mc["flight_time_s"][0]
+    # every case is the nominal flight, so each envelope (p1, p50, p99) is the nominal history
+    env = mc.histories.envelopes()
+    flying = env["n_in_flight"] == 3
+    assert flying.sum() == mc.histories.nominal.shape[0] == 1 + int(mc["flight_time_s"][0] / 0.1)
+    for channel in HISTORY_CHANNELS:
+        for p in PERCENTILES:
+            np.testing.assert_allclose(env[envelope_column(channel, p)][flying],
+                                       env[envelope_column(channel, "nominal")][flying], rtol=1e-6, err_msg=channel)
+    assert np.all(env[envelope_column("h_agl_m", 99)][~flying] == 0.0)  # landed: on the ground
+    assert np.all(np.isnan(env[envelope_column("speed_mps", 50)][~flying]))  # landed: no speed
+
+
+def test_histories_are_kept_for_the_first_cases_only():
+    every = run_montecarlo(DROP1, 10, seed=3, chunk_size=4)
+    first = run_montecarlo(DROP1, 10, seed=3, chunk_size=4, history_cases=5)
+    assert every.histories.n_cases == 10 and first.histories.n_cases == 5
+    assert first.histories.nbytes == 5 * first.histories.data.shape[1] * 16
+    k = first.histories.data.shape[1]
+    np.testing.assert_array_equal(first.histories.data, every.histories.data[:5, :k])
+    assert first.statistics()["n_history_cases"] == 5
+    assert run_montecarlo(DROP1, 3, seed=3, history_dt_s=None).histories is None
+
+
+def test_histories_follow_the_500hz_simulator(scenario):
+    """Each case's history on the 0.1 s grid against the 500 Hz Simulator flown from the same draw."""
+    mc = run_montecarlo(DROP1, 4, seed=11, history_dt_s=0.1)
+    h = mc.histories
+    assert h.data.dtype == np.float32 and h.dt_s == pytest.approx(0.1) and h.data.shape[2] == 4
+    disp = mc.dispersions
+    sim = Simulator(scenario.model, dt_s=0.002)
+    for i in (0, 3):
+        x0, p0 = draw_case(11, i, scenario.release_state(), scenario.truth_parameters(), disp)
+        ref = sim.run(x0, p0)
+        n = int(np.sum(~np.isnan(h.data[i, :, 0])))
+        assert n == 1 + int(mc["flight_time_s"][i] / 0.1)  # sampled until touchdown, NaN after
+        t = h.time_s[:n]
+        expect = {"h_agl_m": np.interp(t, ref.time_s, ref.output("h_agl")),
+                  "speed_mps": np.interp(t, ref.time_s, np.linalg.norm(ref.states[:, 3:6], axis=1)),
+                  "alpha_t_deg": np.degrees(np.interp(t, ref.time_s, ref.output("alpha_t"))),
+                  "pitch_deg": np.degrees(np.interp(t, ref.time_s, ref.output("pitch")))}
+        for c, channel in enumerate(HISTORY_CHANNELS):
+            np.testing.assert_allclose(h.data[i, :n, c], expect[channel], atol=0.02, err_msg=channel)
 
 
 def test_statistics_are_sane(batch64, scenario):
@@ -126,7 +169,10 @@ def test_command_writes_the_folder_and_rejects_bad_input(tmp_path, capsys):
     header = (out / "cases.csv").read_text().splitlines()[0].split(",")
     assert header[0] == "case" and "impact_speed_mps" in header and "CA_mult" in header
     assert len((out / "cases.csv").read_text().splitlines()) == 13
-    assert {p.name for p in (out / "figures").iterdir()} == {"histograms.png", "speed_vs_time.png"}
+    assert {p.name for p in (out / "figures").iterdir()} == {"histograms.png", "speed_vs_time.png", "envelopes.png"}
+    envelopes = (out / "envelopes.csv").read_text().splitlines()
+    assert envelopes[0].split(",")[:5] == ["flight_time_s", "n_in_flight", "h_agl_p1_m", "h_agl_p50_m", "h_agl_p99_m"]
+    assert envelopes[1].startswith("0,12,")
     capsys.readouterr()
     assert run_montecarlo_command(DROP1, tmp_path / "x", 0, 3, 1, None) == 2
     assert run_montecarlo_command(tmp_path / "missing", tmp_path / "x", 5, 3, 1, None) == 2

@@ -179,7 +179,8 @@ def test_monte_carlo_and_sensitivity_documents_name_their_units(tmp_path, drop_f
     fit = drop_folder[1].fit
     from casrecon.analysis.observability import Profile, fisher_directions
 
-    assert unnamed_json_numbers(fisher_document(fit, fisher_directions(fit))) == []
+    fisher = fisher_document(fit.scenario.config.name, fisher_directions(fit), fit.params.specs)
+    assert unnamed_json_numbers(fisher) == []
     profile = Profile("gyro_bias_x", np.linspace(0.001, 0.002, 3), np.array([9.0, 0.0, 9.0]), 0.0015, 0.0005,
                       (0.001, 0.002))
     doc = profile_document(profile, "rad/s")

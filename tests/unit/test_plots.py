@@ -12,6 +12,7 @@ from matplotlib.image import imread
 
 from casrecon.io.units import gps_residual_column, gps_sigma_column, imu_residual_column, imu_sigma_key
 from casrecon.report import figure_style
+from casrecon.report.joint_plots import JOINT_FIGURE_NAMES
 from casrecon.report.plots import draw_figures
 
 RELEASE_IMU_S = 2.0
@@ -193,7 +194,7 @@ def test_joint_folder_draws_each_drop_and_the_top_correlation(tmp_path, no_rende
     for name in ("ees-drop-1", "ees-drop-3"):
         figs = {p.stem for p in paths if p.parent == top / "drops" / name / "figures"}
         assert figs == set(DROP_FIGURES) - {"correlation"}
-    assert top / "figures" / "correlation.png" in paths
+    assert {p.name for p in paths if p.parent == top / "figures"} == {f"{n}.png" for n in JOINT_FIGURE_NAMES}
     for path in paths:
         assert path.is_file()
     assert_png(top / "figures" / "correlation.png")
