@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from casrecon.analysis.aero_coefficients import aero_coefficients
 from casrecon.estimation import diagnostics as dg
 from casrecon.estimation.drop import MEASUREMENT_KINDS
 
@@ -55,6 +56,10 @@ class FitProducts:
     kind_residuals : dict of str to Columns
         Residual columns of every other measurement kind present (e.g. ``"baro"``), as the kind's
         ``residuals`` names them (units in the column names).
+    aero_coefficients : Columns
+        Aerodynamic coefficient histories at the nodes, reconstructed from the IMU and of the best-fit
+        and nominal database, with 3-sigma (:func:`casrecon.analysis.aero_coefficients.aero_coefficients`;
+        names in :mod:`casrecon.analysis.aero_columns`).
     """
 
     imu_residuals: Columns
@@ -68,6 +73,7 @@ class FitProducts:
     summary: dict
     roll_rate: list[dict] | None = None
     kind_residuals: dict[str, Columns] = field(default_factory=dict)
+    aero_coefficients: Columns = field(default_factory=dict)
 
     @property
     def reconciled_summary(self) -> dict:
@@ -144,6 +150,7 @@ def fit_products(result) -> FitProducts:
         nominal={k: nom[k] for k in SIMULATION_COLUMNS},
         summary={**rec["summary"], "nominal_database": nom["summary"]},
         kind_residuals=other_kind_residuals(result),
+        aero_coefficients=aero_coefficients(result),
         roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None)
 
 

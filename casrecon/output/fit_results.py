@@ -7,7 +7,8 @@ chi-square per group, timings, reconciled-simulation differences), ``tables.md``
 resolved settings), and for the figures: ``residuals_imu.csv``, ``residuals_gps.csv`` (and
 ``residuals_<kind>.csv`` of every other measurement kind, e.g. ``residuals_baro.csv``),
 ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv`` (forward simulation with the fitted
-dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``.
+dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``,
+``aero_coefficients.csv`` (coefficient histories with 3-sigma, dimensionless).
 """
 
 from __future__ import annotations
@@ -77,12 +78,15 @@ TABLE_EVERY = {"reconciled.csv": 5, "nominal.csv": 5}
 def product_tables(products) -> dict[str, dict[str, np.ndarray]]:
     """The tables of a :class:`~casrecon.analysis.fit_products.FitProducts` by their results-folder
     file name (``residuals_<kind>.csv`` for the IMU, the GPS and every other kind, ``gps_fixes.csv``,
-    ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv``, ``nominal.csv``), all rows."""
+    ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv``, ``nominal.csv``,
+    ``aero_coefficients.csv`` when computed), all rows."""
     tables = {"residuals_imu.csv": products.imu_residuals, "residuals_gps.csv": products.gps_residuals}
     tables.update({f"residuals_{kind}.csv": columns for kind, columns in products.kind_residuals.items()})
     tables.update({"gps_fixes.csv": products.gps_fixes, "pitching_moment.csv": products.pitching_moment,
                    "cm_curves.csv": products.cm_curves, "reconciled.csv": products.reconciled,
                    "nominal.csv": products.nominal})
+    if products.aero_coefficients:
+        tables["aero_coefficients.csv"] = products.aero_coefficients
     return tables
 
 
