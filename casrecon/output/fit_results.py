@@ -131,4 +131,18 @@ def write_fit_results(out: Path, result, products, report_text: str, tables_md: 
     write_json(config_dir / "resolved.json", {"estimation": dataclasses.asdict(cfg.estimation),
                                               "dynamics": dataclasses.asdict(cfg.dynamics),
                                               "site": dataclasses.asdict(cfg.site),
-                                              "parameters": [dataclasses.asdict(s) for s in result.params.specs]})
+                                              "parameters": [dataclasses.asdict(s) for s in result.params.specs],
+                                              "inputs": inputs_document(cfg)})
+
+
+def inputs_document(cfg) -> dict:
+    """Where the fit's data files are (absolute paths) and how they are read, for the input figures
+    that ``casrecon report`` redraws: IMU file, its CSV layout and the UTC of its time 0 (Unix s),
+    GPS file, sounding file and launch."""
+    def where(path) -> str | None:
+        return None if path is None else str(Path(path).resolve())
+
+    return {"imu": {"file": where(cfg.imu.file), "spec": dataclasses.asdict(cfg.imu.spec),
+                    "utc_at_zero_unix_s": cfg.imu.clock_utc_at_zero.timestamp()},
+            "gps": {"file": where(cfg.gps.file)},
+            "sounding": {"file": where(cfg.atmosphere.sounding), "launch": cfg.atmosphere.launch}}
