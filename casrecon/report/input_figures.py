@@ -278,9 +278,9 @@ INPUT_FIGURES = (("inputs_imu", inputs_imu_figure), ("inputs_gps", inputs_gps_fi
 
 
 def input_file_figure(path: str | Path) -> Figure:
-    """The figure of any supported input file: IMU CSV (the default ``time_s,ax,...`` layout in SI,
-    or the ``ts,...,Gx`` one in deg/s), FlySight 1 or 2 GPS track, or sounding. InputError (located)
-    for a malformed file or a kind without a figure."""
+    """The figure of any supported input file: IMU CSV (the numbers of the file, in the units its
+    layout declares: ``time_s,ax,...`` SI, ``ts,...,Gx`` deg/s), FlySight 1 or 2 GPS track, or
+    sounding. InputError (located) for a malformed file or a kind without a figure."""
     lines = read_lines(path)
     first = lines[0].strip() if lines else ""
     header = [h.strip() for h in first.split(",")]
@@ -296,7 +296,9 @@ def input_file_figure(path: str | Path) -> Figure:
     for spec in (ImuCsvSpec(), ROCKET_SPEC):
         if all(c in header for c in spec.columns):
             log = read_imu_csv(path, spec)
-            return imu_figure(log, f"{name}: IMU data", Timeline("IMU clock, s"), spec=None)
+            title = (f"{name}: IMU data, in the units the {'default' if spec == ImuCsvSpec() else spec.time_column} "
+                     f"layout declares (accelerometers {spec.accel_unit}, gyros {spec.gyro_unit})")
+            return imu_figure(log, title, Timeline("IMU clock, s"), spec.accel_unit, spec.gyro_unit)
     raise InputError(path, "no figure for this kind of file (IMU CSV, FlySight track or sounding)", line=1)
 
 

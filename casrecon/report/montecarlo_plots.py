@@ -3,6 +3,7 @@ angle of attack (mean, 3-sigma and 1/99 percentile lines), and impact speed agai
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -33,8 +34,9 @@ def _histogram(ax, values: np.ndarray, stats: dict, nominal: float | None, name:
     ax.legend(fontsize=8)
 
 
-def plot_montecarlo(result, folder: str | Path) -> list[Path]:
-    """Write ``histograms.png`` and ``speed_vs_time.png`` into ``folder``; returns the paths.
+def plot_montecarlo(result, folder: str | Path, formats: Sequence[str] = ("png",)) -> list[Path]:
+    """Write ``histograms`` and ``speed_vs_time`` into ``folder`` in each of ``formats`` (``png``,
+    ``pdf``, ``svg``); returns the paths.
 
     ``result`` is a :class:`~casrecon.analysis.montecarlo.MonteCarloResult`.
     """
@@ -52,8 +54,7 @@ def plot_montecarlo(result, folder: str | Path) -> list[Path]:
     for ax, name in zip(axes, names):
         _histogram(ax, result[name][ok], stats[name], result.nominal.get(name), name, result.n_cases)
     fig.suptitle(title)
-    paths.append(folder / "histograms.png")
-    fig.savefig(paths[-1], dpi=110)
+    paths += _save(fig, folder / "histograms", formats)
 
     fig = Figure(figsize=(7.5, 6), layout="constrained")
     FigureCanvasAgg(fig)
@@ -70,6 +71,12 @@ def plot_montecarlo(result, folder: str | Path) -> list[Path]:
     ax.legend()
     ax.grid(alpha=0.3)
     fig.suptitle(title)
-    paths.append(folder / "speed_vs_time.png")
-    fig.savefig(paths[-1], dpi=110)
+    paths += _save(fig, folder / "speed_vs_time", formats)
+    return paths
+
+
+def _save(fig: Figure, stem: Path, formats: Sequence[str]) -> list[Path]:
+    paths = [stem.with_suffix(f".{fmt}") for fmt in formats]
+    for path in paths:
+        fig.savefig(path, dpi=110, format=path.suffix[1:])
     return paths

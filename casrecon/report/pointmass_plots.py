@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -14,10 +15,10 @@ def _csv(path: Path) -> dict[str, np.ndarray]:
     return {n: data[n] for n in data.dtype.names}
 
 
-def plot_track_fit(folder: Path) -> Path:
+def plot_track_fit(folder: Path, formats: Sequence[str] = ("png",)) -> Path:
     """``figures/track_fit.png`` of a point-mass results folder: height and vertical speed (GPS
     dots, fitted line), normalised residuals of the fitted and the constant-drag model, and the
-    drag area with its 3-sigma band."""
+    drag area with its 3-sigma band; saved in each of ``formats``, the PNG's (or first) path returned."""
     folder = Path(folder)
     tr, res, fix = _csv(folder / "trajectory.csv"), _csv(folder / "residuals_gps.csv"), _csv(folder / "gps_fixes.csv")
     import json
@@ -59,8 +60,9 @@ def plot_track_fit(folder: Path) -> Path:
     for a in ax[-1]:
         a.set_xlabel("time since segment start, s")
     fig.suptitle(f"{name}: GPS-only point-mass fit (dots: measurements; dotted: +-3 sigma)")
-    out = folder / "figures" / "track_fit.png"
-    out.parent.mkdir(exist_ok=True)
-    fig.savefig(out, dpi=120)
+    (folder / "figures").mkdir(exist_ok=True)
+    paths = [folder / "figures" / f"track_fit.{fmt}" for fmt in formats]
+    for path in paths:
+        fig.savefig(path, dpi=120, format=path.suffix[1:])
     fig.clear()
-    return out
+    return paths[0]

@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 
-def plot_profile(profile, out: Path) -> Path:
+def plot_profile(profile, out: Path, formats: Sequence[str] = ("png",)) -> Path:
     """Delta chi-square against the held value, with the 3-sigma line (delta chi-square = 9) and the
-    Fisher 3-sigma interval for comparison."""
+    Fisher 3-sigma interval for comparison; saved in each of ``formats``, the first one's path returned."""
     fig = Figure(figsize=(8, 5), layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.subplots()
@@ -25,14 +26,12 @@ def plot_profile(profile, out: Path) -> Path:
     ax.grid(True, alpha=0.4)
     ax.legend()
     out.mkdir(parents=True, exist_ok=True)
-    path = out / f"profile_{profile.name}.png"
-    fig.savefig(path, dpi=120)
-    return path
+    return _save(fig, out / f"profile_{profile.name}", formats)
 
 
-def plot_design(design: dict, out: Path) -> Path:
+def plot_design(design: dict, out: Path, formats: Sequence[str] = ("png",)) -> Path:
     """Predicted 1-sigma of the parameter against the initial pitch rate, the release altitude and
-    the number of drops."""
+    the number of drops; saved in each of ``formats``, the first one's path returned."""
     fig = Figure(figsize=(13, 4.5), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, 3)
@@ -45,6 +44,11 @@ def plot_design(design: dict, out: Path) -> Path:
         ax.grid(True, alpha=0.4)
     fig.suptitle(f"design of drops: how well {design['parameter']} would be determined")
     out.mkdir(parents=True, exist_ok=True)
-    path = out / "design.png"
-    fig.savefig(path, dpi=120)
-    return path
+    return _save(fig, out / "design", formats)
+
+
+def _save(fig: Figure, stem: Path, formats: Sequence[str]) -> Path:
+    paths = [stem.with_suffix(f".{fmt}") for fmt in formats]
+    for path in paths:
+        fig.savefig(path, dpi=120, format=path.suffix[1:])
+    return paths[0]
