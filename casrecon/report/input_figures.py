@@ -20,13 +20,11 @@ import pymap3d
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter
 
-from casrecon.io._csvtools import read_lines
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
 from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, ImuCsvSpec, ImuLog, read_imu_csv
-from casrecon.io.inspect import ROCKET_SPEC
-from casrecon.io.sensor import is_flysight2_sensor
-from casrecon.io.sounding import Sounding, detect_sounding_format, read_sounding
+from casrecon.io.input_kind import input_kind
+from casrecon.io.sounding import Sounding, read_sounding
 from casrecon.report import figure_style as style
 from casrecon.report.results_folder import DropFolder, MissingInput
 
@@ -35,6 +33,8 @@ R_AIR = 287.05
 #: Where a results folder records its data files.
 RESOLVED = "config/resolved.json"
 AXES = "xyz"
+#: Mathtext of the IMU units.
+UNIT_LABELS = {"m/s^2": style.MPS2, "g": "g", "deg/s": "deg/s", "rad/s": "rad/s"}
 #: Shade of the fit window and the drop's altitude range.
 SHADE = "0.9"
 
@@ -81,7 +81,7 @@ def imu_figure(log: ImuLog, title: str, timeline: Timeline, accel_unit: str = "m
     span = span if span.any() else np.ones(t.size, bool)
     fig, axes = style.new_figure(3, 2, (13, 8.5))
     accel_scale, gyro_scale = ACCEL_SCALE[accel_unit], GYRO_SCALE[gyro_unit]
-    units = {"m/s^2": style.MPS2, "g": "g", "deg/s": "deg/s", "rad/s": "rad/s"}
+    units = UNIT_LABELS
     for k in range(3):
         for col, (values, sat, scale, unit, sym, limits) in enumerate((
                 (log.accel_mps2, log.accel_saturated, accel_scale, accel_unit, "f", spec and spec.accel_limits),
@@ -281,25 +281,20 @@ def input_file_figure(path: str | Path) -> Figure:
     """The figure of any supported input file: IMU CSV (the numbers of the file, in the units its
     layout declares: ``time_s,ax,...`` SI, ``ts,...,Gx`` deg/s), FlySight 1 or 2 GPS track, or
     sounding. InputError (located) for a malformed file or a kind without a figure."""
-    lines = read_lines(path)
-    first = lines[0].strip() if lines else ""
-    header = [h.strip() for h in first.split(",")]
+    kind, spec = input_kind(path)
     name = Path(path).name
-    if is_flysight2_sensor(lines):
-        raise InputError(path, "no figure for a FlySight 2 SENSOR.CSV; plot its TRACK.CSV", line=1)
-    if first.startswith("$FLYS") or ("time" in header and "lat" in header):
+    if kind == "gps":
         track = read_flysight(path)
         t0 = float(track.time_unix_s[0])
         return gps_figure(track, f"{name}: GPS track", Timeline(f"time since {iso_utc(t0)}, s", t0))
-    if detect_sounding_format(lines) is not None:
+    if kind == "sounding":
         return sounding_figure(read_sounding(path), f"{name}: sounding")
-    for spec in (ImuCsvSpec(), ROCKET_SPEC):
-        if all(c in header for c in spec.columns):
-            log = read_imu_csv(path, spec)
-            title = (f"{name}: IMU data, in the units the {'default' if spec == ImuCsvSpec() else spec.time_column} "
-                     f"layout declares (accelerometers {spec.accel_unit}, gyros {spec.gyro_unit})")
-            return imu_figure(log, title, Timeline("IMU clock, s"), spec.accel_unit, spec.gyro_unit)
-    raise InputError(path, "no figure for this kind of file (IMU CSV, FlySight track or sounding)", line=1)
+    if kind == "imu":
+        log = read_imu_csv(path, spec)
+        title = (f"{name}: IMU data as the file holds it (its layout declares accelerometers in "
+                 f"{UNIT_LABELS[spec.accel_unit]}, gyros in {UNIT_LABELS[spec.gyro_unit]})")
+        return imu_figure(log, title, Timeline("IMU clock, s"), spec.accel_unit, spec.gyro_unit)
+    raise InputError(path, f"no figure for a {kind} file (IMU CSV, FlySight track or sounding)", line=1)
 
 
 def plot_input_file(path: str | Path, out: str | Path, formats: Sequence[str] | None = None) -> list[Path]:
