@@ -1,24 +1,31 @@
 """Figures of a results folder (per-drop fit or multi-drop joint fit), drawn from its files only.
 
-``draw_figures(results_dir)`` reads the CSV/JSON files that ``casrecon fit`` writes (no CasADi, no
-re-fit) and saves PNGs (150 dpi) into ``results_dir / "figures"``. A joint folder (one sub-folder per
-drop under ``drops/``) gets each drop's figures in ``drops/<name>/figures`` and the top-level
-parameter correlation matrix in ``results_dir / "figures"``.
+``draw_figures(results_dir, formats=("png",))`` reads the CSV/JSON files that ``casrecon fit`` writes
+(no CasADi, no re-fit) and saves each figure into ``results_dir / "figures"`` once per format (PNG at
+150 dpi, PDF, SVG). A joint folder (one sub-folder per drop under ``drops/``) gets each drop's figures
+in ``drops/<name>/figures`` and the top-level parameter correlation matrix in ``results_dir / "figures"``.
 
 Figures of one drop (flight time t = time_imu_s - release_imu_s, in s):
 
-- ``altitude_velocity.png``: altitude AGL (m), NED velocity and speed (m/s), reconstruction lines,
-  GPS fixes as dots;
-- ``qbar_alpha_t.png``: dynamic pressure (Pa) and total angle of attack (deg) with 3-sigma bands, and
-  the 3-sigma itself against time;
-- ``pitching_moment.png``: C_m about the MRP against angle of attack (deg), reconstructed from the
+- ``altitude_velocity``: altitude AGL (m), speed and NED velocity (m/s), ground track; reconstruction
+  lines, GPS fixes as dots;
+- ``qbar_alpha_t``: dynamic pressure (Pa) and total angle of attack (deg) with 3-sigma bands, and the
+  3-sigma itself against time;
+- ``aero_coefficients``, ``aero_coefficients_alpha_t``, ``aero_coefficients_sigma``: the coefficient
+  histories of aero_coefficients.csv with their 3-sigma bands against time and alpha_T, and the size
+  of the bands (:mod:`casrecon.report.aero_figures`);
+- ``pitching_moment``: C_m about the MRP against angle of attack (deg), reconstructed from the
   measured rates (qbar > 100 Pa, |alpha| < 20 deg), nominal and fitted database curves;
-- ``reconciled.png``: reconstruction against the forward simulation with the fitted dispersions;
-- ``residuals_imu.png``, ``residuals_gps.png``: sensor residuals with +-1 and +-3 sigma lines;
-- ``correlation.png``: the parameter correlation matrix.
+- ``reconciled``: reconstruction against the forward simulations with the fitted and nominal aero;
+- ``residuals_imu``, ``residuals_gps``: sensor residuals with +-1 and +-3 sigma lines;
+- ``inputs_imu``, ``inputs_gps``, ``inputs_sounding``: the data files the fit read
+  (:mod:`casrecon.report.input_figures`);
+- ``correlation``: the parameter correlation matrix.
 
-The figures themselves live in :mod:`casrecon.report.trajectory_figures` (flight) and
-:mod:`casrecon.report.residual_figures` (residuals, correlation); this module draws them all.
+The figures themselves live in :mod:`casrecon.report.trajectory_figures` (flight),
+:mod:`casrecon.report.aero_figures`, :mod:`casrecon.report.input_figures` and
+:mod:`casrecon.report.residual_figures` (residuals, correlation); their look (colour code, labels, one
+legend per figure, formats) in :mod:`casrecon.report.figure_style`; this module draws them all.
 Figures are drawn on ``matplotlib.figure.Figure`` objects (Agg canvas, never pyplot), so nothing is
 registered globally and each figure is freed once saved. A figure whose optional input file is
 missing or unreadable is skipped with a note (logged, and appended to ``notes`` if given); a folder
