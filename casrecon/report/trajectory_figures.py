@@ -27,8 +27,8 @@ GPS_LABEL = "GPS fix (antenna)"
 
 def altitude_velocity_figure(drop: DropFolder) -> Figure:
     """Altitude AGL (m), speed, north, east and down velocity (m/s) against flight time (s) and the
-    ground track (m): reconstruction lines and, if gps_fixes.csv exists, GPS fixes as dots
-    (altitude = -pos_d)."""
+    ground track (m, when the trajectory has north and east positions): reconstruction lines and, if
+    gps_fixes.csv exists, GPS fixes as dots (altitude = -pos_d)."""
     tr = drop.traj
     t = tr[rf.FLIGHT_TIME]
     vel = [tr[c] for c in rf.VEL_NED]
@@ -54,13 +54,16 @@ def altitude_velocity_figure(drop: DropFolder) -> Figure:
         ax.set_ylabel(label)
         ax.set_xlabel(style.FLIGHT_TIME_LABEL)
     ax = axes[2, 1]
-    ax.plot(tr[rf.POS_NED[1]], tr[rf.POS_NED[0]], color=style.RECONSTRUCTED_COLOR, lw=1.2, label=RECON_LABEL)
-    if gps is not None:
-        ax.plot(gps[rf.POS_NED[1]], gps[rf.POS_NED[0]], **dots)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("east of the site, m")
-    ax.set_ylabel("north of the site, m")
-    ax.set_title("ground track", fontsize=10)
+    if rf.POS_NED[0] in tr and rf.POS_NED[1] in tr:
+        ax.plot(tr[rf.POS_NED[1]], tr[rf.POS_NED[0]], color=style.RECONSTRUCTED_COLOR, lw=1.2, label=RECON_LABEL)
+        if gps is not None:
+            ax.plot(gps[rf.POS_NED[1]], gps[rf.POS_NED[0]], **dots)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("east of the site, m")
+        ax.set_ylabel("north of the site, m")
+        ax.set_title("ground track", fontsize=10)
+    else:
+        ax.set_axis_off()  # a trajectory without horizontal positions: no ground track
     style.figure_legend(fig, markerscale=2)
     fig.suptitle(f"{drop.name}: altitude and velocity")
     return fig
