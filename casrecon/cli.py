@@ -24,7 +24,28 @@ def _inspect(args: argparse.Namespace) -> int:
     from casrecon.io.inspect import inspect_file
 
     print(inspect_file(args.file))
+    if args.plot:
+        from casrecon.report.input_figures import plot_input_file
+
+        for path in plot_input_file(args.file, args.plot, args.formats):
+            print(f"figure -> {path}")
     return 0
+
+
+def _formats_arg(text: str) -> tuple[str, ...]:
+    """``--format png,pdf`` -> ("png", "pdf"); an unsupported format is a usage error (exit 2)."""
+    from casrecon.report.figure_style import parse_formats
+
+    try:
+        return parse_formats(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _add_format(p: argparse.ArgumentParser, default: tuple[str, ...] | None = ("png",)) -> None:
+    p.add_argument("--format", dest="formats", type=_formats_arg, default=default, metavar="png,pdf",
+                   help="figure file formats, comma-separated, of png, pdf and svg"
+                        + (" (default png)" if default else " (default: the suffix of --plot)"))
 
 
 def _simulate(args: argparse.Namespace) -> int:
@@ -92,7 +113,7 @@ def _fit(args: argparse.Namespace) -> int:
         products = fit_products(result)
         write_fit_results(out, result, products, report, drop_tables(result, products))
         if not args.no_figures:
-            _figures(out)
+            _figures(out, args.formats)
     if not args.quiet:
         print(report)
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
@@ -130,7 +151,7 @@ def _joint(args: argparse.Namespace) -> int:
         products = {d.scenario.config.name: fit_products(d) for d in result.drops}
         write_joint_results(out, result, single, products)
         if not args.no_figures:
-            _figures(out)
+            _figures(out, args.formats)
         print((out / "tables.md").read_text())
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
     return 0
@@ -156,7 +177,7 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     with atomic_folder(args.out) as out:
         write_pointmass_results(out, main, constant, report)
         if not args.no_figures:
-            plot_track_fit(out)
+            plot_track_fit(out, args.formats)
     if not args.quiet:
         print(report)
     print(f"results -> {args.out}")
@@ -167,15 +188,17 @@ def _montecarlo(args: argparse.Namespace) -> int:
     if args.estimator:
         return _estimator_montecarlo(args)
     return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
-                                  args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures)
+                                  args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures,
+                                  formats=args.formats)
 
 
 def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
                            *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
-                           figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
+                           figures: bool = True, progress: bool = True, backend: str = "auto",
+                           formats: Sequence[str] = ("png",)) -> int:
     """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``envelopes.csv``,
-    ``statistics.json``, ``figures/*.png``); ``dt_s`` is the RK4 step, s (the Monte Carlo default,
-    :data:`casrecon.simulation.batch.DEFAULT_DT_S`).
+    ``statistics.json``, ``figures/*`` in each of ``formats``); ``dt_s`` is the RK4 step, s (the Monte
+    Carlo default, :data:`casrecon.simulation.batch.DEFAULT_DT_S`).
     Returns 0, or 2 after printing one located line on bad input."""
     from casrecon.analysis.montecarlo import Dispersions, run_montecarlo
     from casrecon.output.montecarlo_results import write_cases_csv, write_envelopes_csv
@@ -232,7 +255,7 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
             write_envelopes_csv(tmp / "envelopes.csv", result.histories.envelopes())
         write_json(tmp / "statistics.json", stats)
         if figures:
-            plot_montecarlo(result, tmp / "figures")
+            plot_montecarlo(result, tmp / "figures", formats)
     ft, sp = stats["flight_time_s"], stats["impact_speed_mps"]
     print(f"{result.n_cases} cases ({stats['n_impacted']} impacted) in {result.wall_s:.1f} s -> {out}")
     if ft is not None:
@@ -276,7 +299,7 @@ def _sensitivity(args: argparse.Namespace) -> int:
         if args.study == "design":
             design = obs.design_study(scenario, args.parameter)
             write_json(out / "design.json", design_document(design, parameter_unit(scenario.config, args.parameter)))
-            sensitivity_plots.plot_design(design, out)
+            sensitivity_plots.plot_design(design, out, args.formats)
             print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
                             for k, v in design.items() if k != "parameter"))
             return 0
@@ -288,7 +311,7 @@ def _sensitivity(args: argparse.Namespace) -> int:
         directions = obs.fisher_directions(result)
         fisher = fisher_document(scenario.config.name, directions, result.params.specs)
         write_json(out / "fisher.json", fisher)
-        sensitivity_plots.plot_fisher(fisher, out)
+        sensitivity_plots.plot_fisher(fisher, out, args.formats)
         print("weakest parameter combinations (parameters in units of their scale):")
         for d in directions[:5]:
             print("   " + d.describe())
@@ -296,17 +319,17 @@ def _sensitivity(args: argparse.Namespace) -> int:
             prof = obs.profile_likelihood(result, args.parameter, args.points)
             write_json(out / f"profile_{prof.name}.json",
                        profile_document(prof, parameter_unit(scenario.config, prof.name)))
-            sensitivity_plots.plot_profile(prof, out)
+            sensitivity_plots.plot_profile(prof, out, args.formats)
             print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
                   f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")
     return 0
 
 
-def _figures(folder: Path) -> list[Path]:
+def _figures(folder: Path, formats: Sequence[str] = ("png",)) -> list[Path]:
     from casrecon.report.plots import draw_figures
 
     notes: list[str] = []
-    paths = draw_figures(folder, notes)
+    paths = draw_figures(folder, notes, formats)
     for note in notes:
         print(f"casrecon: figure skipped: {note}", file=sys.stderr)
     return paths
@@ -315,7 +338,7 @@ def _figures(folder: Path) -> list[Path]:
 def _report(args: argparse.Namespace) -> int:
     folder = Path(args.results)
     try:
-        paths = _figures(folder)
+        paths = _figures(folder, args.formats)
     except FileNotFoundError as err:
         print(f"casrecon: {err}", file=sys.stderr)
         return 2
@@ -328,6 +351,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("inspect", help="read any supported input file and say what it holds")
     p.add_argument("file", help="FlySight track, sounding or IMU CSV")
+    p.add_argument("--plot", metavar="OUT.png", default=None,
+                   help="also draw the file's data (IMU: specific force and rates; GPS: track, speeds, accuracies, "
+                        "satellites; sounding: wind, temperature, density) into OUT")
+    _add_format(p, default=None)
     p.set_defaults(func=_inspect)
     p = sub.add_parser("simulate", help="forward-simulate a problem from release to impact")
     p.add_argument("problem", help="problem folder or problem.toml")
@@ -348,6 +375,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="do not print the fit report")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
+    _add_format(p)
     p.set_defaults(func=_fit)
     p = sub.add_parser("joint", help="joint aero fit of several drops sharing the dispersion factors")
     p.add_argument("problems", nargs="+", help="problem folders, or one joint .toml file ([joint] drops = [...])")
@@ -363,6 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: each problem's [estimation] hessian)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
+    _add_format(p)
     p.set_defaults(func=_joint)
     p = sub.add_parser("montecarlo", help="dispersed forward simulations: touchdown time and impact speed")
     p.add_argument("problem", help="problem folder or problem.toml")
@@ -378,6 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--estimator", action="store_true",
                    help="estimator Monte Carlo instead: draw a truth from the fit's priors, simulate, fit, and test "
                         "the normalised estimation errors (NEES) against chi-square at 95 %%; exit 4 if not consistent")
+    _add_format(p)
     p.set_defaults(func=_montecarlo)
     p = sub.add_parser("sensitivity", help="observability: Fisher directions, profile likelihood, drop design")
     p.add_argument("study", choices=("fisher", "profile", "design"))
@@ -385,9 +415,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="results folder (replaced atomically)")
     p.add_argument("--parameter", default="Cmq_mult", help="parameter to profile or to design for")
     p.add_argument("--points", type=int, default=9, help="profile grid points (over +-4 Fisher sigma)")
+    _add_format(p)
     p.set_defaults(func=_sensitivity)
     p = sub.add_parser("report", help="(re)draw the figures of a fit or joint results folder")
     p.add_argument("results", help="results folder written by casrecon fit or casrecon joint")
+    _add_format(p)
     p.set_defaults(func=_report)
     return parser
 

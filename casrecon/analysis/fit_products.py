@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from casrecon.analysis.adequacy import Adequacy
+from casrecon.analysis.aero_coefficients import aero_coefficients
 from casrecon.analysis.fit_adequacy import drop_adequacy
 from casrecon.estimation import diagnostics as dg
 from casrecon.estimation.drop import MEASUREMENT_KINDS
@@ -73,6 +74,10 @@ class FitProducts:
     adequacy : Adequacy or None
         The model-adequacy verdict (:mod:`casrecon.analysis.adequacy`) of these residuals and the
         fit's priors.
+    aero_coefficients : Columns
+        Aerodynamic coefficient histories at the nodes, reconstructed from the IMU and of the best-fit
+        and nominal database, with 3-sigma (:func:`casrecon.analysis.aero_coefficients.aero_coefficients`;
+        names in :mod:`casrecon.analysis.aero_columns`).
     """
 
     imu_residuals: Columns
@@ -87,6 +92,7 @@ class FitProducts:
     roll_rate: list[dict] | None = None
     kind_residuals: dict[str, Columns] = field(default_factory=dict)
     adequacy: Adequacy | None = None
+    aero_coefficients: Columns = field(default_factory=dict)
 
     @property
     def reconciled_summary(self) -> dict:
@@ -166,6 +172,7 @@ def fit_products(result) -> FitProducts:
         nominal={k: nom[k] for k in SIMULATION_COLUMNS},
         summary={**rec["summary"], "nominal_database": nom["summary"]},
         kind_residuals=others,
+        aero_coefficients=aero_coefficients(result),
         roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None,
         adequacy=drop_adequacy(result, imu, gps, others))
 

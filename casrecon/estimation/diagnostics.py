@@ -57,8 +57,9 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     dw/dt is the Savitzky-Golay derivative (0.1 s window, cubic) of the bias-corrected gyros; the
     moment about the centre of mass I dw/dt + w x I w is moved to the MRP with the measured
     specific force, the fitted model's damping moment is removed, and the rest is divided by
-    qbar S d. The model curves are the static C_m,body at beta = 0 of the nominal and of the best-fit
-    dispersed database. Every model value comes from the one aero model.
+    qbar S d (NaN at a node whose filter window holds a saturated sample). The model curves are the
+    static C_m,body at beta = 0 of the nominal and of the best-fit dispersed database. Every model value
+    comes from the one aero model.
     """
     cfg, data = result.scenario.config, result.data
     veh = cfg.vehicle
@@ -68,6 +69,8 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     w = (data.gyro_imu - b[3:]) @ r_ib.T
     f = (data.accel_imu - b[:3]) @ r_ib.T
     wdot = savgol_filter(w, 51, 3, deriv=1, delta=dt, axis=0)
+    saturated = ~(data.accel_valid.all(axis=1) & data.gyro_valid.all(axis=1))
+    near_saturated = np.convolve(saturated.astype(float), np.ones(51), mode="same") > 0
     idx = np.clip(np.searchsorted(data.imu_time_s, result.node_time_s), 0, data.imu_time_s.size - 1)
     w, wdot, f = w[idx], wdot[idx], f[idx]
     inertia = np.asarray(veh.inertia_kgm2)
@@ -83,6 +86,7 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     with_rates = np.asarray(coef.map(k)(vb.T, w.T, sound[None, :], disp))
     without = np.asarray(coef.map(k)(vb.T, np.zeros((3, k)), sound[None, :], disp))
     cm = m_mrp[:, 1] / (qbar * veh.ref_area_m2 * veh.ref_length_m) - (with_rates[1] - without[1])
+    cm[near_saturated[idx]] = np.nan
     grid = np.radians(np.linspace(-20, 20, 81))
     speed, a_med = float(np.median(np.linalg.norm(vb, axis=1))), float(np.median(sound))
     v_grid = speed * np.vstack([np.cos(grid), np.zeros_like(grid), np.sin(grid)])

@@ -12,7 +12,8 @@ The convention (``docs/design.md``, section *Results folder*):
   :data:`DIMENSIONLESS_SUFFIXES` (normalised aero factors ``_mult``, ``_add``, ``_coef``,
   ``_factor``, use flags ``_used``, normalised residuals ``_z``, ``_ratio``, ``_autocorrelation``,
   ``_chi2``), starting with :data:`DIMENSIONLESS_PREFIXES` (counts ``n_``, normalised errors ``z_``,
-  moment coefficients ``cm_``, ``chi2_``, ``dof_``, ``reduced_chi2_``), or containing ``normalised``.
+  moment coefficients ``cm_``, ``chi2_``, ``dof_``, ``reduced_chi2_``, aerodynamic coefficients
+  ``CA_`` .. ``Cn_``), or containing ``normalised``.
 - **Text columns** (:data:`TEXT_COLUMNS`): ``utc``, the UTC instant as ISO 8601 with microseconds
   and a ``Z`` (``pd.read_csv(path, parse_dates=["utc"])`` gives tz-aware timestamps).
 - **JSON numbers** are named by their own key as above, else by the nearest key on their path
@@ -51,8 +52,11 @@ DIMENSIONLESS_NAMES = frozenset({
     "rank", "loadings"})
 #: Dimensionless name endings.
 DIMENSIONLESS_SUFFIXES = ("_mult", "_add", "_coef", "_factor", "_used", "_z", "_ratio", "_autocorrelation", "_chi2")
-#: Dimensionless name beginnings.
-DIMENSIONLESS_PREFIXES = ("n_", "z_", "cm_", "chi2_", "dof_", "reduced_chi2_")
+#: Dimensionless name beginnings: counts, normalised errors, moment coefficients, chi-square pieces, and
+#: the aerodynamic coefficients of aero_coefficients.csv (``CA_reconstructed``, ``Cm_best_fit_3sigma``,
+#: ``CN_crossflow_nominal``: :mod:`casrecon.analysis.aero_columns`).
+DIMENSIONLESS_PREFIXES = ("n_", "z_", "cm_", "chi2_", "dof_", "reduced_chi2_", "CA_", "CY_", "CN_", "Cl_", "Cm_",
+                          "Cn_")
 #: Text columns and what they hold.
 TEXT_COLUMNS = {"utc": "UTC, ISO 8601 with microseconds and a Z"}
 

@@ -9,7 +9,8 @@ reconciled-simulation differences), ``tables.md`` (EES Tables 3, 4, 5 style), ``
 figures: ``residuals_imu.csv``, ``residuals_gps.csv`` (and
 ``residuals_<kind>.csv`` of every other measurement kind, e.g. ``residuals_baro.csv``),
 ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv`` (forward simulation with the fitted
-dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``.
+dispersions), ``nominal.csv`` (the same with the nominal database), ``gps_fixes.csv``,
+``aero_coefficients.csv`` (coefficient histories with 3-sigma, dimensionless).
 """
 
 from __future__ import annotations
@@ -112,12 +113,15 @@ TABLE_EVERY = {"reconciled.csv": 5, "nominal.csv": 5}
 def product_tables(products) -> dict[str, dict[str, np.ndarray]]:
     """The tables of a :class:`~casrecon.analysis.fit_products.FitProducts` by their results-folder
     file name (``residuals_<kind>.csv`` for the IMU, the GPS and every other kind, ``gps_fixes.csv``,
-    ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv``, ``nominal.csv``), all rows."""
+    ``pitching_moment.csv``, ``cm_curves.csv``, ``reconciled.csv``, ``nominal.csv``,
+    ``aero_coefficients.csv`` when computed), all rows."""
     tables = {"residuals_imu.csv": products.imu_residuals, "residuals_gps.csv": products.gps_residuals}
     tables.update({f"residuals_{kind}.csv": columns for kind, columns in products.kind_residuals.items()})
     tables.update({"gps_fixes.csv": products.gps_fixes, "pitching_moment.csv": products.pitching_moment,
                    "cm_curves.csv": products.cm_curves, "reconciled.csv": products.reconciled,
                    "nominal.csv": products.nominal})
+    if products.aero_coefficients:
+        tables["aero_coefficients.csv"] = products.aero_coefficients
     return tables
 
 
@@ -162,4 +166,18 @@ def write_fit_results(out: Path, result, products, report_text: str, tables_md: 
     write_json(config_dir / "resolved.json", {"estimation": dataclasses.asdict(cfg.estimation),
                                               "dynamics": dataclasses.asdict(cfg.dynamics),
                                               "site": dataclasses.asdict(cfg.site),
-                                              "parameters": [dataclasses.asdict(s) for s in result.params.specs]})
+                                              "parameters": [dataclasses.asdict(s) for s in result.params.specs],
+                                              "inputs": inputs_document(cfg)})
+
+
+def inputs_document(cfg) -> dict:
+    """Where the fit's data files are (absolute paths) and how they are read, for the input figures
+    that ``casrecon report`` redraws: IMU file, its CSV layout and the UTC of its time 0 (Unix s),
+    GPS file, sounding file and launch."""
+    def where(path) -> str | None:
+        return None if path is None else str(Path(path).resolve())
+
+    return {"imu": {"file": where(cfg.imu.file), "spec": dataclasses.asdict(cfg.imu.spec),
+                    "utc_at_zero_unix_s": cfg.imu.clock_utc_at_zero.timestamp()},
+            "gps": {"file": where(cfg.gps.file)},
+            "sounding": {"file": where(cfg.atmosphere.sounding), "launch": cfg.atmosphere.launch}}

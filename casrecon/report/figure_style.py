@@ -1,11 +1,19 @@
-"""Shared look of the results-folder figures: size, resolution, colours, and the drawing helpers.
+"""Shared look of casrecon's figures: size, resolution, colour code, labels, legends, file formats.
 
 Figures are ``matplotlib.figure.Figure`` objects on an Agg canvas (never pyplot), so nothing is
 registered globally and each figure is freed once saved.
+
+Colour code (the EES paper's Fig. 12: reconstructed black, nominal database blue, best fit red),
+used by every figure for the same meaning: :data:`RECONSTRUCTED_COLOR`, :data:`NOMINAL_COLOR`,
+:data:`BEST_FIT_COLOR`, :data:`TRUTH_COLOR`, :data:`MEASUREMENT_COLOR` (sensor data and residuals),
+:data:`MASKED_COLOR` (data left out of the fit). Labels use mathtext (``r"$\\bar q$"``,
+``r"m/s$^2$"``, :data:`PM3SIGMA`); each figure has one legend (:func:`figure_legend`), not one per
+panel. :func:`save_figure` writes PNG and, on request, PDF or SVG.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -13,11 +21,47 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 DPI = 150
-RECON_COLOR, GPS_COLOR, SIM_COLOR, MASK_COLOR = "C0", "k", "C3", "C1"
+
+#: Colour code of every figure.
+RECONSTRUCTED_COLOR = "k"
+NOMINAL_COLOR = "tab:blue"
+BEST_FIT_COLOR = "tab:red"
+TRUTH_COLOR = "tab:green"
+MEASUREMENT_COLOR = "tab:orange"
+MASKED_COLOR = "tab:purple"
+#: Sigma lines and neutral reference lines.
+SIGMA_COLOR = "0.25"
+#: Opacity of a shaded 3-sigma band.
+BAND_ALPHA = 0.25
+#: Older names of the colour code (kept for callers outside this package).
+RECON_COLOR, GPS_COLOR, SIM_COLOR, MASK_COLOR = RECONSTRUCTED_COLOR, MEASUREMENT_COLOR, BEST_FIT_COLOR, MASKED_COLOR
+
+#: Mathtext pieces of labels.
+PM3SIGMA = r"$\pm 3\sigma$"
+PM1SIGMA = r"$\pm 1\sigma$"
+MPS2 = r"m/s$^2$"
+FLIGHT_TIME_LABEL = "flight time since release, s"
+
+#: File formats :func:`save_figure` can write, and the default.
+SUPPORTED_FORMATS = ("png", "pdf", "svg")
+DEFAULT_FORMATS = ("png",)
+#: Lines longer than this are drawn decimated (:func:`decimate`).
+MAX_LINE_POINTS = 4000
+
+
+def parse_formats(text: str) -> tuple[str, ...]:
+    """``"png,pdf"`` -> ("png", "pdf"): lower-cased, duplicates dropped, order kept; ValueError
+    naming the supported formats for anything else (or an empty list)."""
+    formats = tuple(dict.fromkeys(f.strip().lower().lstrip(".") for f in text.split(",") if f.strip()))
+    bad = [f for f in formats if f not in SUPPORTED_FORMATS]
+    if bad or not formats:
+        raise ValueError(f"unsupported figure format {', '.join(bad) or repr(text)}; "
+                         f"choose from {', '.join(SUPPORTED_FORMATS)} (comma-separated)")
+    return formats
 
 
 def new_figure(nrows: int, ncols: int, size: tuple[float, float], sharex: bool | str = True):
-    """A constrained-layout Figure on an Agg canvas and its axes (2-D array)."""
+    """A constrained-layout Figure on an Agg canvas and its axes (2-D array), grid on."""
     fig = Figure(figsize=size, layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, ncols, sharex=sharex, squeeze=False)
@@ -26,28 +70,71 @@ def new_figure(nrows: int, ncols: int, size: tuple[float, float], sharex: bool |
     return fig, axes
 
 
-def save_figure(fig: Figure, path: Path) -> Path:
-    """Save at DPI, drop the figure's artists (frees memory) and return the path."""
+def save_figure(fig: Figure, path: Path, formats: Sequence[str] = DEFAULT_FORMATS) -> list[Path]:
+    """Save ``fig`` as ``path`` with each suffix of ``formats`` (PNG at DPI; PDF and SVG vector,
+    with artists marked ``rasterized`` embedded at DPI), drop its artists (frees memory) and return
+    the paths written."""
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
+    paths = []
+    for fmt in formats:
+        out = path.with_suffix(f".{fmt}")
+        fig.savefig(out, dpi=DPI, format=fmt)
+        paths.append(out)
     fig.clear()
-    return path
+    return paths
 
 
-def band(ax, t, value, three_sigma, color: str, label: str) -> None:
-    """A line with a shaded +-3-sigma band (same units as value)."""
-    ax.fill_between(t, value - three_sigma, value + three_sigma, color=color, alpha=0.3,
-                    linewidth=0, label=f"{label} 3-sigma band")
+def figure_legend(fig: Figure, axes: Iterable | None = None, ncol: int | None = None, **kw) -> None:
+    """One legend for the whole figure, below the panels: every labelled artist of ``axes``
+    (default: all of the figure's), each label once."""
+    handles: dict[str, object] = {}
+    for ax in (fig.axes if axes is None else axes):
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            if label and not label.startswith("_"):
+                handles.setdefault(label, h)
+    if handles:
+        n = len(handles)
+        fig.legend(list(handles.values()), list(handles), loc="outside lower center",
+                   ncol=ncol or min(n, 4), fontsize=kw.pop("fontsize", 9), frameon=False, **kw)
+
+
+def decimate(t: np.ndarray, y: np.ndarray, max_points: int = MAX_LINE_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """A line of at most about ``max_points`` points that looks like (t, y) drawn in full: the
+    minimum and maximum of each of ``max_points / 2`` consecutive buckets, in time order (keeps
+    spikes and saturation plateaus; NaN-free y)."""
+    t, y = np.asarray(t), np.asarray(y)
+    n = y.size
+    if n <= max_points:
+        return t, y
+    buckets = max(max_points // 2, 1)
+    size = int(np.ceil(n / buckets))
+    m = n // size * size
+    blocks = y[:m].reshape(-1, size)
+    base = np.arange(blocks.shape[0]) * size
+    pick = np.sort(np.column_stack([base + blocks.argmin(axis=1), base + blocks.argmax(axis=1)]), axis=1).ravel()
+    if m < n:
+        tail = np.arange(m, n)
+        pick = np.r_[pick, tail[[np.argmin(y[m:]), np.argmax(y[m:])]]]
+    pick = np.unique(pick)
+    return t[pick], y[pick]
+
+
+def band(ax, t, value, three_sigma, color: str, label: str, band_label: str | None = None) -> None:
+    """A line with a shaded +-3-sigma band (same units as value); the band is labelled
+    ``band_label`` (default ``"<label> +-3 sigma"``)."""
+    ax.fill_between(t, value - three_sigma, value + three_sigma, color=color, alpha=BAND_ALPHA,
+                    linewidth=0, label=band_label or f"{label} {PM3SIGMA}")
     ax.plot(t, value, color=color, lw=1.2, label=label)
 
 
-def sigma_lines(ax, t, sigma, color: str = "k") -> None:
+def sigma_lines(ax, t, sigma, color: str = SIGMA_COLOR) -> None:
     """+-1 sigma (dashed) and +-3 sigma (dotted) lines drawn over the data; sigma a scalar or an
     array over t (same units as the residuals)."""
     sigma = np.broadcast_to(np.asarray(sigma, dtype=float), np.shape(t))
-    for k, style in ((1, "--"), (3, ":")):
+    for k, style, label in ((1, "--", PM1SIGMA), (3, ":", PM3SIGMA)):
         kw = dict(color=color, ls=style, lw=1.3, zorder=4)
-        ax.plot(t, k * sigma, label=f"+-{k} sigma", **kw)
+        ax.plot(t, k * sigma, label=label, **kw)
         ax.plot(t, -k * sigma, **kw)
 
 

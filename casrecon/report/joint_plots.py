@@ -5,7 +5,7 @@ the multi-drop overlays of :mod:`casrecon.report.joint_figures` and the correlat
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
 
@@ -30,23 +30,22 @@ def joint_figure(results_dir: Path, drop_dirs: list[Path], name: str, title: str
     return draw(read_json(Path(results_dir) / "parameters.json"), title)
 
 
-def _draw_one(results_dir: Path, drop_dirs: list[Path], title: str, suffix: str,
+def _draw_one(results_dir: Path, drop_dirs: list[Path], title: str, formats: tuple[str, ...],
               name: str) -> tuple[list[Path], list[str]]:
     try:
         fig = joint_figure(results_dir, drop_dirs, name, title)
-        saved = style.save_figure(fig, Path(results_dir) / "figures" / f"{name}{suffix}")
-        return (list(saved) if isinstance(saved, (list, tuple)) else [saved]), []
+        return style.save_figure(fig, Path(results_dir) / "figures" / name, formats), []
     except (MissingInput, KeyError, ValueError, OSError) as exc:
         what = f"missing column {exc}" if isinstance(exc, KeyError) else str(exc)
         return [], [f"skipped joint {name}: {what}"]
 
 
 def draw_joint_figures(results_dir: Path, drop_dirs: list[Path], title: str, notes: list[str],
-                       workers: int = 2, suffix: str = ".png") -> list[Path]:
-    """Every joint figure into ``results_dir / "figures"`` (format from ``suffix``: ``.png``,
-    ``.pdf``, ``.svg``), drawn by ``workers`` forked processes; a figure whose input is missing is
-    skipped and its reason appended to ``notes``. Returns the paths written."""
-    done = parallel_map(partial(_draw_one, Path(results_dir), list(drop_dirs), title, suffix),
+                       workers: int = 2, formats: Sequence[str] = style.DEFAULT_FORMATS) -> list[Path]:
+    """Every joint figure into ``results_dir / "figures"`` in each of ``formats`` (``png``, ``pdf``,
+    ``svg``), drawn by ``workers`` forked processes; a figure whose input is missing is skipped and
+    its reason appended to ``notes``. Returns the paths written."""
+    done = parallel_map(partial(_draw_one, Path(results_dir), list(drop_dirs), title, tuple(formats)),
                         list(JOINT_FIGURE_NAMES), workers=workers, start_method="fork")
     paths: list[Path] = []
     for p, n in done:

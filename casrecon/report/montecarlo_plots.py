@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -35,10 +36,6 @@ TIME, IN_FLIGHT = "flight_time_s", "n_in_flight"
 MIN_IN_FLIGHT_FRACTION = 0.5
 #: Colours: the cases (histograms, envelope band), their median, the nominal flight, statistics lines.
 CASES_COLOR, MEDIAN_COLOR, NOMINAL_COLOR, SD_COLOR, PCT_COLOR = "tab:blue", "k", "tab:orange", "tab:red", "tab:green"
-
-
-def _saved(result) -> list[Path]:
-    return list(result) if isinstance(result, (list, tuple)) else [result]
 
 
 def _title(result) -> str:
@@ -164,9 +161,9 @@ def montecarlo_envelope_figure(result) -> Figure:
     return envelope_figure(result.histories.envelopes(), _title(result), result.histories.n_cases, window)
 
 
-def plot_montecarlo(result, folder: str | Path, suffix: str = ".png") -> list[Path]:
+def plot_montecarlo(result, folder: str | Path, formats: Sequence[str] = style.DEFAULT_FORMATS) -> list[Path]:
     """Write ``histograms``, ``speed_vs_time`` and (with histories) ``envelopes`` into ``folder``
-    in the format of ``suffix`` (``.png``, ``.pdf``, ``.svg``); returns the paths.
+    in each of ``formats`` (``png``, ``pdf``, ``svg``); returns the paths.
 
     ``result`` is a :class:`~casrecon.analysis.montecarlo.MonteCarloResult`.
     """
@@ -176,5 +173,5 @@ def plot_montecarlo(result, folder: str | Path, suffix: str = ".png") -> list[Pa
         figures["envelopes"] = montecarlo_envelope_figure
     paths: list[Path] = []
     for name, draw in figures.items():
-        paths += _saved(style.save_figure(draw(result), folder / f"{name}{suffix}"))
+        paths += style.save_figure(draw(result), folder / name, formats)
     return paths

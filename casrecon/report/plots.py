@@ -1,25 +1,32 @@
 """Figures of a results folder (per-drop fit or multi-drop joint fit), drawn from its files only.
 
-``draw_figures(results_dir)`` reads the CSV/JSON files that ``casrecon fit`` writes (no CasADi, no
-re-fit) and saves PNGs (150 dpi) into ``results_dir / "figures"``. A joint folder (one sub-folder per
-drop under ``drops/``) gets each drop's figures in ``drops/<name>/figures`` and the joint figures
-(multi-drop overlays, readable correlation figures; :mod:`casrecon.report.joint_plots`) in
-``results_dir / "figures"``.
+``draw_figures(results_dir, formats=("png",))`` reads the CSV/JSON files that ``casrecon fit`` writes
+(no CasADi, no re-fit) and saves each figure into ``results_dir / "figures"`` once per format (PNG at
+150 dpi, PDF, SVG). A joint folder (one sub-folder per drop under ``drops/``) gets each drop's figures
+in ``drops/<name>/figures`` and the joint figures (multi-drop overlays, readable correlation figures;
+:mod:`casrecon.report.joint_plots`) in ``results_dir / "figures"``.
 
 Figures of one drop (flight time t = time_imu_s - release_imu_s, in s):
 
-- ``altitude_velocity.png``: altitude AGL (m), NED velocity and speed (m/s), reconstruction lines,
-  GPS fixes as dots;
-- ``qbar_alpha_t.png``: dynamic pressure (Pa) and total angle of attack (deg) with 3-sigma bands, and
-  the 3-sigma itself against time;
-- ``pitching_moment.png``: C_m about the MRP against angle of attack (deg), reconstructed from the
+- ``altitude_velocity``: altitude AGL (m), speed and NED velocity (m/s), ground track; reconstruction
+  lines, GPS fixes as dots;
+- ``qbar_alpha_t``: dynamic pressure (Pa) and total angle of attack (deg) with 3-sigma bands, and the
+  3-sigma itself against time;
+- ``aero_coefficients``, ``aero_coefficients_alpha_t``, ``aero_coefficients_sigma``: the coefficient
+  histories of aero_coefficients.csv with their 3-sigma bands against time and alpha_T, and the size
+  of the bands (:mod:`casrecon.report.aero_figures`);
+- ``pitching_moment``: C_m about the MRP against angle of attack (deg), reconstructed from the
   measured rates (qbar > 100 Pa, |alpha| < 20 deg), nominal and fitted database curves;
-- ``reconciled.png``: reconstruction against the forward simulation with the fitted dispersions;
-- ``residuals_imu.png``, ``residuals_gps.png``: sensor residuals with +-1 and +-3 sigma lines;
-- ``correlation.png``: the parameter correlation matrix.
+- ``reconciled``: reconstruction against the forward simulations with the fitted and nominal aero;
+- ``residuals_imu``, ``residuals_gps``: sensor residuals with +-1 and +-3 sigma lines;
+- ``inputs_imu``, ``inputs_gps``, ``inputs_sounding``: the data files the fit read
+  (:mod:`casrecon.report.input_figures`);
+- ``correlation``: the parameter correlation matrix.
 
-The figures themselves live in :mod:`casrecon.report.trajectory_figures` (flight) and
-:mod:`casrecon.report.residual_figures` (residuals, correlation); this module draws them all.
+The figures themselves live in :mod:`casrecon.report.trajectory_figures` (flight),
+:mod:`casrecon.report.aero_figures`, :mod:`casrecon.report.input_figures` and
+:mod:`casrecon.report.residual_figures` (residuals, correlation); their look (colour code, labels, one
+legend per figure, formats) in :mod:`casrecon.report.figure_style`; this module draws them all.
 Figures are drawn on ``matplotlib.figure.Figure`` objects (Agg canvas, never pyplot), so nothing is
 registered globally and each figure is freed once saved. A figure whose optional input file is
 missing or unreadable is skipped with a note (logged, and appended to ``notes`` if given); a folder
@@ -29,60 +36,73 @@ without ``summary.json`` or ``trajectory.csv`` raises ``FileNotFoundError`` nami
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
 
+from matplotlib.figure import Figure
+
 from casrecon.parallel import parallel_map
+from casrecon.report import figure_style as style
+from casrecon.report.aero_figures import aero_alpha_t_figure, aero_coefficients_figure, aero_sigma_figure
+from casrecon.report.input_figures import INPUT_FIGURES
 from casrecon.report.joint_plots import draw_joint_figures
-from casrecon.report.residual_figures import plot_correlation, plot_residuals_gps, plot_residuals_imu
+from casrecon.report.residual_figures import correlation_figure, residuals_gps_figure, residuals_imu_figure
 from casrecon.report.results_folder import DropFolder, MissingInput, drop_folders, read_json
 from casrecon.report.trajectory_figures import (
-    plot_altitude_velocity,
-    plot_pitching_moment,
-    plot_qbar_alpha_t,
-    plot_reconciled,
+    altitude_velocity_figure,
+    pitching_moment_figure,
+    qbar_alpha_t_figure,
+    reconciled_figure,
 )
 
 log = logging.getLogger(__name__)
 
 
-DROP_FIGURES: tuple[tuple[str, Callable[[DropFolder, Path], Path]], ...] = (
-    ("altitude_velocity", plot_altitude_velocity),
-    ("qbar_alpha_t", plot_qbar_alpha_t),
-    ("pitching_moment", plot_pitching_moment),
-    ("reconciled", plot_reconciled),
-    ("residuals_imu", plot_residuals_imu),
-    ("residuals_gps", plot_residuals_gps),
+#: Figures of one drop: (file stem, function of a DropFolder returning a Figure).
+DROP_FIGURES: tuple[tuple[str, Callable[[DropFolder], Figure]], ...] = (
+    ("altitude_velocity", altitude_velocity_figure),
+    ("qbar_alpha_t", qbar_alpha_t_figure),
+    ("aero_coefficients", aero_coefficients_figure),
+    ("aero_coefficients_alpha_t", aero_alpha_t_figure),
+    ("aero_coefficients_sigma", aero_sigma_figure),
+    ("pitching_moment", pitching_moment_figure),
+    ("reconciled", reconciled_figure),
+    ("residuals_imu", residuals_imu_figure),
+    ("residuals_gps", residuals_gps_figure),
+    *INPUT_FIGURES,
 )
 
 
-def _attempt(label: str, draw: Callable[[], Path], notes: list[str]) -> list[Path]:
+def _attempt(label: str, draw: Callable[[], list[Path]], notes: list[str]) -> list[Path]:
     """Run one figure; a missing or unreadable optional input skips it with a note."""
     try:
-        return [draw()]
+        return draw()
     except (MissingInput, KeyError, ValueError, OSError) as exc:
         what = f"missing column {exc}" if isinstance(exc, KeyError) else str(exc)
         notes.append(f"skipped {label}: {what}")  # logged by the caller (a worker's log would be lost)
         return []
 
 
-def _draw_one(folder: Path, index: int, correlation: bool) -> tuple[list[Path], list[str]]:
+def _draw_one(folder: Path, index: int, correlation: bool,
+              formats: Sequence[str] = style.DEFAULT_FORMATS) -> tuple[list[Path], list[str]]:
     """Figure number ``index`` of DROP_FIGURES (or the correlation matrix) of one drop folder."""
     notes: list[str] = []
     drop = DropFolder(folder)
     out = drop.folder / "figures"
     if index < len(DROP_FIGURES):
-        label, draw = DROP_FIGURES[index]
-        return _attempt(f"{drop.name} {label}", lambda: draw(drop, out), notes), notes
-    return _attempt(f"{drop.name} correlation", lambda: plot_correlation(
-        drop.json("parameters.json"), drop.name, out), notes), notes
+        label, make = DROP_FIGURES[index]
+        return _attempt(f"{drop.name} {label}", lambda: style.save_figure(make(drop), out / label, formats),
+                        notes), notes
+    return _attempt(f"{drop.name} correlation", lambda: style.save_figure(correlation_figure(
+        drop.json("parameters.json"), drop.name), out / "correlation", formats), notes), notes
 
 
-def draw_drop_figures(folder: Path, notes: list[str] | None = None,
-                      correlation: bool = True, workers: int = 2) -> list[Path]:
+def draw_drop_figures(folder: Path, notes: list[str] | None = None, correlation: bool = True, workers: int = 2,
+                      formats: Sequence[str] = style.DEFAULT_FORMATS) -> list[Path]:
     """All figures of one drop's results folder into ``folder / "figures"``; returns the paths.
 
+    Each figure is saved once per format of ``formats`` (``"png"``, ``"pdf"``, ``"svg"``).
     Figures are drawn by ``workers`` forked processes (matplotlib spends its time in layout and
     rasterisation, one core per figure); ``workers=1`` draws them in this process.
     Raises FileNotFoundError if summary.json or trajectory.csv is missing.
@@ -90,8 +110,8 @@ def draw_drop_figures(folder: Path, notes: list[str] | None = None,
     notes = [] if notes is None else notes
     DropFolder(folder)  # validates the folder before any worker starts
     indices = list(range(len(DROP_FIGURES) + (1 if correlation else 0)))
-    done = parallel_map(partial(_draw_one, folder, correlation=correlation), indices, workers=workers,
-                        start_method="fork")
+    done = parallel_map(partial(_draw_one, folder, correlation=correlation, formats=tuple(formats)), indices,
+                        workers=workers, start_method="fork")
     paths: list[Path] = []
     for p, n in done:
         paths += p
@@ -101,8 +121,9 @@ def draw_drop_figures(folder: Path, notes: list[str] | None = None,
     return paths
 
 
-def draw_figures(results_dir: Path, notes: list[str] | None = None) -> list[Path]:
-    """Draw every figure of a results folder and return the PNG paths.
+def draw_figures(results_dir: Path, notes: list[str] | None = None,
+                 formats: Sequence[str] = style.DEFAULT_FORMATS) -> list[Path]:
+    """Draw every figure of a results folder in each of ``formats`` and return the paths.
 
     A per-drop folder gets its figures in ``results_dir / "figures"``. A joint folder (sub-folders
     ``drops/<name>/``) gets each drop's figures in ``drops/<name>/figures`` and the joint figures
@@ -117,13 +138,13 @@ def draw_figures(results_dir: Path, notes: list[str] | None = None) -> list[Path
         raise FileNotFoundError(f"results folder {results_dir} does not exist")
     drops = drop_folders(results_dir)
     if not drops:
-        return draw_drop_figures(results_dir, notes)
+        return draw_drop_figures(results_dir, notes, formats=formats)
     paths: list[Path] = []
     for folder in drops:
-        paths += draw_drop_figures(folder, notes, correlation=False)
+        paths += draw_drop_figures(folder, notes, correlation=False, formats=formats)
     title = _joint_title(results_dir, drops)
     joint_notes: list[str] = []
-    paths += draw_joint_figures(results_dir, drops, title, joint_notes)
+    paths += draw_joint_figures(results_dir, drops, title, joint_notes, formats=formats)
     for note in joint_notes:
         log.warning(note)
     notes += joint_notes

@@ -2,61 +2,60 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-
+from casrecon.report import figure_style as style
 from casrecon.report.results_folder import read_csv
 
+#: Colours and names of the horizontal residual components (not the colour code's meanings).
+COMPONENT_COLORS = ("tab:cyan", "tab:olive", "tab:pink", "tab:brown")
+COMPONENT_LABELS = {"pos_n": "north position", "pos_e": "east position", "vel_n": "$v_N$", "vel_e": "$v_E$"}
 
-def plot_track_fit(folder: Path) -> Path:
+
+def plot_track_fit(folder: Path, formats: Sequence[str] = style.DEFAULT_FORMATS) -> Path:
     """``figures/track_fit.png`` of a point-mass results folder: height and vertical speed (GPS
     dots, fitted line), normalised residuals of the fitted and the constant-drag model, and the
-    drag area with its 3-sigma band."""
+    drag area with its 3-sigma band; saved in each of ``formats``, the PNG's (or first) path returned."""
     folder = Path(folder)
     tr, res, fix = (read_csv(folder / name) for name in ("trajectory.csv", "residuals_gps.csv", "gps_fixes.csv"))
     import json
 
     name = json.loads((folder / "summary.json").read_text()).get("problem", folder.name)
-    fig = Figure(figsize=(13, 10), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.subplots(3, 2, sharex=True)
+    fig, ax = style.new_figure(3, 2, (13, 10.5))
     used = fix["used"] > 0.5
     t = tr["time_s"]
-    ax[0, 0].plot(fix["time_s"][used], -fix["pos_d_m"][used], ".", ms=3, label="GPS")
-    ax[0, 0].plot(t, -tr["pos_d_m"], lw=1.2, label="fit")
+    gps = dict(ls="none", marker=".", ms=3, color=style.MEASUREMENT_COLOR, label="GPS fix")
+    fit = dict(color=style.RECONSTRUCTED_COLOR, lw=1.2, label="fit (fitted drag area)")
+    ax[0, 0].plot(fix["time_s"][used], -fix["pos_d_m"][used], **gps)
+    ax[0, 0].plot(t, -tr["pos_d_m"], **fit)
     ax[0, 0].set_ylabel("height above ground, m")
-    ax[0, 1].plot(fix["time_s"][used], fix["vel_d_mps"][used], ".", ms=3, label="GPS")
-    ax[0, 1].plot(t, tr["vel_d_mps"], lw=1.2, label="fit")
-    ax[0, 1].set_ylabel("vertical speed (down), m/s")
-    for k, comp in enumerate(("pos_d", "vel_d")):
+    ax[0, 1].plot(fix["time_s"][used], fix["vel_d_mps"][used], **gps)
+    ax[0, 1].plot(t, tr["vel_d_mps"], **fit)
+    ax[0, 1].set_ylabel("vertical speed $v_D$ (down), m/s")
+    three = dict(color=style.SIGMA_COLOR, ls=":", lw=0.9, label=style.PM3SIGMA)
+    for k, (comp, label) in enumerate((("pos_d", "down position"), ("vel_d", "$v_D$"))):
         a = ax[1, k]
-        a.plot(res["time_s"], res[f"{comp}_constant_z"], ".", ms=3, color="C3", label="constant drag area")
-        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=3, color="C0", label="fitted model")
+        a.plot(res["time_s"], res[f"{comp}_constant_z"], ".", ms=3, color=style.NOMINAL_COLOR,
+               label="residual, constant drag area")
+        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=3, color=style.RECONSTRUCTED_COLOR,
+               label="residual, fitted drag area")
         for s in (-3, 3):
-            a.axhline(s, color="k", ls=":", lw=0.8)
-        a.set_ylabel(f"{comp} residual / receiver sigma")
+            a.axhline(s, **three)
+        a.set_ylabel(f"{label} residual / receiver $\\sigma$")
         a.set_yscale("symlog", linthresh=3)
     a = ax[2, 0]
-    for comp, c in (("pos_n", "C0"), ("pos_e", "C1"), ("vel_n", "C2"), ("vel_e", "C4")):
-        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=2, color=c, label=comp)
-    a.axhline(3, color="k", ls=":", lw=0.8)
-    a.axhline(-3, color="k", ls=":", lw=0.8)
-    a.set_ylabel("horizontal residual / sigma (fit)")
+    for comp, c in zip(("pos_n", "pos_e", "vel_n", "vel_e"), COMPONENT_COLORS):
+        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=2, color=c, label=f"residual {COMPONENT_LABELS[comp]}")
+    for s in (-3, 3):
+        a.axhline(s, **three)
+    a.set_ylabel("horizontal residual / $\\sigma$ (fitted drag area)")
     a = ax[2, 1]
-    a.fill_between(t, tr["cda_m2"] - tr["cda_m2_3sigma"], tr["cda_m2"] + tr["cda_m2_3sigma"], alpha=0.3,
-                   label="3-sigma band")
-    a.plot(t, tr["cda_m2"], label="drag area CdA")
-    a.set_ylabel("drag area, m^2")
-    for a in ax.flat:
-        a.grid(True, alpha=0.4)
-        a.legend(fontsize=8)
+    style.band(a, t, tr["cda_m2"], tr["cda_m2_3sigma"], style.RECONSTRUCTED_COLOR, "drag area $C_D A$",
+               f"drag area {style.PM3SIGMA}")
+    a.set_ylabel("drag area $C_D A$, m$^2$")
     for a in ax[-1]:
         a.set_xlabel("time since segment start, s")
-    fig.suptitle(f"{name}: GPS-only point-mass fit (dots: measurements; dotted: +-3 sigma)")
-    out = folder / "figures" / "track_fit.png"
-    out.parent.mkdir(exist_ok=True)
-    fig.savefig(out, dpi=120)
-    fig.clear()
-    return out
+    style.figure_legend(fig, ncol=5, markerscale=3)
+    fig.suptitle(f"{name}: GPS-only point-mass fit")
+    return style.save_figure(fig, folder / "figures" / "track_fit", formats)[0]

@@ -4,19 +4,26 @@ correlation matrix."""
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
-from casrecon.io.units import gps_residual_column, gps_sigma_column, imu_residual_column, imu_sigma_key
 from casrecon.report import figure_style as style
+from casrecon.report import results_folder as rf
 from casrecon.report.results_folder import DropFolder, MissingInput
 
 log = logging.getLogger(__name__)
 
-IMU_CHANNELS = ("ax", "ay", "az", "wx", "wy", "wz")
-GPS_CHANNELS = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
+#: Mathtext name of each IMU channel and GPS component.
+IMU_SYMBOLS = {"ax": "$f_x$", "ay": "$f_y$", "az": "$f_z$", "wx": r"$\omega_x$", "wy": r"$\omega_y$",
+               "wz": r"$\omega_z$"}
+GPS_SYMBOLS = {"pos_n": "north position", "pos_e": "east position", "pos_d": "down position",
+               "vel_n": "$v_N$", "vel_e": "$v_E$", "vel_d": "$v_D$"}
+
+
+def _count(ax, text: str) -> None:
+    ax.text(0.01, 0.97, text, transform=ax.transAxes, fontsize=7.5, va="top",
+            bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.8", alpha=0.85))
 
 
 def residuals_imu_figure(drop: DropFolder) -> Figure:
@@ -28,37 +35,33 @@ def residuals_imu_figure(drop: DropFolder) -> Figure:
     except MissingInput as exc:
         log.info("residuals_imu: no sigma lines (%s)", exc)
         sigma = {}
-    t = drop.flight_time(res["time_imu_s"])
+    t = drop.flight_time(res[rf.TIME_IMU])
     fig, axes = style.new_figure(3, 2, (13, 9))
-    for k, ch in enumerate(IMU_CHANNELS):
+    for k, ch in enumerate(rf.IMU_CHANNELS):
         ax = axes[k % 3, k // 3]
-        unit = "deg/s" if ch.startswith("w") else "m/s^2"
-        r = res[imu_residual_column(ch)]
-        used = res.get(f"{ch}_used", np.ones_like(r)) > 0.5
-        sig = float(sigma[imu_sigma_key(ch)]) if imu_sigma_key(ch) in sigma else None
+        unit = "deg/s" if ch.startswith("w") else style.MPS2
+        r = res[rf.residual(ch)]
+        used = res.get(rf.used(ch), np.ones_like(r)) > 0.5
+        sig = float(sigma[rf.sigma(ch)]) if rf.sigma(ch) in sigma else None
         lim = _residual_limit(r[used], sig)
-        ax.plot(t[used], r[used], ".", ms=1.5, color="C0", alpha=0.6,
-                label=f"used in the fit ({used.sum()})")
+        ax.plot(t[used], r[used], ".", ms=1.5, color=style.MEASUREMENT_COLOR, alpha=0.6, rasterized=True,
+                label="residual, sample used in the fit")
         beyond = int((np.abs(r[~used]) > lim).sum())
-        ax.plot(t[~used], np.clip(r[~used], -lim, lim), "x", ms=3, color=style.MASK_COLOR,
-                label=f"masked, not fitted ({(~used).sum()}"
-                      + (f"; {beyond} beyond the axis, drawn at its edge)" if beyond else ")"))
+        if (~used).any():
+            ax.plot(t[~used], np.clip(r[~used], -lim, lim), "x", ms=3, color=style.MASKED_COLOR, rasterized=True,
+                    label="residual, masked sample (not fitted; drawn at the edge if beyond it)")
         if sig is not None:
             style.sigma_lines(ax, t[[0, -1]] if t.size else t, sig)
         ax.set_ylim(-lim, lim)
-        ax.set_ylabel(f"{ch} residual, {unit}")
-        ax.legend(fontsize=7, loc="upper right", markerscale=3)
+        ax.set_ylabel(f"{IMU_SYMBOLS[ch]} residual, {unit}")
+        _count(ax, f"{used.sum()} used, {(~used).sum()} masked" + (f" ({beyond} beyond the axis)" if beyond else ""))
     for ax in axes[-1]:
-        ax.set_xlabel("flight time since release, s")
-    axes[0, 0].set_title("specific force (accelerometers)")
-    axes[0, 1].set_title("angular rate (gyros)")
+        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
+    axes[0, 0].set_title("specific force (accelerometers), IMU axes")
+    axes[0, 1].set_title("angular rate (gyros), IMU axes")
+    style.figure_legend(fig, markerscale=4)
     fig.suptitle(f"{drop.name}: IMU residuals, measured minus model")
     return fig
-
-
-def plot_residuals_imu(drop: DropFolder, out: Path) -> Path:
-    """Save :func:`residuals_imu_figure` as ``out / "residuals_imu.png"``."""
-    return style.save_figure(residuals_imu_figure(drop), out / "residuals_imu.png")
 
 
 def _residual_limit(used: np.ndarray, sigma: float | None) -> float:
@@ -73,27 +76,22 @@ def residuals_gps_figure(drop: DropFolder) -> Figure:
     """GPS residuals (measured - model) against flight time (s): NED position (m) and velocity (m/s)
     with the receiver's own +-1 and +-3 sigma per fix."""
     res = drop.csv("residuals_gps.csv")
-    t = drop.flight_time(res["time_imu_s"])
+    t = drop.flight_time(res[rf.TIME_IMU])
     fig, axes = style.new_figure(3, 2, (13, 9))
-    for k, ch in enumerate(GPS_CHANNELS):
+    for k, ch in enumerate(rf.GPS_COMPONENTS):
         ax = axes[k % 3, k // 3]
         unit = "m" if ch.startswith("pos") else "m/s"
-        ax.plot(t, res[gps_residual_column(ch)], "o", ms=3, color="C0", label="residual")
-        if gps_sigma_column(ch) in res:
-            style.sigma_lines(ax, t, res[gps_sigma_column(ch)])
-        ax.set_ylabel(f"{ch} residual, {unit}")
-        ax.legend(fontsize=7, loc="upper right")
+        ax.plot(t, res[rf.residual(ch)], "o", ms=2.5, color=style.MEASUREMENT_COLOR, label="residual of a fix")
+        if rf.sigma(ch) in res:
+            style.sigma_lines(ax, t, res[rf.sigma(ch)])
+        ax.set_ylabel(f"{GPS_SYMBOLS[ch]} residual, {unit}")
     for ax in axes[-1]:
-        ax.set_xlabel("flight time since release, s")
-    axes[0, 0].set_title("position (antenna, NED)")
-    axes[0, 1].set_title("velocity (NED)")
-    fig.suptitle(f"{drop.name}: GPS residuals, measured minus model")
+        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
+    axes[0, 0].set_title("antenna position, NED")
+    axes[0, 1].set_title("antenna velocity, NED")
+    style.figure_legend(fig, markerscale=2)
+    fig.suptitle(f"{drop.name}: GPS residuals, measured minus model (sigma: the receiver's own accuracy)")
     return fig
-
-
-def plot_residuals_gps(drop: DropFolder, out: Path) -> Path:
-    """Save :func:`residuals_gps_figure` as ``out / "residuals_gps.png"``."""
-    return style.save_figure(residuals_gps_figure(drop), out / "residuals_gps.png")
 
 
 def correlation_figure(parameters: dict, title: str) -> Figure:
@@ -127,8 +125,3 @@ def correlation_figure(parameters: dict, title: str) -> Figure:
                         color="white" if abs(mat[i, j]) > 0.6 else "black")
     ax.set_title(f"{title}: parameter correlation matrix ({n} parameters)")
     return fig
-
-
-def plot_correlation(parameters: dict, title: str, out: Path) -> Path:
-    """Save :func:`correlation_figure` as ``out / "correlation.png"``."""
-    return style.save_figure(correlation_figure(parameters, title), out / "correlation.png")

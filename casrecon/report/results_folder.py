@@ -7,10 +7,52 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.io.units import TEXT_COLUMNS
+from casrecon.io.units import (
+    GPS_COMPONENT_UNITS,
+    IMU_CHANNEL_UNITS,
+    TEXT_COLUMNS,
+    gps_residual_column,
+    gps_sigma_column,
+    imu_residual_column,
+    imu_sigma_key,
+)
 
 #: Files without which a folder is not a per-drop results folder.
 REQUIRED_FILES = ("summary.json", "trajectory.csv")
+
+# Column names the figures read (one place to follow a rename of the writers' columns).
+#: trajectory.csv (and the reconciled/nominal simulations where they share a name).
+TIME_IMU, FLIGHT_TIME, H_AGL = "time_imu_s", "flight_time_s", "h_agl_m"
+POS_NED = ("pos_n_m", "pos_e_m", "pos_d_m")
+VEL_NED = ("vel_n_mps", "vel_e_mps", "vel_d_mps")
+QBAR, ALPHA, ALPHA_T, ROLL_RATE, SPEED = "qbar_pa", "alpha_deg", "alpha_t_deg", "p_dps", "speed_mps"
+#: pitching_moment.csv and cm_curves.csv.
+CM_RECONSTRUCTED, CM_NOMINAL, CM_BEST_FIT = "cm_recon", "cm_nominal", "cm_fitted"
+#: residuals_imu.csv / imu_sigma.json channels (specific force m/s^2, rate deg/s) and residuals_gps.csv
+#: components (m, m/s); their column names come from :mod:`casrecon.io.units`.
+IMU_CHANNELS = tuple(IMU_CHANNEL_UNITS)
+GPS_COMPONENTS = tuple(GPS_COMPONENT_UNITS)
+
+
+def three_sigma(column: str) -> str:
+    """The 3-sigma column of a trajectory column."""
+    return f"{column}_3sigma"
+
+
+def residual(channel: str) -> str:
+    """The residual column of an IMU channel (``wx_residual_dps``) or GPS component (``pos_n_residual_m``)."""
+    return imu_residual_column(channel) if channel in IMU_CHANNEL_UNITS else gps_residual_column(channel)
+
+
+def used(channel: str) -> str:
+    """The 0/1 column saying whether an IMU sample entered the fit."""
+    return f"{channel}_used"
+
+
+def sigma(channel: str) -> str:
+    """The 1-sigma key of an IMU channel in imu_sigma.json (``wx_sigma_dps``) or column of a GPS
+    component in residuals_gps.csv (``pos_n_sigma_m``)."""
+    return imu_sigma_key(channel) if channel in IMU_CHANNEL_UNITS else gps_sigma_column(channel)
 
 
 class MissingInput(Exception):
@@ -60,7 +102,7 @@ class DropFolder:
         self.name = str(self.summary.get("problem") or self.folder.name)
         release = self.summary.get("release_imu_s")
         if release is None:
-            release = self.traj["time_imu_s"][0] - self.traj["flight_time_s"][0]
+            release = self.traj[TIME_IMU][0] - self.traj[FLIGHT_TIME][0]
         self.release_imu_s = float(release)
 
     def csv(self, name: str) -> dict[str, np.ndarray]:
@@ -111,7 +153,7 @@ class DropTables:
         self.traj = self.csv("trajectory.csv")
         release = summary.get("release_imu_s")
         if release is None:
-            release = self.traj["time_imu_s"][0] - self.traj["flight_time_s"][0]
+            release = self.traj[TIME_IMU][0] - self.traj[FLIGHT_TIME][0]
         self.release_imu_s = float(release)
 
     def csv(self, name: str) -> dict[str, np.ndarray]:

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -28,9 +29,9 @@ MIN_PRINTED_LOADING = 0.1
 POINTS_COLOR, FISHER_COLOR, SIGMA_COLOR = "tab:blue", "tab:red", "0.35"
 
 
-def _save(fig: Figure, path: Path) -> Path:
-    saved = style.save_figure(fig, path)
-    return saved[0] if isinstance(saved, (list, tuple)) else saved
+def _save(fig: Figure, path: Path, formats: Sequence[str]) -> Path:
+    """Save ``fig`` as ``path`` in each of ``formats``; the first format's path."""
+    return style.save_figure(fig, path, formats)[0]
 
 
 def fisher_figure(document: dict) -> Figure:
@@ -76,9 +77,9 @@ def fisher_figure(document: dict) -> Figure:
     return fig
 
 
-def plot_fisher(document: dict, out: Path, suffix: str = ".png") -> Path:
-    """Save :func:`fisher_figure` as ``out / "fisher<suffix>"``."""
-    return _save(fisher_figure(document), Path(out) / f"fisher{suffix}")
+def plot_fisher(document: dict, out: Path, formats: Sequence[str] = style.DEFAULT_FORMATS) -> Path:
+    """Save :func:`fisher_figure` as ``out / "fisher.<format>"`` in each of ``formats``; the first one's path."""
+    return _save(fisher_figure(document), Path(out) / "fisher", formats)
 
 
 def profile_figure(profile) -> Figure:
@@ -102,9 +103,10 @@ def profile_figure(profile) -> Figure:
     return fig
 
 
-def plot_profile(profile, out: Path, suffix: str = ".png") -> Path:
-    """Save :func:`profile_figure` as ``out / "profile_<name><suffix>"``."""
-    return _save(profile_figure(profile), Path(out) / f"profile_{profile.name}{suffix}")
+def plot_profile(profile, out: Path, formats: Sequence[str] = style.DEFAULT_FORMATS) -> Path:
+    """Save :func:`profile_figure` as ``out / "profile_<name>.<format>"`` in each of ``formats``; the
+    first one's path."""
+    return _save(profile_figure(profile), Path(out) / f"profile_{profile.name}", formats)
 
 
 def design_figure(design: dict) -> Figure:
@@ -130,6 +132,6 @@ def design_figure(design: dict) -> Figure:
     return fig
 
 
-def plot_design(design: dict, out: Path, suffix: str = ".png") -> Path:
-    """Save :func:`design_figure` as ``out / "design<suffix>"``."""
-    return _save(design_figure(design), Path(out) / f"design{suffix}")
+def plot_design(design: dict, out: Path, formats: Sequence[str] = style.DEFAULT_FORMATS) -> Path:
+    """Save :func:`design_figure` as ``out / "design.<format>"`` in each of ``formats``; the first one's path."""
+    return _save(design_figure(design), Path(out) / "design", formats)

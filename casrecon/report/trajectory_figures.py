@@ -1,15 +1,17 @@
 """Figures of a drop's flight: altitude and velocity, dynamic pressure and angle of attack, the
-reconstructed pitching moment, and the reconciled forward simulation (flight time t in s since release)."""
+reconstructed pitching moment, and the reconciled forward simulation (flight time t in s since
+release). Colours follow :mod:`casrecon.report.figure_style` (reconstructed black, nominal blue, best
+fit red, measurements orange)."""
 
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from casrecon.report import figure_style as style
+from casrecon.report import results_folder as rf
 from casrecon.report.results_folder import DropFolder, MissingInput
 
 log = logging.getLogger(__name__)
@@ -18,115 +20,109 @@ log = logging.getLogger(__name__)
 CM_MIN_QBAR_PA = 100.0
 #: ... and below this |angle of attack| (deg).
 CM_MAX_ALPHA_DEG = 20.0
+#: Labels of the reconstruction and the GPS.
+RECON_LABEL = "reconstruction (centre of mass)"
+GPS_LABEL = "GPS fix (antenna)"
 
 
 def altitude_velocity_figure(drop: DropFolder) -> Figure:
-    """Altitude AGL (m), vertical velocity and speed, horizontal velocity (m/s) against flight time
-    (s): reconstruction lines and, if gps_fixes.csv exists, GPS fixes as dots (altitude = -pos_d)."""
+    """Altitude AGL (m), speed, north, east and down velocity (m/s) against flight time (s) and the
+    ground track (m, when the trajectory has north and east positions): reconstruction lines and, if
+    gps_fixes.csv exists, GPS fixes as dots (altitude = -pos_d)."""
     tr = drop.traj
-    t = tr["flight_time_s"]
-    speed = style.speed(tr["vel_n_mps"], tr["vel_e_mps"], tr["vel_d_mps"])
+    t = tr[rf.FLIGHT_TIME]
+    vel = [tr[c] for c in rf.VEL_NED]
     try:
         gps = drop.csv("gps_fixes.csv")
     except MissingInput as exc:
         log.info("altitude_velocity: no GPS dots (%s)", exc)
         gps = None
-    fig, axes = style.new_figure(3, 1, (9, 9.5))
-    a_h, a_v, a_hor = axes[:, 0]
-    a_h.plot(t, tr["h_agl_m"], color=style.RECON_COLOR, label="reconstruction")
-    a_v.plot(t, tr["vel_d_mps"], color="C0", label="v_D reconstruction")
-    a_v.plot(t, speed, color="C2", label="speed reconstruction")
-    a_hor.plot(t, tr["vel_n_mps"], color="C0", label="v_N reconstruction")
-    a_hor.plot(t, tr["vel_e_mps"], color="C1", label="v_E reconstruction")
+    fig, axes = style.new_figure(3, 2, (13, 9.5), sharex=False)
+    panels = ((axes[0, 0], tr[rf.H_AGL], "altitude AGL $h$, m"), (axes[0, 1], style.speed(*vel), "speed $|v|$, m/s"),
+              (axes[1, 0], vel[0], "north velocity $v_N$, m/s"), (axes[1, 1], vel[1], "east velocity $v_E$, m/s"),
+              (axes[2, 0], vel[2], "down velocity $v_D$, m/s"))
+    dots = dict(ls="none", marker="o", ms=2.2, color=style.MEASUREMENT_COLOR, zorder=3, label=GPS_LABEL)
     if gps is not None:
-        tg = drop.flight_time(gps["time_imu_s"])
-        dots = dict(s=9, zorder=3, marker="o", linewidths=0)
-        a_h.scatter(tg, -gps["pos_d_m"], color=style.GPS_COLOR, label="GPS fix", **dots)
-        a_v.scatter(tg, gps["vel_d_mps"], color="C0", edgecolors="k", label="v_D GPS", **dots)
-        a_v.scatter(tg, style.speed(gps["vel_n_mps"], gps["vel_e_mps"], gps["vel_d_mps"]), color="C2",
-                    label="speed GPS", **dots)
-        a_hor.scatter(tg, gps["vel_n_mps"], color="C0", label="v_N GPS", **dots)
-        a_hor.scatter(tg, gps["vel_e_mps"], color="C1", label="v_E GPS", **dots)
-    a_h.set_ylabel("altitude AGL, m")
-    a_v.set_ylabel("down velocity, speed, m/s")
-    a_hor.set_ylabel("north, east velocity, m/s")
-    a_hor.set_xlabel("flight time since release, s")
-    for ax in axes[:, 0]:
-        ax.legend(fontsize=8, ncol=2, loc="best")
-    fig.suptitle(f"{drop.name}: altitude and velocity (lines: reconstruction, dots: GPS antenna)")
+        tg = drop.flight_time(gps[rf.TIME_IMU])
+        gvel = [gps[c] for c in rf.VEL_NED]
+        measured = (-gps[rf.POS_NED[2]], style.speed(*gvel), *gvel)
+    for k, (ax, y, label) in enumerate(panels):
+        ax.sharex(axes[0, 0])
+        ax.plot(t, y, color=style.RECONSTRUCTED_COLOR, lw=1.1, zorder=4, label=RECON_LABEL)
+        if gps is not None:
+            ax.plot(tg, measured[k], **dots)
+        ax.set_ylabel(label)
+        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
+    ax = axes[2, 1]
+    if rf.POS_NED[0] in tr and rf.POS_NED[1] in tr:
+        ax.plot(tr[rf.POS_NED[1]], tr[rf.POS_NED[0]], color=style.RECONSTRUCTED_COLOR, lw=1.2, label=RECON_LABEL)
+        if gps is not None:
+            ax.plot(gps[rf.POS_NED[1]], gps[rf.POS_NED[0]], **dots)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_xlabel("east of the site, m")
+        ax.set_ylabel("north of the site, m")
+        ax.set_title("ground track", fontsize=10)
+    else:
+        ax.set_axis_off()  # a trajectory without horizontal positions: no ground track
+    style.figure_legend(fig, markerscale=2)
+    fig.suptitle(f"{drop.name}: altitude and velocity")
     return fig
-
-
-def plot_altitude_velocity(drop: DropFolder, out: Path) -> Path:
-    """Save :func:`altitude_velocity_figure` as ``out / "altitude_velocity.png"``."""
-    return style.save_figure(altitude_velocity_figure(drop), out / "altitude_velocity.png")
 
 
 def qbar_alpha_t_figure(drop: DropFolder) -> Figure:
     """Dynamic pressure (Pa) and total angle of attack (deg) against flight time (s) with shaded
     3-sigma bands (left), and the 3-sigma itself against time (right) since the bands are thin."""
     tr = drop.traj
-    t = tr["flight_time_s"]
-    fig, axes = style.new_figure(2, 2, (12, 7.5))
-    rows = (("qbar_pa", "dynamic pressure", "Pa", "C0"),
-            ("alpha_t_deg", "total angle of attack", "deg", "C3"))
-    for k, (col, label, unit, color) in enumerate(rows):
-        three = tr[f"{col}_3sigma"]
-        style.band(axes[k, 0], t, tr[col], three, color, label)
+    t = tr[rf.FLIGHT_TIME]
+    fig, axes = style.new_figure(2, 2, (13, 7.5))
+    rows = ((rf.QBAR, r"dynamic pressure $\bar q$", "Pa"), (rf.ALPHA_T, r"total angle of attack $\alpha_T$", "deg"))
+    for k, (col, label, unit) in enumerate(rows):
+        three = tr[rf.three_sigma(col)]
+        style.band(axes[k, 0], t, tr[col], three, style.RECONSTRUCTED_COLOR, "reconstruction",
+                   f"reconstruction {style.PM3SIGMA}")
         axes[k, 0].set_ylabel(f"{label}, {unit}")
-        axes[k, 0].legend(fontsize=8)
-        axes[k, 1].plot(t, three, color=color, label=f"3-sigma of {label}")
-        axes[k, 1].set_ylabel(f"3-sigma, {unit}")
+        axes[k, 1].plot(t, three, color=style.SIGMA_COLOR, lw=1.2, label=f"size of the {style.PM3SIGMA} band")
+        axes[k, 1].set_ylabel(f"3$\\sigma$ of {label.split(' $')[0]}, {unit}")
         axes[k, 1].set_ylim(bottom=0)
-        axes[k, 1].legend(fontsize=8)
     for ax in axes[1]:
-        ax.set_xlabel("flight time since release, s")
-    axes[0, 0].set_title("value with 3-sigma band")
-    axes[0, 1].set_title("size of the 3-sigma band")
+        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
+    axes[0, 0].set_title(f"value with its {style.PM3SIGMA} band")
+    axes[0, 1].set_title(f"size of the {style.PM3SIGMA} band")
+    style.figure_legend(fig)
     fig.suptitle(f"{drop.name}: dynamic pressure and total angle of attack")
     return fig
 
 
-def plot_qbar_alpha_t(drop: DropFolder, out: Path) -> Path:
-    """Save :func:`qbar_alpha_t_figure` as ``out / "qbar_alpha_t.png"``."""
-    return style.save_figure(qbar_alpha_t_figure(drop), out / "qbar_alpha_t.png")
-
-
 def pitching_moment_figure(drop: DropFolder) -> Figure:
     """C_m,body about the MRP against angle of attack (deg): points reconstructed from the measured
-    rates (qbar > 100 Pa and |alpha| < 20 deg, colored by flight time, s), nominal database curve and
-    best-fit dispersed curve at beta = 0 (EES paper Fig. 12)."""
+    rates (qbar > 100 Pa and |alpha| < 20 deg), nominal database curve and best-fit dispersed curve at
+    beta = 0 (EES paper Fig. 12: black, blue, red)."""
     pm = drop.csv("pitching_moment.csv")
-    keep = (pm["qbar_pa"] > CM_MIN_QBAR_PA) & (np.abs(pm["alpha_deg"]) < CM_MAX_ALPHA_DEG)
+    keep = ((pm[rf.QBAR] > CM_MIN_QBAR_PA) & (np.abs(pm[rf.ALPHA]) < CM_MAX_ALPHA_DEG)
+            & np.isfinite(pm[rf.CM_RECONSTRUCTED]))
     try:
         curves = drop.csv("cm_curves.csv")
     except MissingInput as exc:
         log.info("pitching_moment: no database curves (%s)", exc)
         curves = None
-    fig, axes = style.new_figure(1, 1, (9, 6.5))
+    fig, axes = style.new_figure(1, 1, (9, 6.8))
     ax = axes[0, 0]
-    pts = ax.scatter(pm["alpha_deg"][keep], pm["cm_recon"][keep], c=drop.flight_time(
-        pm["time_imu_s"][keep]), cmap="viridis", s=12, zorder=2, label=f"reconstructed ({keep.sum()} nodes)")
-    fig.colorbar(pts, ax=ax, label="flight time since release, s")
+    ax.plot(pm[rf.ALPHA][keep], pm[rf.CM_RECONSTRUCTED][keep], ".", ms=3, color=style.RECONSTRUCTED_COLOR,
+            zorder=2, rasterized=True, label=f"reconstructed from the measured rates ({keep.sum()} nodes)")
     if curves is not None:
-        # fitted under the points, nominal dashed on top: both stay visible when they coincide
-        ax.plot(curves["alpha_deg"], curves["cm_fitted"], color="C3", lw=2.5, zorder=1.5,
-                label="best-fit dispersed")
-        ax.plot(curves["alpha_deg"], curves["cm_nominal"], "k--", lw=1.3, zorder=3,
+        ax.plot(curves[rf.ALPHA], curves[rf.CM_NOMINAL], color=style.NOMINAL_COLOR, lw=2.0, zorder=3,
                 label="nominal database")
+        ax.plot(curves[rf.ALPHA], curves[rf.CM_BEST_FIT], color=style.BEST_FIT_COLOR, lw=2.0, ls="--", zorder=3,
+                label="best-fit dispersed database")
     ax.axhline(0, color="0.5", lw=0.8)
     ax.axvline(0, color="0.5", lw=0.8)
-    ax.set_xlabel("angle of attack alpha, deg")
-    ax.set_ylabel("pitching moment coefficient C_m about the MRP, -")
-    ax.legend(fontsize=9)
-    ax.set_title(f"{drop.name}: pitching moment (points: qbar > {CM_MIN_QBAR_PA:.0f} Pa, "
-                 f"|alpha| < {CM_MAX_ALPHA_DEG:.0f} deg; curves at beta = 0)")
+    ax.set_xlabel(r"angle of attack $\alpha$, deg")
+    ax.set_ylabel(r"pitching moment coefficient $C_m$ about the MRP, -")
+    ax.set_title(rf"points: $\bar q$ > {CM_MIN_QBAR_PA:.0f} Pa, $|\alpha|$ < {CM_MAX_ALPHA_DEG:.0f} deg; "
+                 r"curves: static $C_m$ at $\beta$ = 0", fontsize=10)
+    style.figure_legend(fig, ncol=1, markerscale=3)
+    fig.suptitle(f"{drop.name}: pitching moment")
     return fig
-
-
-def plot_pitching_moment(drop: DropFolder, out: Path) -> Path:
-    """Save :func:`pitching_moment_figure` as ``out / "pitching_moment.png"``."""
-    return style.save_figure(pitching_moment_figure(drop), out / "pitching_moment.png")
 
 
 def _reconciled_text(summary: dict) -> str:
@@ -150,7 +146,7 @@ def _reconciled_text(summary: dict) -> str:
 def reconciled_figure(drop: DropFolder) -> Figure:
     """Reconstruction against the reconciled forward simulation: altitude AGL (m), speed (m/s),
     total angle of attack (deg) and, if reconciled.csv has it, roll rate (deg/s) against flight time
-    (s) (left; the nominal-database simulation of nominal.csv dotted if present), and fitted
+    (s) (left; the nominal-database simulation of nominal.csv too if present), and fitted
     simulation minus reconstruction at the nodes (right); a text box gives the differences."""
     sim = drop.csv("reconciled.csv")
     try:
@@ -158,41 +154,35 @@ def reconciled_figure(drop: DropFolder) -> Figure:
     except MissingInput:
         nominal = None
     tr = drop.traj
-    t = tr["flight_time_s"]
-    recon = {"h_agl_m": tr["h_agl_m"], "alpha_t_deg": tr["alpha_t_deg"], "p_dps": tr["p_dps"],
-             "speed_mps": style.speed(tr["vel_n_mps"], tr["vel_e_mps"], tr["vel_d_mps"])}
-    inside = (t >= sim["flight_time_s"].min()) & (t <= sim["flight_time_s"].max())
-    rows = [("h_agl_m", "altitude AGL", "m"), ("speed_mps", "speed (inertial)", "m/s"),
-            ("alpha_t_deg", "total angle of attack", "deg")]
-    if "p_dps" in sim:
-        rows.append(("p_dps", "roll rate p", "deg/s"))
-    fig, axes = style.new_figure(len(rows), 2, (14, 3.2 * len(rows)))
+    t = tr[rf.FLIGHT_TIME]
+    recon = {rf.H_AGL: tr[rf.H_AGL], rf.ALPHA_T: tr[rf.ALPHA_T], rf.ROLL_RATE: tr[rf.ROLL_RATE],
+             rf.SPEED: style.speed(*[tr[c] for c in rf.VEL_NED])}
+    ts = sim[rf.FLIGHT_TIME]
+    inside = (t >= ts.min()) & (t <= ts.max())
+    rows = [(rf.H_AGL, "altitude AGL $h$", "m"), (rf.SPEED, "speed $|v|$ (inertial)", "m/s"),
+            (rf.ALPHA_T, r"total angle of attack $\alpha_T$", "deg")]
+    if rf.ROLL_RATE in sim:
+        rows.append((rf.ROLL_RATE, "roll rate $p$", "deg/s"))
+    fig, axes = style.new_figure(len(rows), 2, (14, 3.1 * len(rows) + 0.6))
     for k, (col, label, unit) in enumerate(rows):
         ax, ad = axes[k]
         y = recon[col]
-        ax.plot(t, y, color=style.RECON_COLOR, lw=1.5, label="reconstruction")
-        ax.plot(sim["flight_time_s"], sim[col], color=style.SIM_COLOR, lw=1.0, ls="--",
-                label="simulation, fitted dispersions")
+        ax.plot(t, y, color=style.RECONSTRUCTED_COLOR, lw=1.4, label="reconstruction")
         if nominal is not None and col in nominal:
-            ax.plot(nominal["flight_time_s"], nominal[col], color="0.45", lw=1.0, ls=":",
+            ax.plot(nominal[rf.FLIGHT_TIME], nominal[col], color=style.NOMINAL_COLOR, lw=1.0, ls=":",
                     label="simulation, nominal database")
+        ax.plot(ts, sim[col], color=style.BEST_FIT_COLOR, lw=1.0, ls="--", label="simulation, best-fit dispersions")
         ax.set_ylabel(f"{label}, {unit}")
-        ax.legend(fontsize=8, loc="best")
-        diff = np.interp(t[inside], sim["flight_time_s"], sim[col]) - y[inside]
-        ad.plot(t[inside], diff, color="C4", lw=1.0, label="fitted simulation - reconstruction")
+        diff = np.interp(t[inside], ts, sim[col]) - y[inside]
+        ad.plot(t[inside], diff, color=style.BEST_FIT_COLOR, lw=1.0)
         ad.axhline(0, color="0.4", lw=0.8)
-        ad.set_ylabel(f"{label} difference, {unit}")
-        ad.legend(fontsize=8, loc="best")
+        ad.set_ylabel(f"difference, {unit}")
     for ax in axes[-1]:
-        ax.set_xlabel("flight time since release, s")
-    axes[0, 0].set_title("reconstruction and simulation")
-    axes[0, 1].set_title("fitted simulation minus reconstruction (at the nodes)")
+        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
+    axes[0, 0].set_title("reconstruction and simulations")
+    axes[0, 1].set_title("best-fit simulation minus reconstruction (at the nodes)")
     axes[0, 0].text(0.02, 0.05, _reconciled_text(drop.summary), transform=axes[0, 0].transAxes,
                     fontsize=8.5, va="bottom", bbox=dict(boxstyle="round", fc="white", ec="0.6"))
-    fig.suptitle(f"{drop.name}: reconstruction vs forward simulation with the fitted dispersions")
+    style.figure_legend(fig)
+    fig.suptitle(f"{drop.name}: reconstruction against forward simulations")
     return fig
-
-
-def plot_reconciled(drop: DropFolder, out: Path) -> Path:
-    """Save :func:`reconciled_figure` as ``out / "reconciled.png"``."""
-    return style.save_figure(reconciled_figure(drop), out / "reconciled.png")

@@ -1,9 +1,12 @@
-"""`casrecon fit` end to end: the results folder, and failures that leave nothing behind."""
+"""`casrecon fit` end to end: the results folder (every figure as PNG and PDF, each file checked),
+and failures that leave nothing behind."""
 
 import json
 
 from conftest import PROBLEMS
+from figure_files import DROP_FIGURES, assert_figure_file
 
+from casrecon.analysis import aero_columns
 from casrecon.cli import main
 from casrecon.io.units import unnamed_json_numbers
 
@@ -19,9 +22,15 @@ def _with_estimation(problem_toml, text: str) -> None:
 
 def test_fit_writes_the_results_folder(problem_copy, tmp_path, capsys):
     out = tmp_path / "fit"
-    assert main(["fit", str(problem_copy), "--out", str(out), "--quiet"]) == 0
+    assert main(["fit", str(problem_copy), "--out", str(out), "--quiet", "--format", "png,pdf"]) == 0
     names = {p.name for p in out.iterdir()}
-    assert {"trajectory.csv", "parameters.json", "summary.json", "tables.md", "report.txt", "config"} <= names
+    assert {"trajectory.csv", "parameters.json", "summary.json", "tables.md", "report.txt", "config",
+            "aero_coefficients.csv"} <= names
+    figures = sorted((out / "figures").iterdir())
+    assert [p.name for p in figures] == sorted(f"{f}.{x}" for f in DROP_FIGURES for x in ("png", "pdf"))
+    for path in figures:
+        assert_figure_file(path)
+    assert (out / "aero_coefficients.csv").read_text().splitlines()[0].split(",") == list(aero_columns.all_columns())
     summary = json.loads((out / "summary.json").read_text())
     assert summary["converged"] is True
     for key in ("build_s", "solve_s", "covariance_s", "total_s", "iterations", "objective", "chi2"):

@@ -24,11 +24,18 @@ from casrecon.cli import main
 from casrecon.output.fit_results import write_table
 from casrecon.output.montecarlo_results import write_envelopes_csv
 from casrecon.output.results import write_json
-from casrecon.report import joint_correlation, joint_figures, joint_plots, montecarlo_plots, sensitivity_plots
+from casrecon.report import (
+    figure_style,
+    joint_correlation,
+    joint_figures,
+    joint_plots,
+    montecarlo_plots,
+    sensitivity_plots,
+)
 from casrecon.report.results_folder import read_csv
 from casrecon.simulation.batch import HISTORY_CHANNELS
 
-FORMATS = (".png", ".pdf")
+FORMATS = ("png", "pdf")
 DROPS = ("drop-a", "drop-b", "drop-c", "drop-d")
 SHARED = ("CA_mult", "CN_add", "CNY_mult", "CY_add", "Cm_add", "Cmn_mult", "Cn_add", "Cmq_mult", "Cl_add")
 LOCAL = ("wind_bias_n", "wind_bias_e", "density_factor", "accel_bias_x", "accel_bias_y", "accel_bias_z",
@@ -50,12 +57,8 @@ def assert_valid(path: Path) -> None:
 
 
 def save_all(fig: Figure, stem: Path) -> list[Path]:
-    """Save one figure as every format of FORMATS (matplotlib picks the format from the suffix)."""
-    stem.parent.mkdir(parents=True, exist_ok=True)
-    paths = [stem.with_suffix(s) for s in FORMATS]
-    for p in paths:
-        fig.savefig(p, dpi=100)
-    return paths
+    """Save one figure in every format of FORMATS."""
+    return figure_style.save_figure(fig, stem, FORMATS)
 
 
 def _correlation(n: int, seed: int) -> np.ndarray:
@@ -108,11 +111,9 @@ def joint_folder(tmp_path_factory):
 def test_every_joint_figure_is_a_valid_png_and_pdf(joint_folder):
     drops = sorted((joint_folder / "drops").iterdir())
     notes: list[str] = []
-    paths = []
-    for suffix in FORMATS:
-        paths += joint_plots.draw_joint_figures(joint_folder, drops, "quad", notes, suffix=suffix)
+    paths = joint_plots.draw_joint_figures(joint_folder, drops, "quad", notes, formats=FORMATS)
     assert notes == []
-    assert sorted(p.name for p in paths) == sorted(f"{n}{s}" for n in joint_plots.JOINT_FIGURE_NAMES for s in FORMATS)
+    assert sorted(p.name for p in paths) == sorted(f"{n}.{s}" for n in joint_plots.JOINT_FIGURE_NAMES for s in FORMATS)
     assert {"joint_altitude_speed", "joint_qbar_alpha_t", "joint_rates", "correlation"} <= set(
         joint_plots.JOINT_FIGURE_NAMES)
     for p in paths:
@@ -161,10 +162,8 @@ def montecarlo():
 
 
 def test_every_montecarlo_figure_is_a_valid_png_and_pdf(montecarlo, tmp_path):
-    paths = []
-    for suffix in FORMATS:
-        paths += montecarlo_plots.plot_montecarlo(montecarlo, tmp_path / "figures", suffix)
-    assert sorted(p.name for p in paths) == sorted(f"{n}{s}" for n in ("histograms", "speed_vs_time", "envelopes")
+    paths = montecarlo_plots.plot_montecarlo(montecarlo, tmp_path / "figures", FORMATS)
+    assert sorted(p.name for p in paths) == sorted(f"{n}.{s}" for n in ("histograms", "speed_vs_time", "envelopes")
                                                    for s in FORMATS)
     for p in paths:
         assert_valid(p)
@@ -209,14 +208,15 @@ def test_every_sensitivity_figure_is_a_valid_png_and_pdf(short_problem, tmp_path
     assert first["sigma_normalised"] == pytest.approx(first["eigenvalue"] ** -0.5)
     for d in doc["directions"]:
         assert sum(w * w for w in d["loadings"].values()) == pytest.approx(1.0)
-    paths = [out / "fisher.png", sensitivity_plots.plot_fisher(doc, tmp_path, ".pdf")]
+    paths = [out / "fisher.png", sensitivity_plots.plot_fisher(doc, tmp_path, ("pdf",))]
     x = -0.3 + 0.01 * np.linspace(-4, 4, 9)
     profile = Profile("Cmq_mult", x, ((x + 0.3) / 0.01) ** 2, -0.3, 0.03, (-0.33, -0.27))
     design = {"parameter": "Cmq_mult", "pitch_rate": [(0.0, 0.01), (30.0, 0.005)], "altitude": [(800.0, 0.01)],
               "n_drops": [(1, 0.006), (2, 0.004), (4, 0.003)]}
-    for suffix in FORMATS:
-        paths += [sensitivity_plots.plot_profile(profile, tmp_path, suffix),
-                  sensitivity_plots.plot_design(design, tmp_path, suffix)]
+    for draw, what in ((sensitivity_plots.plot_profile, profile), (sensitivity_plots.plot_design, design)):
+        first = draw(what, tmp_path, FORMATS)  # one call writes every format, returns the first
+        assert first.suffix == ".png"
+        paths += [first.with_suffix(f".{s}") for s in FORMATS]
     assert len(paths) == 6
     for p in paths:
         assert_valid(p)

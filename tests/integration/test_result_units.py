@@ -101,6 +101,7 @@ def test_the_rules_catch_names_without_units():
     assert [unit_of(n) for n in ("wx_residual_dps", "pos_n_m_3sigma", "force_error_x_n", "cases_per_s", "CA_mult",
                                  "vel_d_mps", "qbar_pa")] == ["deg/s", "m", "N", "1/s", "-", "m/s", "Pa"]
     assert unit_of("wind_bias_n") is None and unit_of("utc").startswith("UTC")
+    assert unit_of("Cm_best_fit_3sigma") == unit_of("CN_crossflow_reconstructed") == "-"  # aero_coefficients.csv
     # a record's unit names its numbers, a key on the path names the numbers below it, a units map its keys
     assert unnamed_json_numbers({"p": {"value": 1.0, "unit": "m/s"}, "flight_time_s": {"mean": 1.0},
                                  "parameters": {"wind_bias_n": 1.0}, "units": {"wind_bias_n": "m/s"}}) == []
@@ -110,7 +111,8 @@ def test_every_column_and_number_of_a_fit_names_its_unit(drop_folder):
     folder, fit = drop_folder
     names = {p.name for p in folder.iterdir()}
     assert {"trajectory.csv", "residuals_imu.csv", "residuals_gps.csv", "imu_sigma.json", "parameters.json",
-            "summary.json", "gps_fixes.csv", "pitching_moment.csv", "cm_curves.csv", "reconciled.csv"} <= names
+            "summary.json", "gps_fixes.csv", "pitching_moment.csv", "cm_curves.csv", "reconciled.csv",
+            "aero_coefficients.csv"} <= names
     assert unnamed(folder) == {}
     # the API holds the same names as the files
     for name, table in fit.tables.items():

@@ -118,3 +118,19 @@ def test_variance_of_a_combination_matches_the_dense_inverse(short_fit, dense_kk
         want = w @ dense_kkt_cov[np.ix_(idx, idx)] @ w
         assert short_fit.covariance.variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
         assert lu_cov.variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
+
+
+def test_kkt_blocks_equal_the_dense_inverse_and_are_kept(short_fit, dense_kkt, dense_kkt_cov, monkeypatch):
+    """The sparse-LU blocks (the disturbance-state path) equal the dense inverse; asking again for
+    the same index sets (trajectory bands, then coefficient bands) solves nothing."""
+    kkt, n_z = dense_kkt
+    lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1)
+    theta = np.arange(short_fit.part.n_state_vars, n_z)
+    sets = [np.r_[NS * node + np.arange(NS), theta] for node in (1, 7, 13)]
+    first = lu_cov.blocks(sets)
+    for idx, got in zip(sets, first):
+        assert relative_gap(got, dense_kkt_cov[np.ix_(idx, idx)]) < 1e-6
+    solves = []
+    monkeypatch.setattr(lu_cov, "_columns", lambda idx: solves.append(idx))
+    again = lu_cov.blocks(sets[::-1])
+    assert solves == [] and all(a is b for a, b in zip(again, first[::-1]))

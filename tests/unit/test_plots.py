@@ -1,4 +1,6 @@
-"""Figures of a results folder: drawn from a tiny synthetic folder (no fit), per-drop and joint."""
+"""Figures of a results folder: drawn from a tiny synthetic folder (no fit), per-drop and joint; every
+figure into PNG and PDF, each file checked (PNG signature and image shape, PDF header and trailer).
+The input figures read the shipped ees-drop-1 data files the folder's config/resolved.json names."""
 
 from __future__ import annotations
 
@@ -8,16 +10,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from matplotlib.image import imread
+from conftest import PROBLEMS
+from figure_files import AERO_FIGURES, DROP_FIGURES, assert_figure_file, assert_png
 
+from casrecon.analysis import aero_columns as aero
 from casrecon.io.units import gps_residual_column, gps_sigma_column, imu_residual_column, imu_sigma_key
 from casrecon.report import figure_style
 from casrecon.report.joint_plots import JOINT_FIGURE_NAMES
 from casrecon.report.plots import draw_figures
 
 RELEASE_IMU_S = 2.0
-DROP_FIGURES = ("altitude_velocity", "qbar_alpha_t", "pitching_moment", "reconciled",
-                "residuals_imu", "residuals_gps", "correlation")
 TRAJ_NAMES = ("pos_n_m", "pos_e_m", "pos_d_m", "h_agl_m", "vel_n_mps", "vel_e_mps", "vel_d_mps",
               "roll_deg", "pitch_deg", "yaw_deg", "p_dps", "q_dps", "r_dps", "alpha_deg",
               "beta_deg", "alpha_t_deg", "qbar_pa", "mach")
@@ -80,8 +82,27 @@ def make_drop_folder(folder: Path, name: str = "synthetic-drop", n: int = 200) -
            "alpha_t_deg": np.interp(ts, ft, np.abs(alpha)), "p_dps": np.sin(ts)}
     _write_csv(folder / "reconciled.csv", sim)
     _write_csv(folder / "nominal.csv", {**sim, "speed_mps": 36 + 0 * ts})
+    coefficients = {aero.TIME_IMU: t_imu, aero.FLIGHT_TIME: ft, aero.ALPHA_T: np.abs(alpha),
+                    aero.QBAR: values["qbar_pa"]}
+    for k, c in enumerate(aero.COEFFICIENTS):
+        base = 0.01 * (k + 1) * np.sin(ft + k)
+        for j, variant in enumerate((aero.RECONSTRUCTED, aero.BEST_FIT, aero.NOMINAL)):
+            coefficients[aero.column(c, variant)] = base + 0.001 * j + (rng.normal(0, 1e-3, n) if j == 0 else 0)
+            if variant != aero.NOMINAL:
+                coefficients[aero.sigma_column(c, variant)] = np.full(n, 3e-3 / (j + 1))
+    coefficients[aero.column("CA", aero.RECONSTRUCTED)][:4] = np.nan  # next to a saturated sample
+    _write_csv(folder / "aero_coefficients.csv", {c: coefficients[c] for c in aero.all_columns()})
+    data = PROBLEMS / "ees-drop-1"
+    (folder / "config").mkdir()
+    (folder / "config" / "resolved.json").write_text(json.dumps({
+        "site": {"lat_deg": 40.19, "lon_deg": -112.94, "ground_alt_msl_m": 1310.0},
+        "inputs": {"imu": {"file": str(data / "data" / "imu.csv"), "utc_at_zero_unix_s": 1696347128.25,
+                           "spec": {"gyro_unit": "deg/s", "gyro_limits": [[-183.65, 157.4]]}},
+                   "gps": {"file": str(data / "data" / "gps.csv")},
+                   "sounding": {"file": str(data / "sounding.csv"), "launch": 0}}}))
     (folder / "summary.json").write_text(json.dumps({
-        "problem": name, "release_imu_s": RELEASE_IMU_S,
+        "problem": name, "release_imu_s": RELEASE_IMU_S, "impact_imu_s": RELEASE_IMU_S + 12.0,
+        "window_imu_s": [t_imu[0], t_imu[-1]],
         "reconciled": {"flight_time_difference_s": 0.1, "impact_speed_difference_mps": -0.2}}))
     (folder / "parameters.json").write_text(json.dumps(_parameters(PARAM_NAMES)))
     return folder
@@ -94,33 +115,43 @@ def no_render(monkeypatch):
     real_save = figure_style.save_figure
     rendered: list[Path] = []
 
-    def fast_save(fig, path: Path) -> Path:
+    def fast_save(fig, path: Path, formats=("png",)) -> list[Path]:
         if path.parent in rendered:
-            return real_save(fig, path)
+            return real_save(fig, path, formats)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(b"not rendered")
+        paths = [path.with_suffix(f".{f}") for f in formats]
+        for p in paths:
+            p.write_bytes(b"not rendered")
         fig.clear()
-        return path
+        return paths
 
     monkeypatch.setattr(figure_style, "save_figure", fast_save)
     return rendered
 
 
-def assert_png(path: Path) -> None:
-    assert path.is_file() and path.stat().st_size > 1000, path
-    image = imread(path)
-    assert image.ndim == 3 and image.shape[0] > 300 and image.shape[1] > 300, (path, image.shape)
-
-
-def test_every_figure_of_a_drop_is_a_png(tmp_path):
+def test_every_figure_of_a_drop_is_a_png_and_a_pdf(tmp_path):
     folder = make_drop_folder(tmp_path / "fit")
     notes: list[str] = []
-    paths = draw_figures(folder, notes)
+    paths = draw_figures(folder, notes, formats=("png", "pdf"))
     assert notes == []
-    assert sorted(p.name for p in paths) == sorted(f"{f}.png" for f in DROP_FIGURES)
+    assert sorted(p.name for p in paths) == sorted(f"{f}.{x}" for f in DROP_FIGURES for x in ("png", "pdf"))
     for path in paths:
         assert path.parent == folder / "figures"
-        assert_png(path)
+        assert_figure_file(path)
+
+
+def test_missing_aero_table_and_moved_inputs_skip_only_their_figures(tmp_path, no_render):
+    folder = make_drop_folder(tmp_path / "fit")
+    (folder / "aero_coefficients.csv").unlink()
+    resolved = json.loads((folder / "config" / "resolved.json").read_text())
+    resolved["inputs"]["gps"]["file"] = str(tmp_path / "moved.csv")
+    (folder / "config" / "resolved.json").write_text(json.dumps(resolved))
+    notes: list[str] = []
+    paths = draw_figures(folder, notes)
+    assert {p.stem for p in paths} == set(DROP_FIGURES) - {*AERO_FIGURES, "inputs_gps"}
+    assert len(notes) == 4
+    assert sum("aero_coefficients.csv" in n for n in notes) == 3
+    assert any("inputs_gps" in n and "moved.csv" in n for n in notes)
 
 
 OPTIONAL = {"reconciled.csv": "reconciled", "pitching_moment.csv": "pitching_moment",

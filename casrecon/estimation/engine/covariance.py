@@ -103,6 +103,7 @@ class KktCovariance:
             raise SingularCovariance(f"KKT matrix singular ({err}): some combination of the unknowns is not "
                                      "determined by the data") from None
         self.condition = float("nan")
+        self._blocks: dict[bytes, np.ndarray] = {}  # blocks already computed, by their index set
 
     def _columns(self, idx: np.ndarray) -> np.ndarray:
         """Rows 0..n_z of K^-1 e_j for every j in idx, (n_z, len(idx))."""
@@ -132,8 +133,18 @@ class KktCovariance:
 
     def blocks(self, index_sets: list[np.ndarray]) -> list[np.ndarray]:
         """Covariance of z[idx] for each idx; the indices every set shares (the parameters) are
-        solved for once, the rest set by set in batches of about BATCH right-hand sides."""
+        solved for once, the rest set by set in batches of about BATCH right-hand sides. Blocks are
+        kept, so asking again for the same index sets (the trajectory bands, then the coefficient
+        bands, at the same nodes) costs no solve."""
         sets = [np.asarray(s, int) for s in index_sets]
+        missing = [s for s in sets if s.tobytes() not in self._blocks]
+        if missing:
+            for s, block in zip(missing, self._solve_blocks(missing)):
+                self._blocks[s.tobytes()] = block
+        return [self._blocks[s.tobytes()] for s in sets]
+
+    def _solve_blocks(self, sets: list[np.ndarray]) -> list[np.ndarray]:
+        """The covariance blocks of ``sets`` from LU solves (see :meth:`blocks`)."""
         common = sets[0]
         for s in sets[1:]:
             common = np.intersect1d(common, s)
