@@ -42,6 +42,12 @@ _loaded: dict[str, ca.Function] = {}
 _warned: set[str] = set()
 
 
+def reset() -> None:
+    """Forget the libraries loaded and the warnings given in this process (as a new process starts)."""
+    _loaded.clear()
+    _warned.clear()
+
+
 def cache_dir() -> Path:
     """The folder compiled libraries are kept in (see the module docstring)."""
     env = os.environ.get("CASRECON_CACHE_DIR")
