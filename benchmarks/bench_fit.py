@@ -1,19 +1,29 @@
-"""Timing and memory of the per-drop and joint fits (not a test; prints its figures).
+"""Where the time of a per-drop fit goes, and the joint fit against one drop (not a test; prints).
 
-Measures, as medians over --runs runs:
-- the per-drop fit of ees-drop-1 (40 s drop, every 500 Hz IMU sample used): NLP construction
-  (``build_s``), Ipopt solve, covariance, and the whole ``casrecon fit`` command in a fresh
-  subprocess (wall time and peak resident memory);
-- MUMPS against SPRAL and the Gauss-Newton against the exact Hessian (solve time, iterations);
-- the four-drop joint fit's build + solve against one drop's (acceptance: at most 5 times).
+Medians (min, max) over --runs runs of, for ees-drop-1 (40 s drop, every 500 Hz IMU sample used):
 
-Run: python benchmarks/bench_fit.py [--runs 3] [--skip-joint] [--skip-solvers]
+- import: ``import casrecon.cli`` plus what ``fit`` imports, in a fresh interpreter, minus a bare
+  interpreter's start;
+- the fit's parts, in-process, as ``casrecon fit`` runs them: reading the data, initial guess,
+  NLP build, Ipopt solve (iterations; of the solve, the block evaluations, the convergence test and
+  the rest, which is Ipopt's own work, mostly the KKT factorisations), covariance and bands;
+  results (the fit products and the writers), figures;
+- the whole command ``casrecon fit --out DIR`` in a fresh process, with and without figures: wall
+  time and peak resident memory;
+- a second process's build (the compiled block functions then come from the disk cache);
+- with --joint: the four EES drops' joint fit against one drop (acceptance: at most 4x).
+
+The compile cache is whatever ``CASRECON_CACHE_DIR`` names (default ~/.cache/casrecon/codegen);
+``--cold`` empties a private one first, so the first run shows the compile.
+
+Run: python benchmarks/bench_fit.py [--runs 5] [--joint] [--cold] [--problem ees-drop-1]
 """
 
 from __future__ import annotations
 
 import argparse
-import resource
+import json
+import os
 import statistics
 import subprocess
 import sys
@@ -21,75 +31,131 @@ import tempfile
 import time
 from pathlib import Path
 
-from casrecon.estimation.fit import fit_drop
-from casrecon.estimation.joint import JointConfig, fit_joint
-from casrecon.scenario import Scenario
-
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEMS = ROOT / "problems"
 
 
-def _median(values: list[float]) -> str:
+def median(values: list[float]) -> str:
     return f"{statistics.median(values):7.2f} s (min {min(values):.2f}, max {max(values):.2f})"
 
 
-def per_drop(runs: int, name: str = "ees-drop-1", **kw) -> dict[str, list[float]]:
-    out: dict[str, list[float]] = {"build_s": [], "solve_s": [], "covariance_s": [], "total_s": [], "iterations": []}
+def import_time(runs: int) -> list[float]:
+    """Seconds to import what ``casrecon fit`` needs, over a bare interpreter's start."""
+    code = ("import casrecon.cli, casrecon.estimation.fit, casrecon.analysis.fit_products, "
+            "casrecon.output.fit_results, casrecon.report.fit_report")
+    out = []
     for _ in range(runs):
-        r = fit_drop(Scenario.load(PROBLEMS / name), **kw)
-        for k in ("build_s", "solve_s", "covariance_s", "total_s"):
-            out[k].append(r.timings[k])
-        out["iterations"].append(r.solver.iterations)
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", "pass"], check=True)
+        bare = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code], check=True)
+        out.append(time.perf_counter() - t0 - bare)
     return out
 
 
-def command(runs: int, extra: list[str]) -> tuple[list[float], list[float]]:
-    """Wall time and peak RSS (MB) of `casrecon fit` in a fresh process."""
-    walls, rss = [], []
+def parts(problem: Path, runs: int, figures: bool) -> dict[str, list[float]]:
+    """The parts of the fit command, timed in this process."""
+    from casrecon.analysis.fit_products import fit_products
+    from casrecon.estimation.fit import fit_drop
+    from casrecon.output.fit_results import write_fit_results
+    from casrecon.report.fit_report import fit_report
+    from casrecon.report.plots import draw_figures
+    from casrecon.report.tables import drop_tables
+    from casrecon.scenario import Scenario
+
+    keys = ("data_s", "initial_guess_s", "build_s", "solve_s", "solve_evaluation_s", "solve_stop_test_s",
+            "covariance_s")
+    out: dict[str, list[float]] = {k: [] for k in (*keys, "iterations", "ipopt_own_s", "results_s", "figures_s")}
+    for _ in range(runs):
+        result = fit_drop(Scenario.load(problem))
+        for k in keys:
+            out[k].append(result.timings[k])
+        out["iterations"].append(result.solver.iterations)
+        out["ipopt_own_s"].append(result.timings["solve_s"] - result.timings["solve_evaluation_s"]
+                                  - result.timings["solve_stop_test_s"])
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            report = fit_report(result)
+            products = fit_products(result)
+            write_fit_results(Path(tmp), result, products, report, drop_tables(result, products))
+            t1 = time.perf_counter()
+            if figures:
+                draw_figures(Path(tmp), [])
+            out["results_s"].append(t1 - t0)
+            out["figures_s"].append(time.perf_counter() - t1)
+    return out
+
+
+RUN_AND_REPORT_RSS = ("import resource, sys; from casrecon.cli import main; code = main(sys.argv[1:]); "
+                      "print('maxrss', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(code)")
+
+
+def command(problem: Path, runs: int, extra: list[str]) -> tuple[list[float], list[float], list[dict]]:
+    """Wall time, peak RSS (MB) and summary timings of ``casrecon fit`` in a fresh process."""
+    walls, rss, timings = [], [], []
     for _ in range(runs):
         with tempfile.TemporaryDirectory() as tmp:
-            before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
             t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "casrecon.cli", "fit", str(PROBLEMS / "ees-drop-1"), "--out",
-                            str(Path(tmp) / "out"), "--quiet", *extra], check=True, capture_output=True)
+            argv = ["fit", str(problem), "--out", str(Path(tmp) / "out"), "--quiet", *extra]
+            proc = subprocess.run([sys.executable, "-c", RUN_AND_REPORT_RSS, *argv],
+                                  check=True, capture_output=True, text=True)
             walls.append(time.perf_counter() - t0)
-            rss.append(max(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, before) / 1024)
-    return walls, rss
+            rss.append(float(proc.stdout.split("maxrss")[-1]) / 1024)
+            timings.append(json.loads((Path(tmp) / "out" / "summary.json").read_text()).get("timings", {}))
+    return walls, rss, timings
+
+
+def joint_ratio(runs: int) -> None:
+    from casrecon.estimation.fit import fit_drop
+    from casrecon.estimation.joint import JointConfig, fit_joint
+    from casrecon.scenario import Scenario
+
+    drops = [PROBLEMS / f"ees-drop-{i}" for i in (1, 2, 3, 4)]
+    one, joint = [], []
+    for _ in range(runs):
+        r = fit_drop(Scenario.load(PROBLEMS / "ees-drop-3"))
+        one.append(r.timings["total_s"])
+        t0 = time.perf_counter()
+        fit_joint([Scenario.load(d) for d in drops], JointConfig("bench", tuple(drops)))
+        joint.append(time.perf_counter() - t0)
+    print(f"joint fit of the 4 EES drops {median(joint)}; one drop (ees-drop-3) {median(one)}; ratio of medians "
+          f"{statistics.median(joint) / statistics.median(one):.2f} (acceptance: <= 4)")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=3)
-    ap.add_argument("--skip-joint", action="store_true")
-    ap.add_argument("--skip-solvers", action="store_true")
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--problem", default="ees-drop-1")
+    ap.add_argument("--joint", action="store_true", help="also time the four-drop joint fit")
+    ap.add_argument("--cold", action="store_true", help="start from an empty private compile cache")
     args = ap.parse_args()
+    problem = PROBLEMS / args.problem
+    if args.cold:
+        os.environ["CASRECON_CACHE_DIR"] = tempfile.mkdtemp(prefix="casrecon-bench-cache-")
+        walls, _, _ = command(problem, 1, ["--no-figures"])
+        print(f"first run with an empty compile cache (compiles): casrecon fit --no-figures {walls[0]:.2f} s")
 
-    print(f"per-drop fit of ees-drop-1, {args.runs} runs (Gauss-Newton Hessian, MUMPS)")
-    base = per_drop(args.runs)
-    for k in ("build_s", "solve_s", "covariance_s", "total_s"):
-        print(f"  {k:14s} {_median(base[k])}")
-    print(f"  iterations     {statistics.median(base['iterations'])}")
-    for label, extra in (("casrecon fit --no-figures", ["--no-figures"]), ("casrecon fit (with figures)", [])):
-        walls, rss = command(args.runs, extra)
-        print(f"  {label:28s} wall {_median(walls)}; peak RSS {max(rss):.0f} MB")
-
-    if not args.skip_solvers:
-        for label, kw in (("SPRAL", {"linear_solver": "spral"}), ("exact Hessian", {"hessian": "exact"})):
-            r = per_drop(1, **kw)
-            print(f"  {label:14s} solve {r['solve_s'][0]:.2f} s, {r['iterations'][0]} iterations "
-                  f"(MUMPS + Gauss-Newton: {statistics.median(base['solve_s']):.2f} s, "
-                  f"{statistics.median(base['iterations'])} iterations)")
-
-    if not args.skip_joint:
-        drops = [PROBLEMS / f"ees-drop-{i}" for i in (1, 2, 3, 4)]
-        one = per_drop(args.runs, "ees-drop-3")
-        joint = []
-        for _ in range(args.runs):
-            r = fit_joint([Scenario.load(d) for d in drops], JointConfig("bench", tuple(drops)))
-            joint.append(r.timings["build_s"] + r.timings["solve_s"])
-        single = statistics.median([b + s for b, s in zip(one["build_s"], one["solve_s"])])
-        print(f"joint fit of 4 drops: build + solve {_median(joint)}; one drop (ees-drop-3) {single:.2f} s; "
-              f"ratio {statistics.median(joint) / single:.2f} (acceptance: <= 5)")
+    print(f"{args.problem}: {args.runs} runs, medians (min, max); CASRECON_CODEGEN="
+          f"{os.environ.get('CASRECON_CODEGEN', 'on')}")
+    print(f"  import              {median(import_time(args.runs))}")
+    p = parts(problem, args.runs, figures=True)
+    for k in ("data_s", "initial_guess_s", "build_s", "solve_s"):
+        print(f"  {k[:-2]:19s} {median(p[k])}")
+    n_it = statistics.median(p["iterations"])
+    for k, label in (("solve_evaluation_s", "evaluations"), ("solve_stop_test_s", "convergence test"),
+                     ("ipopt_own_s", "Ipopt (KKT)")):
+        print(f"    {label:17s} {median(p[k])}; per iteration {statistics.median(p[k]) / max(n_it, 1):.3f} s")
+    print(f"    iterations        {n_it:g}")
+    for k in ("covariance_s", "results_s", "figures_s"):
+        print(f"  {k[:-2]:19s} {median(p[k])}")
+    for label, extra in (("casrecon fit --no-figures", ["--no-figures"]), ("casrecon fit", [])):
+        walls, rss, timings = command(problem, args.runs, extra)
+        builds = [t.get("build_s", float("nan")) for t in timings]
+        print(f"  {label:27s} wall {median(walls)}; peak RSS {statistics.median(rss):.0f} MB; "
+              f"build in that process {statistics.median(builds):.2f} s")
+    if args.joint:
+        joint_ratio(max(1, min(args.runs, 3)))
 
 
 if __name__ == "__main__":

@@ -240,7 +240,7 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     chi2 = nlp.group_chi2(r)
     counts = dict(nlp.n_measurements)
     counts["gps"] = int((data.inv_sigma > 0).sum())
-    dof = sum(counts.values()) - (nlp.z.numel() - nlp.constraints.numel())
+    dof = sum(counts.values()) - (nlp.n_z - nlp.n_g)
     return PointMassResult(cfg, model_name, data.t_unix, states, state_sigma, cda, cda_sigma, part.params, values,
                            sigma, norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, nlp=nlp,
                            z=sol.z, covariance=cov, track=data.track, y=data.y, inv_sigma=data.inv_sigma,

@@ -31,9 +31,9 @@ def short_fit():
 def dense_kkt(short_fit):
     nlp, z = short_fit.nlp, short_fit.solver.z
     d = nlp.derivatives
-    a = np.asarray(d.jacobian_g(z).full())
+    a = np.asarray(d.jacobian_g(z).toarray())
     d.evaluate(z)
-    hu = np.asarray(d.hess_target.assemble(d._jtj).full())
+    hu = np.asarray(d.gauss_newton(z).toarray())
     h = hu + np.triu(hu, 1).T
     n_z, n_g = h.shape[0], a.shape[0]
     return np.block([[h, a.T], [a, np.zeros((n_g, n_g))]]), n_z

@@ -130,9 +130,9 @@ def test_weak_constraint_blocks_match_casadi(short_weak_fit):
     d._z = None
     grad = d.gradient(z)
     assert grad == pytest.approx(j_r.T @ r.ravel(), rel=1e-9, abs=1e-9 * np.abs(grad).max())
-    assert np.asarray(d.jacobian_g(z).full()) == pytest.approx(j_g, rel=1e-9, abs=1e-12)
+    assert np.asarray(d.jacobian_g(z).toarray()) == pytest.approx(j_g, rel=1e-9, abs=1e-12)
     jtj = np.triu(j_r.T @ j_r)
-    assert np.asarray(d.gauss_newton(z).full()) == pytest.approx(jtj, rel=1e-9, abs=1e-9 * np.abs(jtj).max())
+    assert np.asarray(d.gauss_newton(z).toarray()) == pytest.approx(jtj, rel=1e-9, abs=1e-9 * np.abs(jtj).max())
     # the disturbance columns carry their Gauss-Markov prior rows
     part = short_weak_fit.part
     assert part.u_cols.shape == (part.mesh.t_nodes.size, 9)
@@ -143,8 +143,8 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
     nlp, z = short_weak_fit.nlp, short_weak_fit.solver.z
     d = nlp.derivatives
     d._z = None
-    a = np.asarray(d.jacobian_g(z).full())
-    hu = np.asarray(d.gauss_newton(z).full())
+    a = np.asarray(d.jacobian_g(z).toarray())
+    hu = np.asarray(d.gauss_newton(z).toarray())
     h = hu + np.triu(hu, 1).T
     n_z, n_g = h.shape[0], a.shape[0]
     dense = np.linalg.inv(np.block([[h, a.T], [a, np.zeros((n_g, n_g))]]))[:n_z, :n_z]

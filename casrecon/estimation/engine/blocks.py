@@ -14,9 +14,13 @@ upper-triangular order lands in the global upper triangle (the local-to-global m
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import casadi as ca
 import numpy as np
+import scipy.sparse as sps
+
+from casrecon.estimation.engine.compiled import compiled
 
 
 class SparseTarget:
@@ -32,13 +36,24 @@ class SparseTarget:
     def __init__(self, shape: tuple[int, int], rows: np.ndarray, cols: np.ndarray) -> None:
         lin = np.asarray(cols, np.int64) * shape[0] + np.asarray(rows, np.int64)
         unique, self.target = np.unique(lin, return_inverse=True)
-        self.nnz = unique.size
+        self.nnz, self.shape = unique.size, shape
         self.sparsity = ca.Sparsity.triplet(shape[0], shape[1], (unique % shape[0]).tolist(),
                                             (unique // shape[0]).tolist())
+        # column-major order of the unique entries is CSC order
+        self.row_index = np.asarray(unique % shape[0], np.int64)
+        self.col_start = np.searchsorted(unique // shape[0], np.arange(shape[1] + 1)).astype(np.int64)
 
-    def assemble(self, source: np.ndarray) -> ca.DM:
-        """Global sparse DM from the stacked source values."""
-        return ca.DM(self.sparsity, np.bincount(self.target, weights=source, minlength=self.nnz))
+    def values(self, source: np.ndarray) -> np.ndarray:
+        """Nonzeros (in :attr:`sparsity`'s order) of the global matrix from the stacked source values."""
+        return np.bincount(self.target, weights=source, minlength=self.nnz)
+
+    def assemble(self, source: np.ndarray) -> sps.csc_matrix:
+        """Global sparse matrix from the stacked source values."""
+        return self.matrix(self.values(source))
+
+    def matrix(self, nonzeros: np.ndarray) -> sps.csc_matrix:
+        """The global sparse matrix with these nonzeros (in :attr:`sparsity`'s order)."""
+        return sps.csc_matrix((nonzeros, self.row_index, self.col_start), shape=self.shape)
 
 
 def _triplet(m: ca.SX) -> tuple[np.ndarray, np.ndarray]:
@@ -66,11 +81,10 @@ class BlockKind:
     values : Function
         ``(local, *data) -> (r[, g])``.
     derivatives : Function
-        ``(local, *data) -> (J_r^T r, J_r nonzeros[, J_g nonzeros])``.
-    exact_hessian : Function
-        ``(local, *data, sigma, lam) -> triu(Hessian of sigma |r|^2 / 2 + lam^T g) nonzeros``.
+        ``(local, *data) -> (J_r^T r, J_r nonzeros, r[, J_g nonzeros, g])``: with the values, so
+        one evaluation per iterate serves the objective, the constraints and their derivatives.
     patterns : dict
-        Local (row, col) triplets of "jtj", "jg" and "hess".
+        Local (row, col) triplets of "jtj", "jr", "jg" (see :meth:`pattern`).
     """
 
     def __init__(self, name: str, local: ca.SX, data: list, residual: ca.SX, constraint) -> None:
@@ -79,23 +93,35 @@ class BlockKind:
         self.n_constraints = 0 if constraint is None else constraint.numel()
         self.patterns = {"jtj": _triplet(jtj), "jr": _triplet(jr)}
         self.n_residuals = residual.numel()
-        outs = [ca.mtimes(jr.T, residual), ca.vec(jr.nz[:])]
+        outs = [ca.mtimes(jr.T, residual), ca.vec(jr.nz[:]), residual]  # made dense below
         plain = [residual]
-        lagr_g = 0
-        lam = ca.SX.sym("lam", self.n_constraints)
         if constraint is not None:
             jg = ca.jacobian(constraint, local)
-            outs.append(ca.vec(jg.nz[:]))
+            outs += [ca.vec(jg.nz[:]), constraint]
             plain.append(constraint)
             self.patterns["jg"] = _triplet(jg)
-            lagr_g = ca.dot(lam, constraint)
-        sigma = ca.SX.sym("sigma")
+        self.values = ca.Function(f"{name}_values", [local, *data], plain)
+        self.derivatives = ca.Function(f"{name}_derivatives", [local, *data], [ca.densify(o) for o in outs])
+        self.n_local = local.numel()
+        self._symbols = (name, local, data, residual, constraint)
+
+    @cached_property
+    def exact_hessian(self) -> ca.Function:
+        """``(local, *data, sigma, lam) -> triu(Hessian of sigma |r|^2 / 2 + lam^T g) nonzeros``,
+        built at first use (fits with the Gauss-Newton Hessian never need it); its local pattern
+        is then in ``patterns["hess"]``."""
+        name, local, data, residual, constraint = self._symbols
+        lam, sigma = ca.SX.sym("lam", self.n_constraints), ca.SX.sym("sigma")
+        lagr_g = 0 if constraint is None else ca.dot(lam, constraint)
         hess = ca.triu(ca.hessian(sigma * 0.5 * ca.sumsqr(residual) + lagr_g, local)[0])
         self.patterns["hess"] = _triplet(hess)
-        self.values = ca.Function(f"{name}_values", [local, *data], plain)
-        self.derivatives = ca.Function(f"{name}_derivatives", [local, *data], outs)
-        self.exact_hessian = ca.Function(f"{name}_hess", [local, *data, sigma, lam], [ca.vec(hess.nz[:])])
-        self.n_local = local.numel()
+        return ca.Function(f"{name}_hess", [local, *data, sigma, lam], [ca.vec(hess.nz[:])])
+
+    def pattern(self, key: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """Local (row, col) triplets of "jtj", "jr", "jg" (None without constraints) or "hess"."""
+        if key == "hess":
+            _ = self.exact_hessian
+        return self.patterns.get(key)
 
     def jtj_values(self, jr_nz: np.ndarray) -> np.ndarray:
         """Nonzeros of triu(J_r^T J_r) of every block (n_blocks, nnz) from J_r's nonzeros
@@ -110,6 +136,10 @@ class BlockKind:
 
 #: Threads over which the block functions of one set are evaluated.
 MAP_THREADS = 2
+#: Instructions (per block times blocks) from which a set's function is compiled: below it the
+#: interpreter's cost is smaller than the compiler's (the interval derivatives of a 40 s drop at
+#: 100 Hz are about 6e7; a GPS set of 200 fixes about 1e6).
+COMPILE_MIN_WORK = 5_000_000
 
 
 class BlockSet:
@@ -130,10 +160,33 @@ class BlockSet:
     def __init__(self, kind: BlockKind, cols: np.ndarray, data: list | None = None, determining: bool = True) -> None:
         self.kind, self.cols, self.data = kind, np.asarray(cols, np.int64), list(data or [])
         self.determining = determining
-        n = self.cols.shape[0]
-        self.derivs = kind.derivatives.map(n, "thread", MAP_THREADS) if n > 1 else kind.derivatives
-        self.hess = kind.exact_hessian.map(n, "thread", MAP_THREADS) if n > 1 else kind.exact_hessian
-        self.values = kind.values.map(n, "thread", MAP_THREADS) if n > 1 else kind.values
+
+    def mapped(self, function: ca.Function) -> ca.Function:
+        """``function`` mapped over every block, compiled first (see :mod:`.compiled`) when one
+        evaluation over all blocks is at least COMPILE_MIN_WORK instructions (compiled functions
+        have no derivatives: for symbolic work use :meth:`symbolic_values`)."""
+        n = self.n_blocks
+        if function.n_instructions() * n >= COMPILE_MIN_WORK:
+            function = compiled(function)
+        return function.map(n, "thread", MAP_THREADS) if n > 1 else function
+
+    @cached_property
+    def derivs(self) -> ca.Function:
+        """The kind's derivative function over all blocks (built at first use)."""
+        return self.mapped(self.kind.derivatives)
+
+    @cached_property
+    def hess(self) -> ca.Function:
+        """The kind's exact-Hessian function over all blocks (built at first use)."""
+        return self.mapped(self.kind.exact_hessian)
+
+    def symbolic_values(self, z: ca.MX) -> list:
+        """The blocks' (residuals[, constraints]) as MX of the global ``z``, with the interpreted
+        (differentiable) value function."""
+        local = ca.reshape(z[self.cols.ravel().tolist()], self.kind.n_local, self.n_blocks)
+        values = self.kind.values.map(self.n_blocks, "thread", MAP_THREADS) if self.n_blocks > 1 else self.kind.values
+        out = values(local, *self.data)
+        return list(out) if isinstance(out, (list, tuple)) else [out]
 
     @property
     def n_blocks(self) -> int:

@@ -21,22 +21,16 @@ class FitError(RuntimeError):
 
 def residual_vector(nlp: Nlp, z: np.ndarray) -> np.ndarray:
     """Whitened residual vector at ``z`` (scaled)."""
-    return np.asarray(nlp.residual_function()(z)).ravel()
+    return nlp.residual_vector(z)
 
 
 def check_determined(nlp: Nlp, z: np.ndarray) -> None:
     """FitError before solving when a parameter has no effect on any residual or constraint and no
     prior (its column of the KKT matrix is zero, so the matrix is singular whatever the data)."""
-    jg = nlp.derivatives.jacobian_g(z)
+    jg = nlp.derivatives.jacobian_g(z).tocoo()
     in_g = np.zeros(nlp.n_z, bool)
-    g_cols = np.asarray(jg.sparsity().get_triplet()[1], np.int64)
-    in_g[g_cols[np.asarray(jg.nonzeros()) != 0.0]] = True
-    jtj = nlp.derivatives.gauss_newton(z)
-    rows, cols = (np.asarray(a, np.int64) for a in jtj.sparsity().get_triplet())
-    values = np.asarray(jtj.nonzeros())
-    diag = np.zeros(nlp.n_z)
-    on_diag = rows == cols
-    diag[rows[on_diag]] = values[on_diag]
+    in_g[jg.col[jg.data != 0.0]] = True
+    diag = nlp.derivatives.gauss_newton(z).diagonal()
     dead = [name for col, name in nlp.parameter_names.items() if diag[col] == 0.0 and not in_g[col]]
     if dead:
         raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual or constraint and carry "

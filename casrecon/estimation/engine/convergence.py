@@ -91,7 +91,7 @@ class DecrementStop(ca.Callback):
 
     def __init__(self, nlp: Nlp, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         ca.Callback.__init__(self)
-        self.nlp, self.n_z, self.n_g, self.bounds = nlp, nlp.z.numel(), nlp.constraints.numel(), bounds
+        self.nlp, self.n_z, self.n_g, self.bounds = nlp, nlp.n_z, nlp.n_g, bounds
         self.previous_f: float | None = None
         self.stopped_at: float | None = None
         self.construct("decrement_stop", {})

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 import scipy.sparse as sps
 from scipy.linalg import null_space
@@ -191,17 +190,11 @@ def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int) -> 
     return basis
 
 
-def _to_scipy(m: ca.DM) -> sps.csc_matrix:
-    sp = m.sparsity()
-    return sps.csc_matrix((np.asarray(m.nonzeros()), np.asarray(sp.row()), np.asarray(sp.colind())),
-                          shape=(m.size1(), m.size2()))
-
-
 def fisher_and_jacobian(nlp: Nlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.csc_matrix]:
     """(H, A) at ``z`` (scaled): the full symmetric Gauss-Newton Hessian J^T J and dg/dz."""
     d = nlp.derivatives
-    a = _to_scipy(d.jacobian_g(z))
-    h_upper = _to_scipy(d.gauss_newton(z))
+    a = d.jacobian_g(z)
+    h_upper = d.gauss_newton(z)
     return h_upper + sps.triu(h_upper, 1).T, a
 
 

@@ -14,22 +14,29 @@ both summed from per-block pieces (see :class:`BlockDerivatives`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import casadi as ca
 import numpy as np
+import scipy.sparse as sps
 
 from casrecon.estimation.engine.blocks import BlockSet, SparseTarget, Term
+from casrecon.estimation.engine.buffers import BlockEvaluator
 
 
 @dataclass(frozen=True)
 class Nlp:
-    """An assembled NLP: symbolic z, residuals and constraints, groups, and block derivatives.
+    """An assembled NLP: sizes, groups, and the block derivatives that evaluate it.
+
+    The solver never needs a symbolic graph of the whole problem (every value and derivative
+    comes from the blocks); :attr:`z`, :attr:`residuals` and :attr:`constraints` build one on
+    first use, for checks against CasADi's own differentiation.
 
     Attributes
     ----------
-    z : MX
-        Decision vector (every entry scaled to order one by whoever laid it out).
-    residuals, constraints : MX
+    n_z, n_g, n_r : int
+        Decision variables (every entry scaled to order one by whoever laid it out), constraints
+        and residual rows.
     groups : dict of str to slice
         Residual rows of each group (groups with no rows are left out).
     const_chi2 : dict of str to float
@@ -51,9 +58,9 @@ class Nlp:
         KKT matrix and the Gauss-Newton-decrement stopping test is not made.
     """
 
-    z: ca.MX
-    residuals: ca.MX
-    constraints: ca.MX
+    n_z: int
+    n_g: int
+    n_r: int
     groups: dict[str, slice]
     const_chi2: dict[str, float]
     n_measurements: dict[str, int]
@@ -63,13 +70,33 @@ class Nlp:
     parameter_names: dict[int, str]
     latent: bool = False
 
-    @property
-    def n_z(self) -> int:
-        return int(self.z.numel())
+    @cached_property
+    def symbolic(self) -> tuple[ca.MX, ca.MX, ca.MX]:
+        """(z, residuals, constraints) as one MX graph of the mapped block value functions."""
+        z = ca.MX.sym("z", self.n_z)
+        d = self.derivatives
+        r_parts, g_parts = [], []
+        for _, bs in sorted(zip(d.r_rows, d.sets), key=lambda t: t[0]):
+            r_parts.append(ca.vec(bs.symbolic_values(z)[0]))
+        for bs, g_rows in zip(d.sets, d.g_rows):  # constrained sets come first, in row order
+            if g_rows is not None:
+                g_parts.append(ca.vec(bs.symbolic_values(z)[1]))
+        return z, ca.vertcat(*r_parts), ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
 
     @property
-    def n_g(self) -> int:
-        return int(self.constraints.numel())
+    def z(self) -> ca.MX:
+        """Symbolic decision vector (see :attr:`symbolic`)."""
+        return self.symbolic[0]
+
+    @property
+    def residuals(self) -> ca.MX:
+        """Symbolic whitened residuals (see :attr:`symbolic`)."""
+        return self.symbolic[1]
+
+    @property
+    def constraints(self) -> ca.MX:
+        """Symbolic constraints (see :attr:`symbolic`)."""
+        return self.symbolic[2]
 
     @property
     def n_free(self) -> int:
@@ -90,16 +117,17 @@ class Nlp:
         """Measurements (priors included) minus free directions."""
         return sum(self.n_measurements.values()) - self.n_free
 
-    def residual_function(self) -> ca.Function:
-        """``z -> r`` (scaled z, whitened residuals)."""
-        return ca.Function("residuals", [self.z], [self.residuals])
+    def residual_vector(self, z: np.ndarray) -> np.ndarray:
+        """Whitened residual vector at ``z`` (scaled)."""
+        return self.derivatives.residuals(z).copy()
 
 
 class BlockDerivatives:
     """Gradient, constraint Jacobian and Hessian of the NLP at z, from the block functions.
 
-    The three are computed together and cached for the last z, because Ipopt asks for all of them
-    at each new iterate. ``hessian="gauss-newton"`` gives sigma triu(J^T J) (the constraint
+    The three, and the residuals and constraints themselves, are computed by one evaluation of
+    each set's mapped derivative function and cached for the last z, because Ipopt asks for all of
+    them at each new iterate. ``hessian="gauss-newton"`` gives sigma triu(J^T J) (the constraint
     curvature is left out); ``"exact"`` the exact Hessian of the Lagrangian, block by block.
 
     Parameters
@@ -107,12 +135,17 @@ class BlockDerivatives:
     sets : list of BlockSet
     g_rows : list of int array or None
         For each set with constraints, the global row of each block's first constraint.
-    n_z, n_g : int
+    r_rows : list of int
+        For each set, the global row of its first residual.
+    n_z, n_g, n_r : int
+        Decision variables, constraints and residuals.
     hessian : {"gauss-newton", "exact"}
     """
 
-    def __init__(self, sets: list[BlockSet], g_rows: list, n_z: int, n_g: int, hessian: str):
+    def __init__(self, sets: list[BlockSet], g_rows: list, r_rows: list[int], n_z: int, n_g: int, n_r: int,
+                 hessian: str):
         self.sets, self.g_rows, self.n_z, self.n_g, self.hessian = sets, g_rows, n_z, n_g, hessian
+        self.r_rows, self.n_r = r_rows, n_r
         key = "jtj" if hessian == "gauss-newton" else "hess"
         h_rows, h_cols = self._stack(key)
         # a block's upper triangle maps to the global upper triangle once each pair is ordered
@@ -126,55 +159,87 @@ class BlockDerivatives:
         self.jac_target = SparseTarget((n_g, n_z), jg_rows, jg_cols)
         self._z = None
 
+    @cached_property
+    def evaluator(self) -> BlockEvaluator:
+        """Every set's mapped (compiled) derivative function at one z, into numpy arrays."""
+        return BlockEvaluator([bs.derivs for bs in self.sets], [bs.cols for bs in self.sets],
+                              [bs.data for bs in self.sets], self.n_z)
+
     def _stack(self, key: str) -> tuple[np.ndarray, np.ndarray]:
         rows, cols = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
         for bs, g_rows in zip(self.sets, self.g_rows):
-            if key not in bs.kind.patterns:
+            pattern = bs.kind.pattern(key)
+            if pattern is None:
                 continue
-            lr, lc = bs.kind.patterns[key]
+            lr, lc = pattern
             rows.append((g_rows[:, None] + lr[None, :]).ravel() if key == "jg" else bs.cols[:, lr].ravel())
             cols.append(bs.cols[:, lc].ravel())
         return np.concatenate(rows), np.concatenate(cols)
 
     def evaluate(self, z: np.ndarray) -> None:
-        """Compute and cache the gradient, J_g nonzeros and J^T J nonzeros at z (scaled)."""
+        """Compute and cache the residuals, constraints, gradient, J_g nonzeros and J^T J nonzeros
+        at z (scaled)."""
         z = np.asarray(z, float).ravel()
         if self._z is not None and np.array_equal(z, self._z):
             return
         grad, jtj, jg = np.zeros(self.n_z), [np.zeros(0)], [np.zeros(0)]
-        for bs in self.sets:
-            out = [np.asarray(o) for o in bs.derivs(bs.local(z), *bs.data)]
-            grad += np.bincount(bs.cols.ravel(), weights=out[0].T.ravel(), minlength=self.n_z)
-            jtj.append(bs.kind.jtj_values(out[1].T).ravel())
-            if len(out) > 2:
-                jg.append(out[2].T.ravel())
+        r, g = np.zeros(self.n_r), np.zeros(self.n_g)
+        for bs, g_rows, r_row, out in zip(self.sets, self.g_rows, self.r_rows, self.evaluator(z)):
+            # out[k] has one row per block
+            grad += np.bincount(bs.cols.ravel(), weights=out[0].ravel(), minlength=self.n_z)
+            jtj.append(bs.kind.jtj_values(out[1]).ravel())
+            r[r_row:r_row + out[2].size] = out[2].ravel()
+            if len(out) > 3:
+                jg.append(out[3].ravel())
+                g[(g_rows[:, None] + np.arange(out[4].shape[1])[None, :]).ravel()] = out[4].ravel()
         self._z, self.grad, self._jtj, self._jg = z, grad, np.concatenate(jtj), np.concatenate(jg)
+        self._r, self._g = r, g
+
+    def residuals(self, z) -> np.ndarray:
+        """Whitened residual vector at z."""
+        self.evaluate(z)
+        return self._r
+
+    def constraints(self, z) -> np.ndarray:
+        """Constraint vector at z."""
+        self.evaluate(z)
+        return self._g
 
     def gradient(self, z) -> np.ndarray:
         self.evaluate(z)
         return self.grad
 
-    def jacobian_g(self, z) -> ca.DM:
+    def jacobian_g_values(self, z) -> np.ndarray:
+        """Nonzeros of J_g at z (in ``jac_target.sparsity`` order)."""
         self.evaluate(z)
-        return self.jac_target.assemble(self._jg)
+        return self.jac_target.values(self._jg)
 
-    def gauss_newton(self, z) -> ca.DM:
+    def jacobian_g(self, z) -> sps.csc_matrix:
+        """J_g at z."""
+        return self.jac_target.matrix(self.jacobian_g_values(z))
+
+    def gauss_newton(self, z) -> sps.csc_matrix:
         """Upper triangle of J^T J at z (the Fisher information the covariance uses)."""
         self.evaluate(z)
         return self.jtj_target.assemble(self._jtj)
 
-    def hessian_lagrangian(self, z, sigma: float, lam_g: np.ndarray) -> ca.DM:
-        """Upper triangle of the Hessian of sigma f + lam_g^T g (Gauss-Newton or exact)."""
+    def hessian_values(self, z, sigma: float, lam_g: np.ndarray) -> np.ndarray:
+        """Nonzeros (in ``hess_target.sparsity`` order) of the upper triangle of the Hessian of
+        sigma f + lam_g^T g (Gauss-Newton or exact)."""
         if self.hessian == "gauss-newton":
             self.evaluate(z)
-            return self.hess_target.assemble(sigma * self._jtj)
+            return self.hess_target.values(sigma * self._jtj)
         z = np.asarray(z, float).ravel()
         parts = [np.zeros(0)]
         for bs, g_rows in zip(self.sets, self.g_rows):
             n_c = bs.kind.n_constraints
             lam = lam_g[g_rows[:, None] + np.arange(n_c)[None, :]].T if n_c else np.zeros((0, bs.n_blocks))
             parts.append(np.asarray(bs.hess(bs.local(z), *bs.data, sigma, lam)).T.ravel())
-        return self.hess_target.assemble(np.concatenate(parts))
+        return self.hess_target.values(np.concatenate(parts))
+
+    def hessian_lagrangian(self, z, sigma: float, lam_g: np.ndarray) -> sps.csc_matrix:
+        """Upper triangle of the Hessian of sigma f + lam_g^T g (Gauss-Newton or exact)."""
+        return self.hess_target.matrix(self.hessian_values(z, sigma, lam_g))
 
 
 def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, parameter_names: dict[int, str],
@@ -194,20 +259,15 @@ def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, paramete
     latent : bool
         See :class:`Nlp`.
     """
-    z = ca.MX.sym("z", n_z)
-    residual_parts, groups, const, counts, start = [], {}, {}, {}, 0
-    determining, side = [], []
+    groups, const, counts, start = {}, {}, {}, 0
+    determining, side, r_row = [], [], {}
     for term in terms:
         rows = 0
         for bs in term.sets:
-            local = ca.reshape(z[bs.cols.ravel().tolist()], bs.kind.n_local, bs.n_blocks)
-            out = bs.values(local, *bs.data)
-            out = out if isinstance(out, (list, tuple)) else [out]
-            r = ca.vec(out[0])
-            residual_parts.append(r)
-            rows += r.numel()
+            r_row[id(bs)] = start + rows
+            rows += bs.kind.n_residuals * bs.n_blocks
             if bs.kind.n_constraints:
-                (determining if bs.determining else side).append((bs, ca.vec(out[1])))
+                (determining if bs.determining else side).append(bs)
         if rows:
             if term.group in groups:
                 raise ValueError(f"residual group {term.group!r} appears in two terms")
@@ -215,20 +275,18 @@ def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, paramete
             const[term.group] = term.const_chi2
             counts[term.group] = rows if term.n_measurements is None else term.n_measurements
         start += rows
-    sets, g_rows, g_parts, row = [], [], [], 0
-    constrained = {id(bs) for bs, _ in determining + side}
-    for bs, g in determining + side:
+    sets, g_rows, row = [], [], 0
+    constrained = {id(bs) for bs in determining + side}
+    for bs in determining + side:
         sets.append(bs)
         g_rows.append(row + bs.kind.n_constraints * np.arange(bs.n_blocks))
-        g_parts.append(g)
-        row += g.numel()
+        row += bs.kind.n_constraints * bs.n_blocks
     for term in terms:  # residual-only sets
         for bs in term.sets:
             if id(bs) not in constrained:
                 sets.append(bs)
                 g_rows.append(None)
-    n_determining = sum(g.numel() for _, g in determining)
-    constraints = ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
-    derivs = BlockDerivatives(sets, g_rows, n_z, constraints.numel(), hessian)
-    return Nlp(z, ca.vertcat(*residual_parts), constraints, groups, const, counts, derivs,
-               np.asarray(dependent, np.int64), n_determining, dict(sorted(parameter_names.items())), latent)
+    n_determining = sum(bs.kind.n_constraints * bs.n_blocks for bs in determining)
+    derivs = BlockDerivatives(sets, g_rows, [r_row[id(bs)] for bs in sets], n_z, row, start, hessian)
+    return Nlp(n_z, row, start, groups, const, counts, derivs, np.asarray(dependent, np.int64), n_determining,
+               dict(sorted(parameter_names.items())), latent)

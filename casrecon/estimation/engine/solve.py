@@ -1,8 +1,8 @@
 """Solve a fit NLP with Ipopt, giving it the block-assembled derivatives, with timings.
 
-Ipopt's gradient, constraint Jacobian and Hessian come from :class:`BlockDerivatives` through
-CasADi callbacks (one evaluation of the mapped block functions per iterate, shared by the three);
-the objective and constraints are CasADi expressions of the mapped value functions.
+Ipopt's objective, constraints, gradient, constraint Jacobian and Hessian all come from
+:class:`BlockDerivatives` through CasADi callbacks: one evaluation of the mapped (compiled) block
+functions per point Ipopt visits, shared by the five; no symbolic graph of the whole problem is built.
 
 Hessian choices
     ``"gauss-newton"`` (default): sigma triu(J^T J), the constraint curvature left out. Residuals
@@ -27,12 +27,18 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine import convergence
+from casrecon.estimation.engine.buffers import BufferCallback
 from casrecon.estimation.engine.nlp import Nlp
 
 
 @dataclass(frozen=True)
 class SolveResult:
-    """What Ipopt returned, with timings (s)."""
+    """What Ipopt returned, with timings (s).
+
+    ``solve_s`` is the whole Ipopt call; of it, ``evaluation_s`` went to the block functions
+    (objective, constraints and their derivatives, the Hessian) and ``stop_test_s`` to the
+    Gauss-Newton decrement test; the rest is Ipopt's own work, mostly the KKT factorisations.
+    """
 
     z: np.ndarray
     lam_g: np.ndarray
@@ -45,6 +51,8 @@ class SolveResult:
     hessian: str
     linear_solver: str
     decrement: float | None = None
+    evaluation_s: float = 0.0
+    stop_test_s: float = 0.0
 
 
 #: Ipopt stops "at an acceptable level" after ACCEPTABLE_ITER successive iterates whose scaled
@@ -56,20 +64,23 @@ ACCEPTABLE_TOL = 1e-4
 ACCEPTABLE_ITER = 8
 
 
-class _Derivative(ca.Callback):
-    """A CasADi function backed by :class:`BlockDerivatives` (``grad_f``, ``jac_g`` or ``hess_lag``)."""
+class _Evaluation(BufferCallback):
+    """A CasADi function backed by :class:`BlockDerivatives`: ``f``, ``g``, ``grad_f``, ``jac_g`` or
+    ``hess_lag`` at z (all from the one cached evaluation at that z), written straight into
+    CasADi's memory (:class:`~casrecon.estimation.engine.buffers.BufferCallback`)."""
 
-    NAMES = {"grad_f": (["x", "p"], ["f", "grad_f_x"]), "jac_g": (["x", "p"], ["g", "jac_g_x"]),
+    NAMES = {"f": (["x"], ["f"]), "g": (["x"], ["g"]),
+             "grad_f": (["x", "p"], ["f", "grad_f_x"]), "jac_g": (["x", "p"], ["g", "jac_g_x"]),
              "hess_lag": (["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])}
 
-    def __init__(self, which: str, nlp: Nlp, value_fn: ca.Function | None) -> None:
+    def __init__(self, which: str, nlp: Nlp) -> None:
         ca.Callback.__init__(self)
-        self.which, self.nlp, self.value_fn = which, nlp, value_fn
-        self.n_z, self.n_g = nlp.z.numel(), nlp.constraints.numel()
+        self.which, self.nlp = which, nlp
+        self.n_z, self.n_g = nlp.n_z, nlp.n_g
         d = nlp.derivatives
-        self.out_sp = {"grad_f": [ca.Sparsity.dense(1, 1), ca.Sparsity.dense(self.n_z, 1)],
-                       "jac_g": [ca.Sparsity.dense(self.n_g, 1), d.jac_target.sparsity],
-                       "hess_lag": [d.hess_target.sparsity]}[which]
+        f_sp, g_sp = ca.Sparsity.dense(1, 1), ca.Sparsity.dense(self.n_g, 1)
+        self.out_sp = {"f": [f_sp], "g": [g_sp], "grad_f": [f_sp, ca.Sparsity.dense(self.n_z, 1)],
+                       "jac_g": [g_sp, d.jac_target.sparsity], "hess_lag": [d.hess_target.sparsity]}[which]
         self.construct(f"nlp_{which}", {})
 
     def get_n_in(self):
@@ -91,27 +102,33 @@ class _Derivative(ca.Callback):
     def get_sparsity_out(self, i):
         return self.out_sp[i]
 
-    def eval(self, args):
-        z = np.asarray(args[0]).ravel()
+    def fill(self, inputs, outputs):
+        z = inputs[0].copy()
         d = self.nlp.derivatives
+        if self.which == "hess_lag":
+            outputs[0][:] = d.hessian_values(z, float(inputs[2][0]), inputs[3].copy())
+            return
+        if self.which in ("f", "grad_f"):
+            r = d.residuals(z)
+            outputs[0][0] = 0.5 * float(r @ r)
+        if self.which == "g":
+            outputs[0][:] = d.constraints(z)
         if self.which == "grad_f":
-            return [self.value_fn(z), d.gradient(z)]
+            outputs[1][:] = d.gradient(z)
         if self.which == "jac_g":
-            return [self.value_fn(z), d.jacobian_g(z)]
-        return [d.hessian_lagrangian(z, float(args[2]), np.asarray(args[3]).ravel())]
+            outputs[0][:] = d.constraints(z)
+            outputs[1][:] = d.jacobian_g_values(z)
 
 
 def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
                 print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[ca.Function, list]:
     """Build the Ipopt solver of ``nlp``; also returns the callbacks, which must outlive it (the
     last is the :class:`~casrecon.estimation.engine.convergence.DecrementStop`, or None)."""
-    f = 0.5 * ca.sumsqr(nlp.residuals)
-    f_fn = ca.Function("f", [nlp.z], [f])
-    g_fn = ca.Function("g", [nlp.z], [nlp.constraints])
-    callbacks = [_Derivative("grad_f", nlp, f_fn), _Derivative("jac_g", nlp, g_fn),
-                 _Derivative("hess_lag", nlp, None)]
+    callbacks = [_Evaluation(which, nlp) for which in ("grad_f", "jac_g", "hess_lag", "f", "g")]
     opts = {"ipopt.linear_solver": linear_solver, "ipopt.max_iter": max_iter, "ipopt.tol": tol,
             "ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes",
+            # f and g are callbacks without derivatives: every derivative comes from the blocks
+            "calc_lam_p": False, "no_nlp_grad": True,
             "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": ACCEPTABLE_TOL,
             "ipopt.acceptable_iter": ACCEPTABLE_ITER, "grad_f": callbacks[0], "jac_g": callbacks[1],
             "hess_lag": callbacks[2]}
@@ -122,7 +139,8 @@ def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol
     if linear_solver == "spral":
         os.environ.setdefault("OMP_CANCELLATION", "TRUE")
         os.environ.setdefault("OMP_PROC_BIND", "TRUE")
-    solver = ca.nlpsol("casrecon_fit", "ipopt", {"x": nlp.z, "f": f, "g": nlp.constraints}, opts)
+    z = ca.MX.sym("z", nlp.n_z)
+    solver = ca.nlpsol("casrecon_fit", "ipopt", {"x": z, "f": callbacks[3](z), "g": callbacks[4](z)}, opts)
     return solver, callbacks
 
 
@@ -132,15 +150,18 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
     t0 = time.perf_counter()
     solver, callbacks = make_solver(nlp, linear_solver, max_iter, tol, print_level, bounds)
     t1 = time.perf_counter()
-    n_g = nlp.constraints.numel()
+    n_g = nlp.n_g
     lbx, ubx = bounds if bounds is not None else (-np.inf, np.inf)
     sol = solver(x0=z0, lbg=np.zeros(n_g), ubg=np.zeros(n_g), lbx=lbx, ubx=ubx)
     z = np.asarray(sol["x"]).ravel()
     converged, status, decrement = _judge(nlp, solver.stats(), callbacks[-1], z, np.asarray(sol["g"]).ravel(), bounds)
     t2 = time.perf_counter()
+    stats = solver.stats()
+    evaluation_s = sum(float(stats.get(f"t_wall_nlp_{k}", 0.0)) for k in ("f", "g", "grad_f", "jac_g", "hess_l"))
     return SolveResult(z=z, lam_g=np.asarray(sol["lam_g"]).ravel(), objective=float(sol["f"]), converged=converged,
                        status=status, iterations=int(solver.stats()["iter_count"]), build_s=t1 - t0, solve_s=t2 - t1,
-                       hessian=nlp.derivatives.hessian, linear_solver=linear_solver, decrement=decrement)
+                       hessian=nlp.derivatives.hessian, linear_solver=linear_solver, decrement=decrement,
+                       evaluation_s=evaluation_s, stop_test_s=float(stats.get("t_wall_callback_fun", 0.0)))
 
 
 def _judge(nlp: Nlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) -> tuple[bool, str, float | None]:

@@ -1,0 +1,126 @@
+"""Compiled block functions (casrecon.estimation.engine.compiled): same numbers as the interpreter,
+built once and then loaded from the disk cache, and an interpreted fallback whenever compiling is
+off or fails."""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import threading
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from casrecon.estimation.engine import compiled as cg
+
+pytestmark = pytest.mark.skipif(cg.compiler() is None, reason="no C compiler on this machine")
+
+
+def block_function(name: str) -> ca.Function:
+    """A small nonlinear block function with several outputs (like a block's derivatives)."""
+    x = ca.SX.sym("x", 6)
+    d = ca.SX.sym("d", 3)
+    r = ca.vertcat(ca.sin(x[0]) * x[1] - d[0], ca.exp(0.1 * x[2]) + x[3] ** 3 - d[1],
+                   ca.atan2(x[4], 1 + x[5] ** 2) - d[2])
+    j = ca.jacobian(r, x)
+    return ca.Function(name, [x, d], [ca.mtimes(j.T, r), ca.densify(ca.vec(j)), r])
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("CASRECON_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("CASRECON_CODEGEN", raising=False)
+    return tmp_path / "cache"
+
+
+def evaluate(f: ca.Function, n: int = 50) -> list[np.ndarray]:
+    rng = np.random.default_rng(1)
+    mapped = f.map(n, "thread", 2)
+    return [np.asarray(o) for o in mapped(rng.normal(size=(6, n)), rng.normal(size=(3, n)))]
+
+
+def test_compiled_function_gives_the_interpreters_numbers(cache):
+    f = block_function("blk_same")
+    twin = cg.compiled(f)
+    assert twin is not f and twin.name() == f.name()
+    assert [p.name for p in cache.iterdir()] == [f"blk_same-{cg.library_key(f, cg.compiler())}.so"]
+    for a, b in zip(evaluate(f), evaluate(twin)):
+        np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-15)
+
+
+def test_second_use_loads_the_cached_library_without_compiling(cache, monkeypatch):
+    f = block_function("blk_cached")
+    cg.compiled(f)
+    library = next(cache.iterdir())
+    stamp = library.stat().st_mtime_ns
+    cg.reset()  # as a new process would start
+
+    def no_compiler(*args, **kwargs):
+        raise AssertionError("compiled again although the library is cached")
+
+    monkeypatch.setattr(cg, "build_library", no_compiler)
+    again = cg.compiled(block_function("blk_cached"))  # a new but identical expression
+    assert library.stat().st_mtime_ns == stamp and len(list(cache.iterdir())) == 1
+    for a, b in zip(evaluate(f), evaluate(again)):
+        np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-15)
+
+
+def test_a_different_expression_gets_its_own_library(cache):
+    cg.compiled(block_function("blk_a"))
+    x = ca.SX.sym("x", 6)
+    d = ca.SX.sym("d", 3)
+    other = ca.Function("blk_a", [x, d], [ca.sumsqr(x) * d[0]])
+    cg.compiled(other)
+    assert len(list(cache.iterdir())) == 2
+
+
+def test_codegen_off_keeps_the_interpreted_function(cache, monkeypatch):
+    monkeypatch.setenv("CASRECON_CODEGEN", "off")
+    f = block_function("blk_off")
+    assert cg.compiled(f) is f and not cache.exists()
+
+
+def test_a_failing_compiler_falls_back_with_one_warning(cache, monkeypatch, caplog, tmp_path):
+    broken = tmp_path / "bin" / "broken-cc"
+    broken.parent.mkdir()
+    broken.write_text("#!/bin/sh\necho 'broken-cc: cannot compile' >&2\nexit 1\n")
+    broken.chmod(0o755)
+    monkeypatch.setenv("CC", str(broken))
+    cg.reset()
+    with caplog.at_level(logging.WARNING, logger=cg.LOG.name):
+        f = block_function("blk_broken")
+        assert cg.compiled(f) is f
+        assert cg.compiled(block_function("blk_broken2")).name() == "blk_broken2"
+    warnings = [r for r in caplog.records if "compiling block functions" in r.getMessage()]
+    assert len(warnings) == 1 and "interpreted" in warnings[0].getMessage()
+    assert not cache.exists() or not any(p.suffix == ".so" for p in cache.rglob("*"))
+
+
+def test_concurrent_builders_leave_one_complete_library(cache):
+    f = block_function("blk_race")
+    out: list = []
+
+    def build():
+        out.append(cg.compiled(block_function("blk_race")))
+
+    cg.reset()
+    threads = [threading.Thread(target=build) for _ in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert [p.suffix for p in cache.iterdir()] == [".so"]
+    for twin in out:
+        for a, b in zip(evaluate(f), evaluate(twin)):
+            np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-15)
+
+
+def test_an_unwritable_cache_falls_back(tmp_path, monkeypatch):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    monkeypatch.setenv("CASRECON_CACHE_DIR", str(blocker / "cache"))
+    monkeypatch.delenv("CASRECON_CODEGEN", raising=False)
+    f = block_function("blk_unwritable")
+    assert cg.compiled(f) is f
+    shutil.rmtree(tmp_path / "cache", ignore_errors=True)
