@@ -6,6 +6,17 @@ writers of :mod:`casrecon.output` and the reports of :mod:`casrecon.report`.
 Bad input ends with one line ``casrecon: FILE:LINE: field 'F': MESSAGE`` and exit status 2,
 never a traceback; a fit that fails (no convergence, singular KKT matrix) says why and exits 3,
 leaving any earlier results folder untouched.
+
+Results go only where casrecon owns the folder (:mod:`casrecon.output.out_folder`): ``--out`` is
+checked before any work; a folder holding the problem's inputs (or the working directory) is never
+replaced; an existing file, or a folder without ``.casrecon-results.json`` that does not look like
+an older casrecon result, only with ``--force``.
+
+Exit status: 0 success; 1 unexpected error (a bug; ``--debug`` or ``CASRECON_DEBUG=1`` shows the
+traceback); 2 bad input or arguments, an ``--out`` that may not or cannot be written, a system
+error (cannot read or write a file, disk full, not enough memory, bad or unreachable scheduler);
+3 a fit failed; 4 estimator Monte Carlo not consistent; 130 SIGINT and 143 SIGTERM (earlier
+results kept). See :mod:`casrecon.cli_guard`.
 """
 
 from __future__ import annotations
@@ -19,7 +30,18 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.cli_guard import debug_enabled, run_command
 from casrecon.io.errors import InputError
+
+
+def _out_folder(args: argparse.Namespace, *problems) -> dict:
+    """Check ``args.out`` before any work (never a folder holding the ``problems``' inputs; a foreign
+    folder or a file only with ``--force``; writable); the keyword arguments of ``atomic_folder``."""
+    from casrecon.output.out_folder import check_out_folder, input_paths
+
+    inputs = input_paths(problems)
+    check_out_folder(args.out, inputs=inputs, force=args.force)
+    return {"kind": args.command, "force": args.force, "inputs": inputs}
 
 
 def _inspect(args: argparse.Namespace) -> int:
@@ -39,10 +61,12 @@ def _simulate(args: argparse.Namespace) -> int:
     from casrecon.simulation.synthetic import make_synthetic
 
     if args.every < 1:
-        raise SystemExit("casrecon: --every must be a positive integer")
+        print(f"casrecon: --every must be a positive integer, got {args.every}", file=sys.stderr)
+        return 2
     t0 = time.perf_counter()
     scenario = Scenario.load(args.problem)
     cfg = scenario.config
+    where = _out_folder(args, args.problem)
     if args.data:
         data = make_synthetic(scenario, seed=args.seed)
         traj = data.trajectory
@@ -51,7 +75,7 @@ def _simulate(args: argparse.Namespace) -> int:
                         substeps=max(1, round(1.0 / cfg.imu.rate_hz / cfg.simulation.dt_s)))
         traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s)
     summary = {"problem": cfg.name, **traj.summary(), "wall_time_s": time.perf_counter() - t0}
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **where) as out:
         columns, table = traj.table()
         rows = np.r_[0:table.shape[0]:args.every, table.shape[0] - 1] if args.every > 1 else slice(None)
         write_columns(out / "trajectory.csv", columns, table[rows])
@@ -83,6 +107,7 @@ def _fit(args: argparse.Namespace) -> int:
     if problem_kind(args.problem) == "point-mass":
         return _fit_point_mass(args)
     scenario = Scenario.load(args.problem)
+    where = _out_folder(args, args.problem)
     try:
         result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
                           print_level=5 if args.verbose else 0)
@@ -90,7 +115,7 @@ def _fit(args: argparse.Namespace) -> int:
         print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
         return 3
     report = fit_report(result)
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         products = fit_products(result)
         write_fit_results(out, result, products, report, drop_tables(result, products))
@@ -116,11 +141,13 @@ def _joint(args: argparse.Namespace) -> int:
         cfg = load_joint(args.problems[0])
     else:
         if len(args.problems) < 2:
-            raise SystemExit("casrecon: joint needs at least two problems, or one joint .toml file")
+            print("casrecon: joint needs at least two problems, or one joint .toml file", file=sys.stderr)
+            return 2
         cfg = JointConfig(name=args.name, drops=tuple(Path(p) for p in args.problems),
                           shared=tuple(args.shared) if args.shared else None, per_drop=tuple(args.per_drop),
                           fixed=tuple(args.fixed))
     scenarios = [Scenario.load(p) for p in cfg.drops]
+    where = _out_folder(args, *args.problems, *cfg.drops)
     try:
         result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
                            print_level=5 if args.verbose else 0)
@@ -128,7 +155,7 @@ def _joint(args: argparse.Namespace) -> int:
         print(f"casrecon: joint fit {cfg.name} failed: {err}", file=sys.stderr)
         return 3
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         products = {d.scenario.config.name: fit_products(d) for d in result.drops}
         write_joint_results(out, result, single, products)
@@ -149,6 +176,7 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     from casrecon.report.pointmass_report import pointmass_report
 
     cfg = load_point_mass(args.problem)
+    where = _out_folder(args, args.problem)
     try:
         main = fit_point_mass(cfg, print_level=5 if args.verbose else 0)
         constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
@@ -156,7 +184,7 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
         print(f"casrecon: fit of {cfg.name} failed: {err}", file=sys.stderr)
         return 3
     report = pointmass_report(main, constant)
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **where) as out:
         write_pointmass_results(out, main, constant, report)
         if not args.no_figures:
             plot_track_fit(out)
@@ -170,20 +198,24 @@ def _montecarlo(args: argparse.Namespace) -> int:
     if args.estimator:
         return _estimator_montecarlo(args)
     return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
-                                  args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures)
+                                  args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures,
+                                  force=args.force)
 
 
 def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
                            *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
-                           figures: bool = True, progress: bool = True, backend: str = "auto") -> int:
+                           figures: bool = True, progress: bool = True, backend: str = "auto",
+                           force: bool = False) -> int:
     """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``statistics.json``,
     ``figures/*.png``); ``dt_s`` is the RK4 step, s (the Monte Carlo default,
-    :data:`casrecon.simulation.batch.DEFAULT_DT_S`).
-    Returns 0, or 2 after printing one located line on bad input."""
-    from casrecon.analysis.montecarlo import Dispersions, run_montecarlo
+    :data:`casrecon.simulation.batch.DEFAULT_DT_S`); ``force`` as ``--force``.
+    Returns 0, or 2 after printing one located line on bad input, an ``--out`` that may not be
+    written, a scheduler that is malformed or unreachable, or more cases than the memory holds."""
+    from casrecon.analysis.montecarlo import Dispersions, memory_estimate_bytes, run_montecarlo
+    from casrecon.cli_guard import available_memory_bytes, scheduler_problem
     from casrecon.output.montecarlo_results import write_cases_csv
+    from casrecon.output.out_folder import check_out_folder, input_paths
     from casrecon.output.results import atomic_folder, write_json
-    from casrecon.parallel import import_distributed
     from casrecon.report.montecarlo_plots import plot_montecarlo
     from casrecon.scenario import Scenario
 
@@ -205,11 +237,13 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
         disp = Dispersions(center=center)
     except ValueError as err:
         return bad(str(err))
-    if scheduler is not None:
-        try:
-            import_distributed()
-        except ImportError as err:
-            return bad(f"--scheduler {scheduler}: {err}")
+    need, have = memory_estimate_bytes(cases), available_memory_bytes()
+    if have is not None and need > 0.8 * have:
+        return bad(f"--cases {cases}: needs about {need / 1e9:.3g} GB of memory, more than 80 % of the "
+                   f"{have / 1e9:.3g} GB available; run at most {int(cases * 0.8 * have / need)} cases at a "
+                   "time (several runs with different --seed)")
+    if scheduler is not None and (why := scheduler_problem(scheduler)) is not None:
+        return bad(f"--scheduler {scheduler}: {why}")
     try:
         sc = Scenario.load(problem)
     except InputError as err:
@@ -219,6 +253,12 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
         return bad(f"{problem}: {err.strerror or err}")
     if sc.config.release.h_agl_m <= 0:
         return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
+    inputs = input_paths([problem])
+    try:
+        check_out_folder(out, inputs=inputs, force=force)
+    except InputError as err:
+        print(f"casrecon: {err}", file=sys.stderr)
+        return 2
     try:
         result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
                                 chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
@@ -229,7 +269,7 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
     stats = result.statistics()
     stats.update(workers=workers, scheduler=scheduler, wall_s=result.wall_s,
                  cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
-    with atomic_folder(out) as tmp:
+    with atomic_folder(out, kind="montecarlo", force=force, inputs=inputs) as tmp:
         write_cases_csv(tmp / "cases.csv", result)
         write_json(tmp / "statistics.json", stats)
         if figures:
@@ -244,6 +284,7 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
 
 def _estimator_montecarlo(args: argparse.Namespace) -> int:
     from casrecon.analysis.estimator_mc import estimator_montecarlo
+    from casrecon.cli_guard import scheduler_problem
     from casrecon.output.consistency import write_consistency
     from casrecon.output.results import atomic_folder
     from casrecon.scenario import Scenario
@@ -251,11 +292,23 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
     if args.cases < 2 or args.workers < 1 or args.seed < 0:
         print("casrecon montecarlo --estimator: --cases must be >= 2, --workers >= 1, --seed >= 0", file=sys.stderr)
         return 2
+    if args.scheduler is not None and (why := scheduler_problem(args.scheduler)) is not None:
+        print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: {why}", file=sys.stderr)
+        return 2
     Scenario.load(Path(args.problem))  # a bad problem fails here, located, before any worker starts
+    where = _out_folder(args, args.problem)
     t0 = time.perf_counter()
-    res = estimator_montecarlo(Path(args.problem), args.cases, args.seed, args.workers, args.scheduler, progress=True)
+    try:
+        res = estimator_montecarlo(Path(args.problem), args.cases, args.seed, args.workers, args.scheduler,
+                                   progress=True)
+    except OSError as err:
+        if args.scheduler is None:
+            raise
+        print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: cannot reach the Dask scheduler "
+              f"({err})", file=sys.stderr)
+        return 2
     wall = time.perf_counter() - t0
-    with atomic_folder(Path(args.out)) as tmp:
+    with atomic_folder(Path(args.out), **where) as tmp:
         write_consistency(tmp, res, wall)
     n_ok = args.cases - len(res.failed)
     print(f"{n_ok} of {args.cases} fits converged in {wall:.0f} s; NEES sum {res.nees_sum:.1f}, chi2 95 % interval "
@@ -266,40 +319,50 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
 
 def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
+    from casrecon.estimation.drop import parameter_set
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.output.results import atomic_folder, write_json
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario
 
     scenario = Scenario.load(args.problem)
-    with atomic_folder(args.out) as out:
-        if args.study == "design":
-            design = obs.design_study(scenario, args.parameter)
+    specs = parameter_set(scenario.config).specs  # design predicts the shared (aero) factors only
+    known = [sp.name for sp in specs if args.study == "profile" or sp.group == "aero"]
+    if args.study != "fisher" and args.parameter not in known:
+        print(f"casrecon: sensitivity {args.study}: --parameter {args.parameter!r} is not a parameter of "
+              f"{scenario.config.name}; known: {', '.join(known)}", file=sys.stderr)
+        return 2
+    where = _out_folder(args, args.problem)
+    if args.study == "design":  # everything is computed before the folder is written: a failure keeps the old one
+        design = obs.design_study(scenario, args.parameter)
+        with atomic_folder(args.out, **where) as out:
             write_json(out / "design.json", design)
             sensitivity_plots.plot_design(design, out)
-            print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
-                            for k, v in design.items() if k != "parameter"))
-            return 0
-        try:
-            result = fit_drop(scenario)
-        except FitError as err:
-            print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
-            return 3
-        directions = obs.fisher_directions(result)
+        print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
+                        for k, v in design.items() if k != "parameter"))
+        return 0
+    try:
+        result = fit_drop(scenario)
+    except FitError as err:
+        print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
+        return 3
+    directions = obs.fisher_directions(result)
+    print("weakest parameter combinations (parameters in units of their scale):")
+    for d in directions[:5]:
+        print("   " + d.describe())
+    prof = obs.profile_likelihood(result, args.parameter, args.points) if args.study == "profile" else None
+    with atomic_folder(args.out, **where) as out:
         write_json(out / "fisher.json", [{"eigenvalue": d.eigenvalue, "sigma": d.sigma, "weights": d.weights}
                                          for d in directions])
-        print("weakest parameter combinations (parameters in units of their scale):")
-        for d in directions[:5]:
-            print("   " + d.describe())
-        if args.study == "profile":
-            prof = obs.profile_likelihood(result, args.parameter, args.points)
+        if prof is not None:
             write_json(out / f"profile_{prof.name}.json", {
                 "values": prof.values, "delta_chi2": prof.delta_chi2, "estimate": prof.estimate,
                 "interval_delta_chi2_9": prof.interval, "fisher_three_sigma": prof.fisher_three_sigma,
                 "half_width_over_fisher": prof.agreement})
             sensitivity_plots.plot_profile(prof, out)
-            print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
-                  f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")
+    if prof is not None:
+        print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
+              f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")
     return 0
 
 
@@ -324,8 +387,13 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+FORCE_HELP = ("replace an existing --out that casrecon did not write (or a file); never a folder holding "
+              "the inputs")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="casrecon", description=__doc__.splitlines()[0])
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("inspect", help="read any supported input file and say what it holds")
     p.add_argument("file", help="FlySight track, sounding or IMU CSV")
@@ -338,6 +406,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: [truth] seed)")
     p.add_argument("--every", type=int, default=1,
                    help="write every N-th sample of the time history (and the impact sample); default 1")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_simulate)
     p = sub.add_parser("fit", help="reconstruct one drop: trajectory, parameters and 3-sigma")
     p.add_argument("problem", help="problem folder or problem.toml")
@@ -349,6 +418,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="do not print the fit report")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_fit)
     p = sub.add_parser("joint", help="joint aero fit of several drops sharing the dispersion factors")
     p.add_argument("problems", nargs="+", help="problem folders, or one joint .toml file ([joint] drops = [...])")
@@ -364,6 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: each problem's [estimation] hessian)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_joint)
     p = sub.add_parser("montecarlo", help="dispersed forward simulations: touchdown time and impact speed")
     p.add_argument("problem", help="problem folder or problem.toml")
@@ -379,6 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--estimator", action="store_true",
                    help="estimator Monte Carlo instead: draw a truth from the fit's priors, simulate, fit, and test "
                         "the normalised estimation errors (NEES) against chi-square at 95 %%; exit 4 if not consistent")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_montecarlo)
     p = sub.add_parser("sensitivity", help="observability: Fisher directions, profile likelihood, drop design")
     p.add_argument("study", choices=("fisher", "profile", "design"))
@@ -386,6 +458,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="results folder (replaced atomically)")
     p.add_argument("--parameter", default="Cmq_mult", help="parameter to profile or to design for")
     p.add_argument("--points", type=int, default=9, help="profile grid points (over +-4 Fisher sigma)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_sensitivity)
     p = sub.add_parser("report", help="(re)draw the figures of a fit or joint results folder")
     p.add_argument("results", help="results folder written by casrecon fit or casrecon joint")
@@ -394,12 +467,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; returns its exit status (module docstring), one line on stderr on failure."""
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except InputError as err:
-        print(f"casrecon: {err}", file=sys.stderr)
-        return 2
+    return run_command(args.func, args, debug=debug_enabled(args.debug))
 
 
 if __name__ == "__main__":

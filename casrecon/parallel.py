@@ -14,6 +14,7 @@ new dependency, and the same line the Monte Carlo has always printed.
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -78,6 +79,23 @@ def apply_to_chunk(fn: Callable, chunk: Sequence) -> list:
     return [fn(item) for item in chunk]
 
 
+def ignore_interrupts() -> None:
+    """Worker initializer: Ctrl-C reaches the whole process group, but only the parent acts on it
+    (it stops the workers; no worker prints a KeyboardInterrupt traceback)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel the pending work of ``pool`` and terminate its workers (after an error or a signal in
+    the parent), so that leaving the ``with`` block does not wait for the running work."""
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        try:
+            proc.terminate()
+        except (OSError, ValueError, AttributeError):
+            pass
+
+
 def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1, scheduler: str | None = None,
                  progress: str | None = None, weight: Callable[[Any], int] | None = None, chunksize: int = 1,
                  start_method: str = "spawn") -> list:
@@ -140,8 +158,13 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
             done(k, apply_to_chunk(fn, chunk))
     else:
         ctx = multiprocessing.get_context(start_method)
-        with ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx) as pool:
-            futs = {pool.submit(apply_to_chunk, fn, chunk): k for k, chunk in enumerate(chunks)}
-            for fut in as_completed(futs):
-                done(futs[fut], fut.result())
+        with ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx,
+                                 initializer=ignore_interrupts) as pool:
+            try:
+                futs = {pool.submit(apply_to_chunk, fn, chunk): k for k, chunk in enumerate(chunks)}
+                for fut in as_completed(futs):
+                    done(futs[fut], fut.result())
+            except BaseException:
+                stop_pool(pool)
+                raise
     return [value for k in range(len(chunks)) for value in results[k]]

@@ -1,0 +1,187 @@
+"""How a ``casrecon`` command ends: one line and a documented exit status, never a traceback.
+
+Exit status (also in :mod:`casrecon.cli` and the README):
+
+===  ==========================================================================================
+0    success
+1    unexpected error (a bug): one line naming the exception; ``casrecon --debug ...`` or
+     ``CASRECON_DEBUG=1`` shows the traceback
+2    bad input or arguments (a located line), an ``--out`` that may not or cannot be written, a
+     system error (a file that cannot be read or written, disk full, not enough memory, an
+     unreachable or malformed Dask scheduler address)
+3    a fit failed (no convergence, singular KKT matrix)
+4    estimator Monte Carlo: not consistent, or some of its fits failed
+130  interrupted by SIGINT (Ctrl-C); 143 by SIGTERM: the earlier results folder is kept
+===  ==========================================================================================
+
+:func:`run_command` installs SIGINT and SIGTERM handlers that raise (:class:`Interrupted` for
+SIGTERM), so every ``with atomic_folder(...)`` block unwinds and removes its temporary folder;
+a signal that arrives while a solver runs in C++ (which may then report a failure) is still
+reported as the interrupt it was.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import sys
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+from casrecon.io.errors import InputError
+
+EXIT_OK, EXIT_ERROR, EXIT_INPUT, EXIT_FIT, EXIT_INCONSISTENT = 0, 1, 2, 3, 4
+#: Exit status after a signal: 128 + its number (130 for SIGINT, 143 for SIGTERM).
+EXIT_SIGNAL = 128
+
+
+class Interrupted(BaseException):
+    """Raised by the SIGTERM handler (a ``BaseException``, like ``KeyboardInterrupt``, so no
+    ``except Exception`` swallows it)."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        super().__init__(f"signal {signum}")
+
+
+def debug_enabled(flag: bool = False) -> bool:
+    """``--debug`` given, or ``CASRECON_DEBUG`` set to anything but empty or ``0``."""
+    return flag or os.environ.get("CASRECON_DEBUG", "") not in ("", "0")
+
+
+def run_command(func: Callable[[object], int], args, *, debug: bool = False) -> int:
+    """Run one command ``func(args)`` and turn whatever ends it into an exit status and at most one
+    line on stderr (see the module table). ``args.out``, when present, names the results folder
+    the interrupt message speaks about. With ``debug``, unexpected errors keep their traceback."""
+    out = getattr(args, "out", None)
+    before = _identity(out)
+    received: list[int] = []
+
+    def on_signal(signum, frame):
+        received.append(signum)
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise Interrupted(signum)
+
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, on_signal)
+    try:
+        try:
+            code = func(args)
+        except KeyboardInterrupt:
+            received.append(signal.SIGINT)
+            code = EXIT_SIGNAL + signal.SIGINT
+        except Interrupted as err:
+            received.append(err.signum)
+            code = EXIT_SIGNAL + err.signum
+        except Exception as err:
+            if received:  # a solver stopped by the signal may raise something else first
+                code = EXIT_SIGNAL + received[0]
+            elif debug:
+                raise
+            else:
+                code, line = describe(err)
+                print(line, file=sys.stderr)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    if received:
+        print(interrupted_line(out, before), file=sys.stderr)
+        return EXIT_SIGNAL + received[0]
+    return code
+
+
+def describe(err: BaseException) -> tuple[int, str]:
+    """Exit status and the one line for an exception that ended a command."""
+    from casrecon.estimation.fit import FitError
+    from casrecon.output.out_folder import ResultsWriteError
+
+    if isinstance(err, InputError):
+        return EXIT_INPUT, f"casrecon: {err}"
+    if isinstance(err, FitError):
+        return EXIT_FIT, f"casrecon: fit failed: {err}"
+    if isinstance(err, ResultsWriteError):
+        return EXIT_INPUT, (f"casrecon: cannot write {err.filename}: {err.strerror}; "
+                            f"nothing replaced (no temporary folder left)")
+    if isinstance(err, OSError):
+        where = f"{err.filename}: " if err.filename else ""
+        return EXIT_INPUT, f"casrecon: {where}{err.strerror or err}"
+    if isinstance(err, MemoryError):
+        return EXIT_INPUT, "casrecon: not enough memory for this run (nothing written)"
+    text = " ".join(str(err).split())
+    text = text if len(text) <= 400 else text[:400] + " ..."
+    return EXIT_ERROR, (f"casrecon: unexpected error {type(err).__name__}: {text} "
+                        "(casrecon --debug, or CASRECON_DEBUG=1, shows the traceback)")
+
+
+def _identity(out) -> tuple[int, int] | None:
+    if out is None:
+        return None
+    try:
+        st = os.stat(Path(out).expanduser())
+    except (OSError, ValueError):
+        return None
+    return st.st_dev, st.st_ino
+
+
+def interrupted_line(out, before: tuple[int, int] | None) -> str:
+    """The one line after a signal, saying what became of ``out`` (unchanged, new or not written)."""
+    if out is None:
+        return "casrecon: interrupted"
+    now = _identity(out)
+    if now is None:
+        return f"casrecon: interrupted; nothing written to {out}"
+    if now == before:
+        return f"casrecon: interrupted; earlier results in {out} kept"
+    return f"casrecon: interrupted after the results were written to {out} (complete)"
+
+
+def scheduler_problem(address: str, timeout_s: float = 5.0) -> str | None:
+    """Why ``address`` cannot serve as a Dask scheduler (not installed, malformed, unreachable over
+    TCP within ``timeout_s``), or None when it looks usable. Checked before any work starts."""
+    from casrecon.parallel import import_distributed
+
+    try:
+        import_distributed()
+        from distributed.comm import parse_address
+        from distributed.comm.addressing import parse_host_port
+    except ImportError as err:
+        return str(err)
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location) if scheme in ("tcp", "tls") else (None, None)
+    except (ValueError, TypeError) as err:
+        return f"not a scheduler address ({err}); expected e.g. tcp://HOST:8786"
+    if host is None:
+        return None
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout_s):
+            return None
+    except (OSError, ValueError, OverflowError) as err:
+        return f"cannot reach the Dask scheduler ({getattr(err, 'strerror', None) or err})"
+
+
+def available_memory_bytes() -> int | None:
+    """Memory this process may still use, bytes: ``MemAvailable`` of /proc/meminfo, capped by the
+    cgroup limit (v2 ``memory.max``, v1 ``memory.limit_in_bytes``) less its usage; None if unknown."""
+    values = []
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                values.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    v1 = "/sys/fs/cgroup/memory/memory."
+    for limit, usage in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                         (v1 + "limit_in_bytes", v1 + "usage_in_bytes")):
+        try:
+            cap = Path(limit).read_text().strip()
+            if cap != "max" and int(cap) < 1 << 60:
+                values.append(int(cap) - int(Path(usage).read_text().strip()))
+        except (OSError, ValueError):
+            continue
+    return min(values) if values else None
