@@ -30,8 +30,15 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.cli_guard import debug_enabled, run_command
+from casrecon.cli_guard import debug_enabled, fit_failed, run_command
 from casrecon.io.errors import InputError
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Check ``--out`` of a writing command first, in milliseconds (``args.where``), then run the command."""
+    if getattr(args, "force", None) is not None:
+        args.where = _out_folder(args, *(getattr(args, "problems", None) or [args.problem]))
+    return args.func(args)
 
 
 def _out_folder(args: argparse.Namespace, *problems) -> dict:
@@ -66,7 +73,6 @@ def _simulate(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     scenario = Scenario.load(args.problem)
     cfg = scenario.config
-    where = _out_folder(args, args.problem)
     if args.data:
         data = make_synthetic(scenario, seed=args.seed)
         traj = data.trajectory
@@ -75,7 +81,7 @@ def _simulate(args: argparse.Namespace) -> int:
                         substeps=max(1, round(1.0 / cfg.imu.rate_hz / cfg.simulation.dt_s)))
         traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s)
     summary = {"problem": cfg.name, **traj.summary(), "wall_time_s": time.perf_counter() - t0}
-    with atomic_folder(args.out, **where) as out:
+    with atomic_folder(args.out, **args.where) as out:
         columns, table = traj.table()
         rows = np.r_[0:table.shape[0]:args.every, table.shape[0] - 1] if args.every > 1 else slice(None)
         write_columns(out / "trajectory.csv", columns, table[rows])
@@ -107,15 +113,13 @@ def _fit(args: argparse.Namespace) -> int:
     if problem_kind(args.problem) == "point-mass":
         return _fit_point_mass(args)
     scenario = Scenario.load(args.problem)
-    where = _out_folder(args, args.problem)
     try:
         result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
                           print_level=5 if args.verbose else 0)
     except FitError as err:
-        print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
-        return 3
+        return fit_failed(f"fit of {scenario.config.name}", err)
     report = fit_report(result)
-    with atomic_folder(args.out, **where) as out:
+    with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         products = fit_products(result)
         write_fit_results(out, result, products, report, drop_tables(result, products))
@@ -141,21 +145,21 @@ def _joint(args: argparse.Namespace) -> int:
         cfg = load_joint(args.problems[0])
     else:
         if len(args.problems) < 2:
-            print("casrecon: joint needs at least two problems, or one joint .toml file", file=sys.stderr)
+            missing = "" if Path(args.problems[0]).exists() else f"{args.problems[0]}: file not found; "
+            print(f"casrecon: {missing}joint needs at least two problems, or one joint .toml file", file=sys.stderr)
             return 2
         cfg = JointConfig(name=args.name, drops=tuple(Path(p) for p in args.problems),
                           shared=tuple(args.shared) if args.shared else None, per_drop=tuple(args.per_drop),
                           fixed=tuple(args.fixed))
     scenarios = [Scenario.load(p) for p in cfg.drops]
-    where = _out_folder(args, *args.problems, *cfg.drops)
+    args.where = _out_folder(args, *args.problems, *cfg.drops)  # the drops' inputs too
     try:
         result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
                            print_level=5 if args.verbose else 0)
     except FitError as err:
-        print(f"casrecon: joint fit {cfg.name} failed: {err}", file=sys.stderr)
-        return 3
+        return fit_failed(f"joint fit {cfg.name}", err)
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
-    with atomic_folder(args.out, **where) as out:
+    with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         products = {d.scenario.config.name: fit_products(d) for d in result.drops}
         write_joint_results(out, result, single, products)
@@ -176,15 +180,13 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     from casrecon.report.pointmass_report import pointmass_report
 
     cfg = load_point_mass(args.problem)
-    where = _out_folder(args, args.problem)
     try:
         main = fit_point_mass(cfg, print_level=5 if args.verbose else 0)
         constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
     except FitError as err:
-        print(f"casrecon: fit of {cfg.name} failed: {err}", file=sys.stderr)
-        return 3
+        return fit_failed(f"fit of {cfg.name}", err)
     report = pointmass_report(main, constant)
-    with atomic_folder(args.out, **where) as out:
+    with atomic_folder(args.out, **args.where) as out:
         write_pointmass_results(out, main, constant, report)
         if not args.no_figures:
             plot_track_fit(out)
@@ -296,7 +298,6 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
         print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: {why}", file=sys.stderr)
         return 2
     Scenario.load(Path(args.problem))  # a bad problem fails here, located, before any worker starts
-    where = _out_folder(args, args.problem)
     t0 = time.perf_counter()
     try:
         res = estimator_montecarlo(Path(args.problem), args.cases, args.seed, args.workers, args.scheduler,
@@ -308,7 +309,7 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
               f"({err})", file=sys.stderr)
         return 2
     wall = time.perf_counter() - t0
-    with atomic_folder(Path(args.out), **where) as tmp:
+    with atomic_folder(Path(args.out), **args.where) as tmp:
         write_consistency(tmp, res, wall)
     n_ok = args.cases - len(res.failed)
     print(f"{n_ok} of {args.cases} fits converged in {wall:.0f} s; NEES sum {res.nees_sum:.1f}, chi2 95 % interval "
@@ -329,13 +330,13 @@ def _sensitivity(args: argparse.Namespace) -> int:
     specs = parameter_set(scenario.config).specs  # design predicts the shared (aero) factors only
     known = [sp.name for sp in specs if args.study == "profile" or sp.group == "aero"]
     if args.study != "fisher" and args.parameter not in known:
-        print(f"casrecon: sensitivity {args.study}: --parameter {args.parameter!r} is not a parameter of "
+        what = "an estimated parameter" if args.study == "profile" else "an aero dispersion factor (shared in a design)"
+        print(f"casrecon: sensitivity {args.study}: --parameter {args.parameter!r} is not {what} of "
               f"{scenario.config.name}; known: {', '.join(known)}", file=sys.stderr)
         return 2
-    where = _out_folder(args, args.problem)
     if args.study == "design":  # everything is computed before the folder is written: a failure keeps the old one
         design = obs.design_study(scenario, args.parameter)
-        with atomic_folder(args.out, **where) as out:
+        with atomic_folder(args.out, **args.where) as out:
             write_json(out / "design.json", design)
             sensitivity_plots.plot_design(design, out)
         print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
@@ -344,14 +345,13 @@ def _sensitivity(args: argparse.Namespace) -> int:
     try:
         result = fit_drop(scenario)
     except FitError as err:
-        print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
-        return 3
+        return fit_failed(f"fit of {scenario.config.name}", err)
     directions = obs.fisher_directions(result)
     print("weakest parameter combinations (parameters in units of their scale):")
     for d in directions[:5]:
         print("   " + d.describe())
     prof = obs.profile_likelihood(result, args.parameter, args.points) if args.study == "profile" else None
-    with atomic_folder(args.out, **where) as out:
+    with atomic_folder(args.out, **args.where) as out:
         write_json(out / "fisher.json", [{"eigenvalue": d.eigenvalue, "sigma": d.sigma, "weights": d.weights}
                                          for d in directions])
         if prof is not None:
@@ -469,7 +469,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; returns its exit status (module docstring), one line on stderr on failure."""
     args = build_parser().parse_args(argv)
-    return run_command(args.func, args, debug=debug_enabled(args.debug))
+    return run_command(_run, args, debug=debug_enabled(args.debug))
 
 
 if __name__ == "__main__":

@@ -37,6 +37,10 @@ EXIT_OK, EXIT_ERROR, EXIT_INPUT, EXIT_FIT, EXIT_INCONSISTENT = 0, 1, 2, 3, 4
 EXIT_SIGNAL = 128
 
 
+#: Signals received during the command :func:`run_command` runs (read by :func:`fit_failed`).
+RECEIVED: list[int] = []
+
+
 class Interrupted(BaseException):
     """Raised by the SIGTERM handler (a ``BaseException``, like ``KeyboardInterrupt``, so no
     ``except Exception`` swallows it)."""
@@ -57,7 +61,8 @@ def run_command(func: Callable[[object], int], args, *, debug: bool = False) -> 
     the interrupt message speaks about. With ``debug``, unexpected errors keep their traceback."""
     out = getattr(args, "out", None)
     before = _identity(out)
-    received: list[int] = []
+    received = RECEIVED
+    received.clear()
 
     def on_signal(signum, frame):
         received.append(signum)
@@ -93,6 +98,17 @@ def run_command(func: Callable[[object], int], args, *, debug: bool = False) -> 
         print(interrupted_line(out, before), file=sys.stderr)
         return EXIT_SIGNAL + received[0]
     return code
+
+
+def fit_failed(what: str, err: Exception) -> int:
+    """Say ``casrecon: WHAT failed: ERR`` and return 3; but when a signal stopped the solver (it then
+    reports a failure), raise the interrupt instead, so that only the interrupt line is printed."""
+    if RECEIVED:
+        if RECEIVED[0] == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise Interrupted(RECEIVED[0])
+    print(f"casrecon: {what} failed: {err}", file=sys.stderr)
+    return EXIT_FIT
 
 
 def describe(err: BaseException) -> tuple[int, str]:

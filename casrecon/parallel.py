@@ -88,8 +88,9 @@ def ignore_interrupts() -> None:
 def stop_pool(pool: ProcessPoolExecutor) -> None:
     """Cancel the pending work of ``pool`` and terminate its workers (after an error or a signal in
     the parent), so that leaving the ``with`` block does not wait for the running work."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
     pool.shutdown(wait=False, cancel_futures=True)
-    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+    for proc in processes:
         try:
             proc.terminate()
         except (OSError, ValueError, AttributeError):

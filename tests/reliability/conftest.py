@@ -9,7 +9,8 @@ that this conftest does not shadow ``tests/conftest.py``, which other test modul
     from .conftest import run_cli, tree_checksums, leftover_temp_folders, assert_clean_failure
 
 - :func:`run_cli` runs ``python -m casrecon ARGS`` in a subprocess (this checkout first on the path);
-- :func:`start_cli` starts it without waiting (to send it a signal);
+- :func:`call_cli` runs ``casrecon.cli.main`` in this process instead (fast; for failures before any work);
+- :func:`start_cli` starts it without waiting, :func:`wait_for_handlers` until its command runs (to signal it);
 - :func:`tree_checksums` maps every file under a folder to its SHA-256 (compare before and after);
 - :func:`leftover_temp_folders` lists ``.NAME.tmp-*`` / ``.NAME.old-*`` / probe folders under a folder;
 - :func:`assert_clean_failure` checks the exit status, no traceback, and one ``casrecon`` line;
@@ -25,8 +26,10 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -59,6 +62,37 @@ def start_cli(*args, cwd: str | Path | None = None, env: dict[str, str] | None =
     """Start ``python -m casrecon *args`` without waiting (stdout and stderr piped, text)."""
     return subprocess.Popen([sys.executable, "-m", "casrecon", *map(str, args)], cwd=cwd, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=cli_env(env))
+
+
+def call_cli(capsys, *args) -> subprocess.CompletedProcess:
+    """Run ``casrecon.cli.main(args)`` in this process (no interpreter start: for the many cases that fail
+    before any work); stdout and stderr from ``capsys``, returned like :func:`run_cli`'s result."""
+    from casrecon.cli import main
+
+    capsys.readouterr()
+    argv = [str(a) for a in args]
+    try:
+        code = main(argv)
+    except SystemExit as stop:  # argparse: usage errors
+        code = stop.code if isinstance(stop.code, int) else 1
+    out, err = capsys.readouterr()
+    return subprocess.CompletedProcess(argv, code, out, err)
+
+
+def wait_for_handlers(proc: subprocess.Popen, timeout: float = 60.0) -> bool:
+    """Wait until ``proc`` has a SIGTERM handler installed (casrecon's command is running: Linux
+    ``/proc/PID/status`` ``SigCgt``); False if it ended or the timeout passed first."""
+    deadline = time.monotonic() + timeout
+    status = Path(f"/proc/{proc.pid}/status")
+    while time.monotonic() < deadline and proc.poll() is None:
+        try:
+            caught = next(ln for ln in status.read_text().splitlines() if ln.startswith("SigCgt:"))
+        except (OSError, StopIteration):
+            return False
+        if int(caught.split()[1], 16) & (1 << (signal.SIGTERM - 1)):
+            return True
+        time.sleep(0.05)
+    return False
 
 
 def tree_checksums(path: str | Path) -> dict[str, str]:

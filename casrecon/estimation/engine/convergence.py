@@ -82,6 +82,14 @@ def decrement_if_feasible(nlp: Nlp, z: np.ndarray, g: np.ndarray,
     return gauss_newton_decrement(nlp, z, at_bounds(z, bounds))
 
 
+def remember_interrupt(callback, err: BaseException) -> None:
+    """Keep a ``KeyboardInterrupt`` (or another non-``Exception``, e.g. the command line's SIGTERM
+    exception) raised inside an Ipopt callback as ``callback.interrupt``: CasADi turns it into a failed
+    solve, and :func:`casrecon.estimation.engine.solve.solve` raises it again once Ipopt has returned."""
+    if not isinstance(err, Exception) and getattr(callback, "interrupt", None) is None:
+        callback.interrupt = err
+
+
 class DecrementStop(ca.Callback):
     """Ipopt iteration callback: stop when the iterate is feasible and its decrement is small.
 
@@ -113,6 +121,14 @@ class DecrementStop(ca.Callback):
         return ca.Sparsity.dense(n[ca.nlpsol_out(i)], 1)
 
     def eval(self, args):
+        try:
+            return self.stop(args)
+        except BaseException as err:
+            remember_interrupt(self, err)
+            raise
+
+    def stop(self, args) -> list[int]:
+        """``[1]`` to stop Ipopt at this iterate, else ``[0]``."""
         f = float(args[1])
         previous, self.previous_f = self.previous_f, f
         if previous is None or abs(f - previous) > OBJECTIVE_CHANGE * max(abs(f), 1.0):

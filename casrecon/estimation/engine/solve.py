@@ -92,13 +92,17 @@ class _Derivative(ca.Callback):
         return self.out_sp[i]
 
     def eval(self, args):
-        z = np.asarray(args[0]).ravel()
-        d = self.nlp.derivatives
-        if self.which == "grad_f":
-            return [self.value_fn(z), d.gradient(z)]
-        if self.which == "jac_g":
-            return [self.value_fn(z), d.jacobian_g(z)]
-        return [d.hessian_lagrangian(z, float(args[2]), np.asarray(args[3]).ravel())]
+        try:
+            z = np.asarray(args[0]).ravel()
+            d = self.nlp.derivatives
+            if self.which == "grad_f":
+                return [self.value_fn(z), d.gradient(z)]
+            if self.which == "jac_g":
+                return [self.value_fn(z), d.jacobian_g(z)]
+            return [d.hessian_lagrangian(z, float(args[2]), np.asarray(args[3]).ravel())]
+        except BaseException as err:
+            convergence.remember_interrupt(self, err)
+            raise
 
 
 def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
@@ -135,6 +139,9 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
     n_g = nlp.constraints.numel()
     lbx, ubx = bounds if bounds is not None else (-np.inf, np.inf)
     sol = solver(x0=z0, lbg=np.zeros(n_g), ubg=np.zeros(n_g), lbx=lbx, ubx=ubx)
+    for cb in callbacks:  # Ctrl-C or SIGTERM during the solve: Ipopt stopped; stop the caller too
+        if getattr(cb, "interrupt", None) is not None:
+            raise cb.interrupt
     z = np.asarray(sol["x"]).ravel()
     converged, status, decrement = _judge(nlp, solver.stats(), callbacks[-1], z, np.asarray(sol["g"]).ravel(), bounds)
     t2 = time.perf_counter()
