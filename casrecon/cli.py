@@ -30,25 +30,15 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.cli_guard import debug_enabled, fit_failed, run_command
+from casrecon.cli_guard import debug_enabled, fit_failed, out_folder_arguments, run_command
 from casrecon.io.errors import InputError
 
 
 def _run(args: argparse.Namespace) -> int:
     """Check ``--out`` of a writing command first, in milliseconds (``args.where``), then run the command."""
     if getattr(args, "force", None) is not None:
-        args.where = _out_folder(args, *(getattr(args, "problems", None) or [args.problem]))
+        args.where = out_folder_arguments(args, *(getattr(args, "problems", None) or [args.problem]))
     return args.func(args)
-
-
-def _out_folder(args: argparse.Namespace, *problems) -> dict:
-    """Check ``args.out`` before any work (never a folder holding the ``problems``' inputs; a foreign
-    folder or a file only with ``--force``; writable); the keyword arguments of ``atomic_folder``."""
-    from casrecon.output.out_folder import check_out_folder, input_paths
-
-    inputs = input_paths(problems)
-    check_out_folder(args.out, inputs=inputs, force=args.force)
-    return {"kind": args.command, "force": args.force, "inputs": inputs}
 
 
 def _inspect(args: argparse.Namespace) -> int:
@@ -152,7 +142,7 @@ def _joint(args: argparse.Namespace) -> int:
                           shared=tuple(args.shared) if args.shared else None, per_drop=tuple(args.per_drop),
                           fixed=tuple(args.fixed))
     scenarios = [Scenario.load(p) for p in cfg.drops]
-    args.where = _out_folder(args, *args.problems, *cfg.drops)  # the drops' inputs too
+    args.where = out_folder_arguments(args, *args.problems, *cfg.drops)  # the drops' inputs too
     try:
         result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
                            print_level=5 if args.verbose else 0)
@@ -249,7 +239,7 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
     try:
         sc = Scenario.load(problem)
     except InputError as err:
-        print(str(err), file=sys.stderr)
+        print(f"casrecon: {err}", file=sys.stderr)
         return 2
     except FileNotFoundError as err:
         return bad(f"{problem}: {err.strerror or err}")
@@ -387,6 +377,7 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+OUT_HELP = "results folder: written atomically, kept on failure; an existing one only if casrecon wrote it"
 FORCE_HELP = ("replace an existing --out that casrecon did not write (or a file); never a folder holding "
               "the inputs")
 
@@ -400,7 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_inspect)
     p = sub.add_parser("simulate", help="forward-simulate a problem from release to impact")
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--data", action="store_true",
                    help="also write synthetic imu.csv, gps.csv (FlySight 1), sounding.csv and truth.json")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: [truth] seed)")
@@ -410,7 +401,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_simulate)
     p = sub.add_parser("fit", help="reconstruct one drop: trajectory, parameters and 3-sigma")
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically, kept on failure)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--linear-solver", choices=("mumps", "spral"), default=None,
                    help="Ipopt linear solver (default: [estimation] linear_solver)")
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
@@ -422,7 +413,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_fit)
     p = sub.add_parser("joint", help="joint aero fit of several drops sharing the dispersion factors")
     p.add_argument("problems", nargs="+", help="problem folders, or one joint .toml file ([joint] drops = [...])")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically, kept on failure)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--name", default="joint", help="name of the joint fit (when problems are listed)")
     p.add_argument("--shared", nargs="*", default=None, help="dispersion factors shared (default: all estimated)")
     p.add_argument("--per-drop", nargs="*", default=[], help="dispersion factors each drop estimates for itself")
@@ -438,7 +429,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_joint)
     p = sub.add_parser("montecarlo", help="dispersed forward simulations: touchdown time and impact speed")
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--cases", type=int, default=1000, help="number of dispersed cases")
     p.add_argument("--seed", type=int, default=0, help="case i uses the random stream (seed, i)")
     p.add_argument("--workers", type=int, default=2, help="local processes (ignored with --scheduler)")
@@ -455,7 +446,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("sensitivity", help="observability: Fisher directions, profile likelihood, drop design")
     p.add_argument("study", choices=("fisher", "profile", "design"))
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--parameter", default="Cmq_mult", help="parameter to profile or to design for")
     p.add_argument("--points", type=int, default=9, help="profile grid points (over +-4 Fisher sigma)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)

@@ -100,6 +100,17 @@ def run_command(func: Callable[[object], int], args, *, debug: bool = False) -> 
     return code
 
 
+def out_folder_arguments(args, *problems) -> dict:
+    """Check ``args.out`` before any work (never a folder holding the ``problems``' inputs; a foreign
+    folder or a file only with ``args.force``; writable): the keyword arguments of ``atomic_folder``.
+    Raises :class:`~casrecon.output.out_folder.OutFolderError` (exit 2)."""
+    from casrecon.output.out_folder import check_out_folder, input_paths
+
+    inputs = input_paths(problems)
+    check_out_folder(args.out, inputs=inputs, force=args.force)
+    return {"kind": args.command, "force": args.force, "inputs": inputs}
+
+
 def fit_failed(what: str, err: Exception) -> int:
     """Say ``casrecon: WHAT failed: ERR`` and return 3; but when a signal stopped the solver (it then
     reports a failure), raise the interrupt instead, so that only the interrupt line is printed."""
