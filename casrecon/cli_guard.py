@@ -106,7 +106,7 @@ def out_folder_arguments(args, *problems) -> dict:
     Raises :class:`~casrecon.output.out_folder.OutFolderError` (exit 2)."""
     from casrecon.output.out_folder import check_out_folder, input_paths
 
-    inputs = input_paths(problems)
+    inputs = input_paths(problems, sensor_files=not getattr(args, "data", False))  # simulate --data writes them
     check_out_folder(args.out, inputs=inputs, force=args.force)
     return {"kind": args.command, "force": args.force, "inputs": inputs}
 

@@ -6,7 +6,8 @@ written, before any work starts:
 
 - never (not even with ``force``): the folder that holds the problem's inputs, an input itself, a
   folder containing one (a parent of the problem folder, a folder holding a shared vehicle file),
-  the working directory or one of its parents, the home folder, the file system root;
+  the working directory or one of its parents, the home folder, the file system root (the sensor
+  files named in ``[sensors]`` are not inputs of ``simulate --data``, which writes them);
 - without ``force`` only: an existing folder that is not a casrecon results folder, or an existing
   file;
 - always: a folder that does not exist yet, an empty folder, a folder with the marker, or a folder
@@ -81,9 +82,11 @@ def is_results_folder(folder: Path) -> bool:
     return "problem.toml" not in names and any(n in names for n in LEGACY_SIGNATURES)
 
 
-def input_paths(problems: Iterable[str | Path]) -> list[Path]:
+def input_paths(problems: Iterable[str | Path], *, sensor_files: bool = True) -> list[Path]:
     """The inputs a run reads, to be protected: each problem file and its folder, and every file or
-    folder a string of its TOML names (relative to the file), one level deep (a joint file's drops)."""
+    folder a string of its TOML names (relative to the file), one level deep (a joint file's drops).
+    ``sensor_files=False`` leaves out what the ``[sensors]`` table names (``simulate --data`` writes
+    those files rather than reading them, e.g. into the problem's ``data/`` folder)."""
     out: list[Path] = []
     todo = [(Path(p), 0) for p in problems]
     while todo:
@@ -98,6 +101,8 @@ def input_paths(problems: Iterable[str | Path]) -> list[Path]:
             data = tomllib.loads(toml.read_text(errors="replace"))
         except (OSError, tomllib.TOMLDecodeError):
             continue  # the loader says what is wrong with it, located
+        if not sensor_files and isinstance(data, dict):
+            data = {k: v for k, v in data.items() if k != "sensors"}
         for text in _strings(data):
             if "\n" in text or len(text) > 4096:
                 continue

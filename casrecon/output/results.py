@@ -109,7 +109,7 @@ def _swap(tmp: Path, target: Path) -> list[Path]:
     there) to backups, which are returned for removal; SIGINT/SIGTERM are held back meanwhile.
     On failure the newest backup is put back and the others removed."""
     backups: list[Path] = []
-    blocked = threading.current_thread() is threading.main_thread()
+    blocked = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM}) if blocked else None
     try:
         for _ in range(100):

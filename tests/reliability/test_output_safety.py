@@ -109,6 +109,29 @@ def test_out_dot_never_replaces_the_working_directory(cwd, drop_problem, capsys,
     assert tree_checksums(root) == before
 
 
+def test_a_new_folder_inside_the_problem_folder_is_fine(drop_problem, capsys):
+    before = tree_checksums(drop_problem)
+    proc = call_cli(capsys, *command("simulate", drop_problem, drop_problem / "results"))
+    assert proc.returncode == 0, proc.stderr
+    after = tree_checksums(drop_problem)
+    assert {k: v for k, v in after.items() if not k.startswith("results")} == before
+    assert (drop_problem / "results" / MARKER).is_file()
+
+
+def test_simulate_data_may_regenerate_the_data_folder_it_made(drop_problem, capsys):
+    """problems/*/data was written by ``simulate --data``: regenerating it is allowed (the sensor files
+    are that command's outputs), but no other command, nor ``simulate`` without ``--data``, replaces it."""
+    data = drop_problem / "data"
+    before, toml = tree_checksums(data), tree_checksums(drop_problem / "problem.toml")
+    refused = call_cli(capsys, *command("simulate", drop_problem, data))
+    assert_clean_failure(refused, 2, "holds the input")
+    assert tree_checksums(data) == before
+    proc = call_cli(capsys, *command("simulate", drop_problem, data, "--data"))
+    assert proc.returncode == 0, proc.stderr
+    assert {"imu.csv", "gps.csv", "truth.json", MARKER} <= {p.name for p in data.iterdir()}
+    assert tree_checksums(drop_problem / "problem.toml") == toml
+
+
 def test_inputs_of_a_joint_file_are_protected(tmp_path):
     """A joint .toml names its drops; each drop's folder, its problem.toml and the files it names are inputs."""
     joint = tmp_path / "campaign" / "joint.toml"
