@@ -38,10 +38,13 @@ from casrecon.io.errors import InputError
 
 #: Marker file of a casrecon results folder.
 MARKER = ".casrecon-results.json"
-#: Files whose presence (with no ``problem.toml`` beside them) marks a results folder written before
-#: the marker existed: ``summary.json`` (fit, joint, simulate), ``statistics.json`` (Monte Carlo),
-#: ``nees.json`` (estimator Monte Carlo), ``fisher.json`` / ``design.json`` (sensitivity).
-LEGACY_SIGNATURES = ("summary.json", "statistics.json", "nees.json", "fisher.json", "design.json")
+#: JSON files that mark a results folder written before the marker existed (with no ``problem.toml``
+#: beside them), and keys casrecon wrote into each (any one group complete): ``summary.json`` (fit,
+#: point-mass, joint: ``converged``; simulate: ``problem`` and ``flight_time_s``), ``statistics.json``
+#: (Monte Carlo), ``nees.json`` (estimator Monte Carlo), ``design.json`` / ``fisher.json`` (sensitivity).
+LEGACY_SIGNATURES = {"summary.json": (("converged",), ("problem", "flight_time_s")),
+                     "statistics.json": (("n_cases", "n_impacted"),), "nees.json": (("nees_sum",),),
+                     "design.json": (("parameter", "n_drops"),), "fisher.json": (("eigenvalue", "weights"),)}
 
 
 class OutFolderError(InputError):
@@ -72,14 +75,28 @@ def write_marker(folder: Path, kind: str) -> None:
 
 def is_results_folder(folder: Path) -> bool:
     """True for an empty folder, a folder holding :data:`MARKER`, or one that looks like a results
-    folder of an older casrecon: one of :data:`LEGACY_SIGNATURES` and no ``problem.toml``."""
+    folder of an older casrecon: no ``problem.toml``, and one of :data:`LEGACY_SIGNATURES` holding the
+    keys casrecon wrote into it (so a user's own ``summary.json`` does not count)."""
     try:
         names = {p.name for p in folder.iterdir()}
     except OSError:
         return False
     if not names or MARKER in names:
         return True
-    return "problem.toml" not in names and any(n in names for n in LEGACY_SIGNATURES)
+    return "problem.toml" not in names and any(_signed(folder / n, LEGACY_SIGNATURES[n])
+                                               for n in LEGACY_SIGNATURES if n in names)
+
+
+def _signed(path: Path, key_groups: tuple[tuple[str, ...], ...]) -> bool:
+    try:
+        if path.stat().st_size > 50_000_000:
+            return False
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    if isinstance(doc, list):  # fisher.json: one record per direction
+        doc = doc[0] if doc and isinstance(doc[0], dict) else {}
+    return isinstance(doc, dict) and any(all(k in doc for k in keys) for keys in key_groups)
 
 
 def input_paths(problems: Iterable[str | Path], *, sensor_files: bool = True) -> list[Path]:
@@ -146,7 +163,10 @@ def check_out_folder(target: str | Path, *, inputs: Iterable[Path] = (), force: 
     """
     given = str(target)
     target = Path(target).expanduser().resolve()
-    cwd = Path.cwd().resolve()
+    try:
+        cwd = Path.cwd().resolve()
+    except OSError:  # the working directory was removed
+        cwd = Path(target.anchor) / ".casrecon-no-working-directory"
     for inp in inputs:
         inp = Path(inp).resolve()
         if inp == target:

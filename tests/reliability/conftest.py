@@ -154,7 +154,7 @@ def make_results_folder(path: str | Path, kind: str = "fit", marker: bool = True
     ``.casrecon-results.json``); returns its :func:`tree_checksums`."""
     path = Path(path)
     path.mkdir(parents=True, exist_ok=True)
-    (path / "summary.json").write_text(json.dumps({"problem": "earlier", "kind": kind}) + "\n")
+    (path / "summary.json").write_text(json.dumps({"problem": "earlier", "converged": True}) + "\n")
     (path / "report.txt").write_text("an earlier result\n")
     if marker:
         (path / ".casrecon-results.json").write_text(json.dumps({"written_by": "casrecon", "kind": kind}) + "\n")

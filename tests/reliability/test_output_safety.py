@@ -203,8 +203,8 @@ def test_marker_is_written_and_an_own_folder_is_replaced_without_force(drop_prob
 
 def test_a_result_of_an_older_casrecon_is_replaced_without_force(drop_problem, tmp_path, capsys):
     """Decision: a folder without the marker but with a casrecon signature file (summary.json,
-    statistics.json, nees.json, fisher.json, design.json) and no problem.toml was written by an older
-    casrecon, and is replaced; an empty folder too."""
+    statistics.json, nees.json, fisher.json, design.json holding casrecon's keys) and no problem.toml
+    was written by an older casrecon, and is replaced; an empty folder too."""
     out = tmp_path / "old-result"
     make_results_folder(out, marker=False)
     assert call_cli(capsys, *command("simulate", drop_problem, out)).returncode == 0
@@ -212,6 +212,17 @@ def test_a_result_of_an_older_casrecon_is_replaced_without_force(drop_problem, t
     empty = tmp_path / "empty"
     empty.mkdir()
     assert call_cli(capsys, *command("simulate", drop_problem, empty)).returncode == 0
+
+
+@pytest.mark.parametrize("name, content", [("summary.json", '{"total": 3}'), ("summary.json", "not json"),
+                                           ("statistics.json", '{"mean": 1}'), ("fisher.json", "[]")])
+def test_a_users_own_json_does_not_pass_for_a_casrecon_result(name, content, drop_problem, tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / name).write_text(content)
+    before = tree_checksums(out)
+    assert_clean_failure(call_cli(capsys, *command("simulate", drop_problem, out)), 2, "--force")
+    assert tree_checksums(out) == before
 
 
 def test_a_problem_folder_that_looks_like_a_result_is_refused(drop_problem, tmp_path, capsys):
