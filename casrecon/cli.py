@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.cli_guard import debug_enabled, fit_failed, out_folder_arguments, run_command
+from casrecon.cli_guard import debug_enabled, exit_process, fit_failed, out_folder_arguments, run_command
 from casrecon.io.errors import InputError
 
 
@@ -463,5 +463,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     return run_command(_run, args, debug=debug_enabled(args.debug))
 
 
+def run() -> None:
+    """The console script ``casrecon``: :func:`main`, then exit with its status (see ``exit_process``)."""
+    exit_process(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -17,7 +17,9 @@ Exit status (also in :mod:`casrecon.cli` and the README):
 :func:`run_command` installs SIGINT and SIGTERM handlers that raise (:class:`Interrupted` for
 SIGTERM), so every ``with atomic_folder(...)`` block unwinds and removes its temporary folder;
 a signal that arrives while a solver runs in C++ (which may then report a failure) is still
-reported as the interrupt it was.
+reported as the interrupt it was. A library may swallow the exception (one did, inside an import):
+:data:`GRACE_S` after the signal, or at a second signal, :func:`force_exit` removes the temporary
+folders, stops the workers and exits.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import signal
 import socket
 import sys
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -41,9 +44,9 @@ EXIT_SIGNAL = 128
 RECEIVED: list[int] = []
 
 
-class Interrupted(BaseException):
-    """Raised by the SIGTERM handler (a ``BaseException``, like ``KeyboardInterrupt``, so no
-    ``except Exception`` swallows it)."""
+class Interrupted(KeyboardInterrupt):
+    """Raised by the SIGTERM handler: a ``KeyboardInterrupt`` (no ``except Exception`` swallows it, and
+    CasADi stops a solve for it without printing a traceback), told apart by its ``signum``."""
 
     def __init__(self, signum: int) -> None:
         self.signum = signum
@@ -58,31 +61,39 @@ def debug_enabled(flag: bool = False) -> bool:
 def run_command(func: Callable[[object], int], args, *, debug: bool = False) -> int:
     """Run one command ``func(args)`` and turn whatever ends it into an exit status and at most one
     line on stderr (see the module table). ``args.out``, when present, names the results folder
-    the interrupt message speaks about. With ``debug``, unexpected errors keep their traceback."""
+    the interrupt message speaks about. With ``debug``, unexpected errors keep their traceback.
+
+    On SIGINT or SIGTERM the command unwinds by an exception (``with atomic_folder`` blocks remove
+    their temporary folders). Should it not have ended :data:`GRACE_S` after the signal (a library
+    swallowed the exception), or at a second signal, :func:`force_exit` ends the process.
+    """
+    from casrecon.output import results  # loaded now: force_exit may run in another thread
+    from casrecon.parallel import end_progress_line
+
     out = getattr(args, "out", None)
     before = _identity(out)
     received = RECEIVED
     received.clear()
-
-    def on_signal(signum, frame):
-        received.append(signum)
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        raise Interrupted(signum)
-
+    watch = SignalWatch(received, lambda signum: force_exit(signum, results.abandon_active_folders,
+                                                            interrupted_line(out, before)))
     previous = {}
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):
-            previous[sig] = signal.signal(sig, on_signal)
+            previous[sig] = signal.signal(sig, watch.on_signal)
     try:
         try:
             code = func(args)
-        except KeyboardInterrupt:
-            received.append(signal.SIGINT)
-            code = EXIT_SIGNAL + signal.SIGINT
         except Interrupted as err:
             received.append(err.signum)
             code = EXIT_SIGNAL + err.signum
+        except KeyboardInterrupt as err:
+            if previous and not received:  # no signal came: a solver took a failure for an interrupt
+                code, line = describe(RuntimeError(str(err) or "KeyboardInterrupt without a signal"))
+                end_progress_line()
+                print(line, file=sys.stderr)
+            else:
+                received.append(signal.SIGINT)
+                code = EXIT_SIGNAL + signal.SIGINT
         except Exception as err:
             if received:  # a solver stopped by the signal may raise something else first
                 code = EXIT_SIGNAL + received[0]
@@ -90,14 +101,103 @@ def run_command(func: Callable[[object], int], args, *, debug: bool = False) -> 
                 raise
             else:
                 code, line = describe(err)
+                end_progress_line()
                 print(line, file=sys.stderr)
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+        watch.done.set()
     if received:
-        print(interrupted_line(out, before), file=sys.stderr)
+        end_progress_line()
+        print(interrupted_line(out, before), file=sys.stderr, flush=True)
         return EXIT_SIGNAL + received[0]
     return code
+
+
+class SignalWatch:
+    """The SIGINT/SIGTERM handler of one command and its watchdog thread.
+
+    The first signal raises ``KeyboardInterrupt`` (SIGINT) or :class:`Interrupted` (SIGTERM) where
+    the main thread is, unless that is a spot where the exception would be printed and dropped (a
+    weakref callback, ``__del__``, the import machinery's locks, CasADi's SWIG shims): then the
+    watchdog sends the signal again 0.2 s later. A second signal after the raise, or :data:`GRACE_S` without the command
+    ending (a library swallowed the exception), calls ``force(signum)`` (:func:`force_exit`).
+    """
+
+    UNSAFE = ("__del__", "cb", "remove", "_remove", "_remove_dead_weakref")
+    UNSAFE_FILES = ("<frozen importlib",)
+    #: CasADi's SWIG type checks call these back from C++ while choosing an overload, and drop an
+    #: exception raised in them.
+    CASADI_FILE = os.path.join("casadi", "casadi.py")
+    CASADI_CHECKS = ("shape", "size1", "size2", "size", "numel", "nnz", "toarray", "__array__", "__float__",
+                     "__int__", "__len__", "__iter__", "elements", "full", "sparse", "is_scalar", "is_dense")
+
+    def unsafe(self, frame) -> bool:
+        """Whether an exception raised in ``frame`` would be dropped (see the class notes)."""
+        if frame is None:
+            return False
+        code = frame.f_code
+        return (code.co_name in self.UNSAFE or code.co_filename.startswith(self.UNSAFE_FILES)
+                or (code.co_filename.endswith(self.CASADI_FILE) and code.co_name in self.CASADI_CHECKS))
+
+    def __init__(self, received: list[int], force: Callable[[int], None]) -> None:
+        self.received, self.force = received, force
+        self.raised = self.pending = False
+        self.done = threading.Event()
+
+    def on_signal(self, signum, frame) -> None:
+        if self.raised:
+            self.force(self.received[0])  # a second signal: do not wait
+        if not self.received:
+            self.received.append(signum)
+            threading.Thread(target=self.watchdog, args=(signum,), daemon=True).start()
+        if self.unsafe(frame):
+            self.pending = True
+            return
+        self.pending, self.raised = False, True
+        raise KeyboardInterrupt if signum == signal.SIGINT else Interrupted(signum)
+
+    def watchdog(self, signum: int) -> None:
+        deadline = time.monotonic() + GRACE_S
+        while not self.done.wait(0.2):
+            if time.monotonic() >= deadline:
+                self.force(signum)
+            elif self.pending:
+                os.kill(os.getpid(), signum)
+
+
+def exit_process(code: int) -> None:
+    """End the ``casrecon`` process with ``code``. After a signal (130, 143) the streams are flushed
+    and the process ends at once: a library that swallowed the ``KeyboardInterrupt`` may have left
+    Python set to kill itself with SIGINT at exit, which would replace the status."""
+    if code >= EXIT_SIGNAL:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
+#: Seconds the command has to unwind after SIGINT or SIGTERM before :func:`force_exit` ends it.
+GRACE_S = 10.0
+
+
+def force_exit(signum: int, abandon: Callable[[], object], line: str | None) -> None:
+    """End the process now with status 128 + ``signum``: remove the temporary folders of the results
+    being written (``abandon``, which waits for a swap in progress), terminate worker processes, print
+    ``line`` (if not None)."""
+    import multiprocessing
+
+    from casrecon.parallel import end_progress_line
+
+    try:
+        abandon()
+        for child in multiprocessing.active_children():
+            child.terminate()
+        if line is not None:
+            end_progress_line()
+            print(line, file=sys.stderr, flush=True)
+    finally:
+        os._exit(EXIT_SIGNAL + signum)
 
 
 def out_folder_arguments(args, *problems) -> dict:

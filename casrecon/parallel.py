@@ -38,6 +38,9 @@ class Progress:
         Name of the units after the count.
     """
 
+    #: A bar is on screen without its newline (a message printed now would run into it).
+    line_open = False
+
     def __init__(self, total: int, enabled: bool = True, label: str = "", unit: str = "cases") -> None:
         self.total, self.done, self.enabled, self.label, self.unit = total, 0, enabled, label, unit
         self.t0 = time.perf_counter()
@@ -53,8 +56,17 @@ class Progress:
         bar = "#" * int(30 * frac)
         sys.stderr.write(f"\r{self.label} [{bar:<30s}] {self.done}/{self.total} {self.unit}  {el:6.1f} s  "
                          f"ETA {eta:5.1f} s")
-        if self.done >= self.total:
+        Progress.line_open = self.done < self.total
+        if not Progress.line_open:
             sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def end_progress_line() -> None:
+    """End a progress bar's line cut short (by an error or a signal), so the next message starts a line."""
+    if Progress.line_open:
+        Progress.line_open = False
+        sys.stderr.write("\n")
         sys.stderr.flush()
 
 

@@ -79,6 +79,8 @@ def is_results_folder(folder: Path) -> bool:
     keys casrecon wrote into it (so a user's own ``summary.json`` does not count)."""
     try:
         names = {p.name for p in folder.iterdir()}
+    except FileNotFoundError:
+        return True  # gone (another casrecon writer moved it aside): nothing of anyone's to replace
     except OSError:
         return False
     if not names or MARKER in names:

@@ -37,6 +37,24 @@ from casrecon.output.out_folder import (
 
 #: errno values of ``os.replace(tmp, target)`` when another writer put a folder at ``target`` meanwhile.
 _RACE_ERRNOS = (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR, errno.EISDIR)
+#: Temporary folders being written in this process, and the lock held while one is swapped in.
+_ACTIVE: set[Path] = set()
+_SWAP_LOCK = threading.Lock()
+
+
+def abandon_active_folders(timeout_s: float = 5.0) -> list[Path]:
+    """Remove the temporary folders this process is writing (for an exit that cannot wait for the
+    ``with`` blocks to unwind); a swap in progress is let finish first (up to ``timeout_s``)."""
+    locked = _SWAP_LOCK.acquire(timeout=timeout_s)
+    try:
+        gone = sorted(_ACTIVE)
+        for tmp in gone:
+            remove_tree(tmp)
+        _ACTIVE.clear()
+        return gone
+    finally:
+        if locked:
+            _SWAP_LOCK.release()
 
 
 @contextlib.contextmanager
@@ -83,15 +101,14 @@ def atomic_folder(target: str | Path, *, kind: str = "results", force: bool = Fa
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=temp_name(target, "tmp"), dir=target.parent))
+        _ACTIVE.add(tmp)
         yield tmp
         write_marker(tmp, kind)
-        if not force and target.is_dir() and not is_results_folder(target):
-            raise OutFolderError(str(given), f"was created by someone else while casrecon wrote (no {MARKER}); "
-                                 "nothing replaced")
-        backups = _swap(tmp, target)
+        backups = _swap(tmp, target, None if force else str(given))
     except BaseException as err:
         if tmp is not None:
             remove_tree(tmp)
+            _ACTIVE.discard(tmp)
         for folder in missing:
             try:
                 folder.rmdir()
@@ -104,14 +121,19 @@ def atomic_folder(target: str | Path, *, kind: str = "results", force: bool = Fa
         remove_tree(backup)
 
 
-def _swap(tmp: Path, target: Path) -> list[Path]:
+def _swap(tmp: Path, target: Path, owned_check: str | None) -> list[Path]:
     """Rename ``tmp`` to ``target``, the earlier ``target`` (and any folder a concurrent writer put
     there) to backups, which are returned for removal; SIGINT/SIGTERM are held back meanwhile.
-    On failure the newest backup is put back and the others removed."""
+    On failure the newest backup is put back and the others removed. With ``owned_check`` (the name
+    to report), a folder someone else created at ``target`` meanwhile is not replaced."""
     backups: list[Path] = []
     blocked = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
     old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM}) if blocked else None
+    _SWAP_LOCK.acquire()
     try:
+        if owned_check is not None and target.is_dir() and not is_results_folder(target):
+            raise OutFolderError(owned_check, f"was created by someone else while casrecon wrote (no {MARKER}); "
+                                 "nothing replaced")
         for _ in range(100):
             if target.exists() or target.is_symlink():
                 backup = target.parent / f"{temp_name(target, 'old')}{secrets.token_hex(4)}"
@@ -122,6 +144,7 @@ def _swap(tmp: Path, target: Path) -> list[Path]:
                     pass  # a concurrent writer moved it away first
             try:
                 os.replace(tmp, target)
+                _ACTIVE.discard(tmp)
                 return backups
             except OSError as err:
                 if err.errno not in _RACE_ERRNOS:
@@ -138,6 +161,7 @@ def _swap(tmp: Path, target: Path) -> list[Path]:
             remove_tree(backup)
         raise
     finally:
+        _SWAP_LOCK.release()
         if old_mask is not None:
             signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 

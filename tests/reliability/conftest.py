@@ -126,10 +126,15 @@ def assert_no_traceback(proc: subprocess.CompletedProcess) -> None:
     assert TRACEBACK not in proc.stderr and TRACEBACK not in (proc.stdout or ""), proc.stderr[-3000:]
 
 
+#: A progress bar line (``montecarlo [####    ] 250/1000 cases ...``).
+PROGRESS = re.compile(r"\[[# ]*\] \d+/\d+ ")
+
+
 def error_lines(proc: subprocess.CompletedProcess) -> list[str]:
-    """The non-empty stderr lines, progress bars (carriage-return lines) and warnings of libraries excluded."""
-    lines = [ln.rsplit("\r", 1)[-1].strip() for ln in proc.stderr.splitlines()]
-    return [ln for ln in lines if ln and "Warning" not in ln and not ln.startswith("warnings.warn")]
+    """The non-empty stderr lines; progress bars and warnings of libraries excluded."""
+    lines = [ln.strip() for ln in re.split(r"[\r\n]+", proc.stderr)]
+    return [ln for ln in lines if ln and not PROGRESS.search(ln) and "Warning" not in ln
+            and not ln.startswith("warnings.warn")]
 
 
 def assert_clean_failure(proc: subprocess.CompletedProcess, code: int, *fragments: str,

@@ -149,6 +149,19 @@ def test_unexpected_error_is_one_line_exit_1_and_debug_shows_the_traceback(tmp_p
     assert leftover_temp_folders(tmp_path) == []
 
 
+def test_a_keyboard_interrupt_without_a_signal_is_an_error_not_an_interrupt(tmp_path, capsys, monkeypatch):
+    """The engine raises KeyboardInterrupt when Ipopt was stopped by an exception outside its callbacks
+    (CasADi's own check caught a signal); without a signal that guess was wrong: exit 1, not 130."""
+    import casrecon.scenario
+
+    def stopped(*args, **kwargs):
+        raise KeyboardInterrupt("Ipopt stopped by an exception outside the callbacks (an interrupt)")
+
+    monkeypatch.setattr(casrecon.scenario.Scenario, "load", stopped)
+    proc = call_cli(capsys, "simulate", DROP, "--out", tmp_path / "sim")
+    assert_clean_failure(proc, 1, "unexpected error", "Ipopt stopped")
+
+
 @pytest.mark.parametrize("err, code, fragment", [
     (OSError(errno.EACCES, "Permission denied", "/data/imu.csv"), 2, "/data/imu.csv: Permission denied"),
     (MemoryError(), 2, "not enough memory"),

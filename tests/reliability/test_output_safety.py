@@ -333,19 +333,20 @@ def test_disk_full_in_a_new_deep_folder_leaves_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []  # the temporary folder and the parents made for it are gone
 
 
-@pytest.mark.parametrize("exc, code", [(KeyboardInterrupt, 130), ("sigterm", 143)])
-def test_interrupt_while_writing_keeps_the_earlier_result(exc, code, drop_problem, tmp_path, capsys, monkeypatch):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_signal_while_writing_keeps_the_earlier_result(sig, drop_problem, tmp_path, capsys, monkeypatch):
     import casrecon.output.results as results
-    from casrecon.cli_guard import Interrupted
 
-    def interrupted(*args, **kwargs):
-        raise KeyboardInterrupt if exc is KeyboardInterrupt else Interrupted(signal.SIGTERM)
+    def interrupted(path, *args, **kwargs):
+        Path(path).write_text("{")  # half a file, then Ctrl-C or SIGTERM
+        os.kill(os.getpid(), sig)
+        time.sleep(5)  # the handler raises before this ends
 
     monkeypatch.setattr(results, "write_json", interrupted)
     out = tmp_path / "sim"
     earlier = make_results_folder(out)
     proc = call_cli(capsys, *command("simulate", drop_problem, out))
-    assert_clean_failure(proc, code, "interrupted; earlier results in", str(out), "kept")
+    assert_clean_failure(proc, 128 + sig, "interrupted; earlier results in", str(out), "kept")
     assert tree_checksums(out) == earlier
     assert leftover_temp_folders(tmp_path) == []
 
@@ -369,6 +370,53 @@ def test_signal_during_a_run_exits_128_plus_signal_and_keeps_the_earlier_result(
             proc.kill()
     assert time.monotonic() - t0 < 15
     done = subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+    assert_clean_failure(done, 128 + sig, "interrupted; earlier results in", "kept")
+    assert tree_checksums(out) == earlier
+    assert leftover_temp_folders(tmp_path) == []
+
+
+SWALLOWING = """
+import sys, time
+import casrecon.cli_guard as guard
+from casrecon.output.results import atomic_folder
+guard.GRACE_S = {grace}
+def swallow(args):
+    with atomic_folder(args.out) as tmp:
+        (tmp / "half.csv").write_text("half")
+        print("ready", flush=True)
+        while True:  # a library that catches everything
+            try:
+                time.sleep(0.05)
+            except BaseException:
+                pass
+class Args:
+    out = sys.argv[1]
+guard.exit_process(guard.run_command(swallow, Args()))
+"""
+
+
+@pytest.mark.parametrize("sig, second", [(signal.SIGTERM, False), (signal.SIGINT, True)])
+def test_a_swallowed_interrupt_still_ends_the_run(sig, second, tmp_path):
+    """A library that swallows the exception cannot keep the run alive: GRACE_S after the signal (or at
+    a second signal) the temporary folder is removed and the process exits with 128 + signal."""
+    out = tmp_path / "out"
+    earlier = make_results_folder(out)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(PROBLEMS.parent), os.environ.get("PYTHONPATH", "")])}
+    child = subprocess.Popen([sys.executable, "-c", SWALLOWING.format(grace=30.0 if second else 1.0), str(out)],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        assert child.stdout.readline().strip() == "ready"
+        t0 = time.monotonic()
+        child.send_signal(sig)
+        if second:
+            time.sleep(0.5)
+            child.send_signal(sig)
+        _, stderr = child.communicate(timeout=20)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    assert time.monotonic() - t0 < 10
+    done = subprocess.CompletedProcess(child.args, child.returncode, "", stderr)
     assert_clean_failure(done, 128 + sig, "interrupted; earlier results in", "kept")
     assert tree_checksums(out) == earlier
     assert leftover_temp_folders(tmp_path) == []

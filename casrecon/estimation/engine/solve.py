@@ -62,9 +62,10 @@ class _Derivative(ca.Callback):
     NAMES = {"grad_f": (["x", "p"], ["f", "grad_f_x"]), "jac_g": (["x", "p"], ["g", "jac_g_x"]),
              "hess_lag": (["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])}
 
-    def __init__(self, which: str, nlp: Nlp, value_fn: ca.Function | None) -> None:
+    def __init__(self, which: str, nlp: Nlp, value_fn: ca.Function | None,
+                 interruption: convergence.Interruption) -> None:
         ca.Callback.__init__(self)
-        self.which, self.nlp, self.value_fn = which, nlp, value_fn
+        self.which, self.nlp, self.value_fn, self.interruption = which, nlp, value_fn, interruption
         self.n_z, self.n_g = nlp.z.numel(), nlp.constraints.numel()
         d = nlp.derivatives
         self.out_sp = {"grad_f": [ca.Sparsity.dense(1, 1), ca.Sparsity.dense(self.n_z, 1)],
@@ -93,6 +94,7 @@ class _Derivative(ca.Callback):
 
     def eval(self, args):
         try:
+            self.interruption.check()
             z = np.asarray(args[0]).ravel()
             d = self.nlp.derivatives
             if self.which == "grad_f":
@@ -101,8 +103,10 @@ class _Derivative(ca.Callback):
                 return [self.value_fn(z), d.jacobian_g(z)]
             return [d.hessian_lagrangian(z, float(args[2]), np.asarray(args[3]).ravel())]
         except BaseException as err:
-            convergence.remember_interrupt(self, err)
-            raise
+            raised = self.interruption.keep(err)
+            if raised is err:
+                raise
+            raise raised from None
 
 
 def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
@@ -112,14 +116,15 @@ def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol
     f = 0.5 * ca.sumsqr(nlp.residuals)
     f_fn = ca.Function("f", [nlp.z], [f])
     g_fn = ca.Function("g", [nlp.z], [nlp.constraints])
-    callbacks = [_Derivative("grad_f", nlp, f_fn), _Derivative("jac_g", nlp, g_fn),
-                 _Derivative("hess_lag", nlp, None)]
+    interruption = convergence.Interruption()  # shared: Ctrl-C in one callback stops them all
+    callbacks = [_Derivative("grad_f", nlp, f_fn, interruption), _Derivative("jac_g", nlp, g_fn, interruption),
+                 _Derivative("hess_lag", nlp, None, interruption)]
     opts = {"ipopt.linear_solver": linear_solver, "ipopt.max_iter": max_iter, "ipopt.tol": tol,
             "ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes",
             "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": ACCEPTABLE_TOL,
             "ipopt.acceptable_iter": ACCEPTABLE_ITER, "grad_f": callbacks[0], "jac_g": callbacks[1],
             "hess_lag": callbacks[2]}
-    stop = convergence.DecrementStop(nlp, bounds) if convergence.applies(nlp) else None
+    stop = convergence.DecrementStop(nlp, bounds, interruption) if convergence.applies(nlp) else None
     if stop is not None:
         opts["iteration_callback"] = stop
     callbacks.append(stop)
@@ -139,9 +144,8 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
     n_g = nlp.constraints.numel()
     lbx, ubx = bounds if bounds is not None else (-np.inf, np.inf)
     sol = solver(x0=z0, lbg=np.zeros(n_g), ubg=np.zeros(n_g), lbx=lbx, ubx=ubx)
-    for cb in callbacks:  # Ctrl-C or SIGTERM during the solve: Ipopt stopped; stop the caller too
-        if getattr(cb, "interrupt", None) is not None:
-            raise cb.interrupt
+    # Ctrl-C or SIGTERM during the solve stopped Ipopt: stop the caller too
+    callbacks[0].interruption.after_solve(str(solver.stats()["return_status"]))
     z = np.asarray(sol["x"]).ravel()
     converged, status, decrement = _judge(nlp, solver.stats(), callbacks[-1], z, np.asarray(sol["g"]).ravel(), bounds)
     t2 = time.perf_counter()
