@@ -24,13 +24,16 @@ between the two renames of the swap and the target is missing.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
 import shutil
+import signal
 import tempfile
+import threading
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -194,11 +197,25 @@ def check_out_folder(target: str | Path, *, inputs: Iterable[Path] = (), force: 
     if not anchor.is_dir():
         raise OutFolderError(given, f"cannot be created: {anchor} is a file, not a folder")
     try:
-        probe = tempfile.mkdtemp(prefix=".casrecon-probe-", dir=anchor)
-        os.rmdir(probe)
+        with signals_held():  # a Ctrl-C between the two calls would leave the probe behind
+            os.rmdir(tempfile.mkdtemp(prefix=".casrecon-probe-", dir=anchor))
     except OSError as err:
         raise OutFolderError(given, f"cannot be written: {anchor}: {err.strerror or err}") from None
     return target
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back (in the main thread, where Python runs their handlers) for a few
+    file-system calls that must not be split; they are delivered when the block ends."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def temp_name(target: Path, kind: str) -> str:

@@ -15,7 +15,6 @@ import json
 import os
 import secrets
 import shutil
-import signal
 import tempfile
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -31,6 +30,7 @@ from casrecon.output.out_folder import (
     clean_stale,
     is_results_folder,
     remove_tree,
+    signals_held,
     temp_name,
     write_marker,
 )
@@ -100,8 +100,9 @@ def atomic_folder(target: str | Path, *, kind: str = "results", force: bool = Fa
     tmp = None
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=temp_name(target, "tmp"), dir=target.parent))
-        _ACTIVE.add(tmp)
+        with signals_held():  # no Ctrl-C between creating the folder and knowing its name
+            tmp = Path(tempfile.mkdtemp(prefix=temp_name(target, "tmp"), dir=target.parent))
+            _ACTIVE.add(tmp)
         yield tmp
         write_marker(tmp, kind)
         backups = _swap(tmp, target, None if force else str(given))
@@ -126,10 +127,12 @@ def _swap(tmp: Path, target: Path, owned_check: str | None) -> list[Path]:
     there) to backups, which are returned for removal; SIGINT/SIGTERM are held back meanwhile.
     On failure the newest backup is put back and the others removed. With ``owned_check`` (the name
     to report), a folder someone else created at ``target`` meanwhile is not replaced."""
+    with signals_held(), _SWAP_LOCK:
+        return _swap_held(tmp, target, owned_check)
+
+
+def _swap_held(tmp: Path, target: Path, owned_check: str | None) -> list[Path]:
     backups: list[Path] = []
-    blocked = threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask")
-    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM}) if blocked else None
-    _SWAP_LOCK.acquire()
     try:
         if owned_check is not None and target.is_dir() and not is_results_folder(target):
             raise OutFolderError(owned_check, f"was created by someone else while casrecon wrote (no {MARKER}); "
@@ -160,10 +163,6 @@ def _swap(tmp: Path, target: Path, owned_check: str | None) -> list[Path]:
         for backup in backups:
             remove_tree(backup)
         raise
-    finally:
-        _SWAP_LOCK.release()
-        if old_mask is not None:
-            signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)
 
 
 def save_results_folder(folder: str | Path, name: str, write: Callable[[Path], None] | None,
