@@ -132,6 +132,11 @@ class SignalWatch:
     CASADI_CHECKS = ("shape", "size1", "size2", "size", "numel", "nnz", "toarray", "__array__", "__float__",
                      "__int__", "__len__", "__iter__", "elements", "full", "sparse", "is_scalar", "is_dense")
 
+    def __init__(self, received: list[int], force: Callable[[int], None]) -> None:
+        self.received, self.force = received, force
+        self.raised = self.pending = False
+        self.done = threading.Event()
+
     def unsafe(self, frame) -> bool:
         """Whether an exception raised in ``frame`` would be dropped (see the class notes)."""
         if frame is None:
@@ -139,11 +144,6 @@ class SignalWatch:
         code = frame.f_code
         return (code.co_name in self.UNSAFE or code.co_filename.startswith(self.UNSAFE_FILES)
                 or (code.co_filename.endswith(self.CASADI_FILE) and code.co_name in self.CASADI_CHECKS))
-
-    def __init__(self, received: list[int], force: Callable[[int], None]) -> None:
-        self.received, self.force = received, force
-        self.raised = self.pending = False
-        self.done = threading.Event()
 
     def on_signal(self, signum, frame) -> None:
         if self.raised:
