@@ -1,7 +1,5 @@
 """``python -m casrecon``: the ``casrecon`` command."""
 
-import sys
+from casrecon.cli import run
 
-from casrecon.cli import main
-
-sys.exit(main())
+run()

@@ -6,6 +6,17 @@ writers of :mod:`casrecon.output` and the reports of :mod:`casrecon.report`.
 Bad input ends with one line ``casrecon: FILE:LINE: field 'F': MESSAGE`` and exit status 2,
 never a traceback; a fit that fails (no convergence, singular KKT matrix) says why and exits 3,
 leaving any earlier results folder untouched.
+
+Results go only where casrecon owns the folder (:mod:`casrecon.output.out_folder`): ``--out`` is
+checked before any work; a folder holding the problem's inputs (or the working directory) is never
+replaced; an existing file, or a folder without ``.casrecon-results.json`` that does not look like
+an older casrecon result, only with ``--force``.
+
+Exit status: 0 success; 1 unexpected error (a bug; ``--debug`` or ``CASRECON_DEBUG=1`` shows the
+traceback); 2 bad input or arguments, an ``--out`` that may not or cannot be written, a system
+error (cannot read or write a file, disk full, not enough memory, bad or unreachable scheduler);
+3 a fit failed; 4 estimator Monte Carlo not consistent; 130 SIGINT and 143 SIGTERM (earlier
+results kept). See :mod:`casrecon.cli_guard`.
 """
 
 from __future__ import annotations
@@ -17,7 +28,22 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from casrecon.cli_guard import (
+    add_format_argument,
+    debug_enabled,
+    exit_process,
+    fit_failed,
+    out_folder_arguments,
+    run_command,
+)
 from casrecon.io.errors import InputError
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Check ``--out`` of a writing command first, in milliseconds (``args.where``), then run the command."""
+    if getattr(args, "force", None) is not None:
+        args.where = out_folder_arguments(args, *(getattr(args, "problems", None) or [args.problem]))
+    return args.func(args)
 
 
 def _inspect(args: argparse.Namespace) -> int:
@@ -32,22 +58,6 @@ def _inspect(args: argparse.Namespace) -> int:
     return 0
 
 
-def _formats_arg(text: str) -> tuple[str, ...]:
-    """``--format png,pdf`` -> ("png", "pdf"); an unsupported format is a usage error (exit 2)."""
-    from casrecon.report.figure_style import parse_formats
-
-    try:
-        return parse_formats(text)
-    except ValueError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-
-
-def _add_format(p: argparse.ArgumentParser, default: tuple[str, ...] | None = ("png",)) -> None:
-    p.add_argument("--format", dest="formats", type=_formats_arg, default=default, metavar="png,pdf",
-                   help="figure file formats, comma-separated, of png, pdf and svg"
-                        + (" (default png)" if default else " (default: the suffix of --plot)"))
-
-
 def _simulate(args: argparse.Namespace) -> int:
     from casrecon.io.baro import write_baro_csv
     from casrecon.io.flysight import write_flysight1
@@ -59,7 +69,8 @@ def _simulate(args: argparse.Namespace) -> int:
     from casrecon.simulation.synthetic import make_synthetic
 
     if args.every < 1:
-        raise SystemExit("casrecon: --every must be a positive integer")
+        print(f"casrecon: --every must be a positive integer, got {args.every}", file=sys.stderr)
+        return 2
     t0 = time.perf_counter()
     scenario = Scenario.load(args.problem)
     cfg = scenario.config
@@ -71,7 +82,7 @@ def _simulate(args: argparse.Namespace) -> int:
                         substeps=max(1, round(1.0 / cfg.imu.rate_hz / cfg.simulation.dt_s)))
         traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s)
     summary = {"problem": cfg.name, **traj.summary(), "wall_time_s": time.perf_counter() - t0}
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **args.where) as out:
         write_simulation_trajectory(out / "trajectory.csv", traj, cfg, args.every)
         write_json(out / "summary.json", summary)
         if args.data:
@@ -105,10 +116,9 @@ def _fit(args: argparse.Namespace) -> int:
         result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
                           print_level=5 if args.verbose else 0)
     except FitError as err:
-        print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
-        return 3
+        return fit_failed(f"fit of {scenario.config.name}", err)
     report = fit_report(result)
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         products = fit_products(result)
         write_fit_results(out, result, products, report, drop_tables(result, products))
@@ -134,19 +144,21 @@ def _joint(args: argparse.Namespace) -> int:
         cfg = load_joint(args.problems[0])
     else:
         if len(args.problems) < 2:
-            raise SystemExit("casrecon: joint needs at least two problems, or one joint .toml file")
+            missing = "" if Path(args.problems[0]).exists() else f"{args.problems[0]}: file not found; "
+            print(f"casrecon: {missing}joint needs at least two problems, or one joint .toml file", file=sys.stderr)
+            return 2
         cfg = JointConfig(name=args.name, drops=tuple(Path(p) for p in args.problems),
                           shared=tuple(args.shared) if args.shared else None, per_drop=tuple(args.per_drop),
                           fixed=tuple(args.fixed))
     scenarios = [Scenario.load(p) for p in cfg.drops]
+    args.where = out_folder_arguments(args, *args.problems, *cfg.drops)  # the drops' inputs too
     try:
         result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
                            print_level=5 if args.verbose else 0)
     except FitError as err:
-        print(f"casrecon: joint fit {cfg.name} failed: {err}", file=sys.stderr)
-        return 3
+        return fit_failed(f"joint fit {cfg.name}", err)
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         products = {d.scenario.config.name: fit_products(d) for d in result.drops}
         write_joint_results(out, result, single, products)
@@ -171,10 +183,9 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
         main = fit_point_mass(cfg, print_level=5 if args.verbose else 0)
         constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
     except FitError as err:
-        print(f"casrecon: fit of {cfg.name} failed: {err}", file=sys.stderr)
-        return 3
+        return fit_failed(f"fit of {cfg.name}", err)
     report = pointmass_report(main, constant)
-    with atomic_folder(args.out) as out:
+    with atomic_folder(args.out, **args.where) as out:
         write_pointmass_results(out, main, constant, report)
         if not args.no_figures:
             plot_track_fit(out, args.formats)
@@ -189,21 +200,23 @@ def _montecarlo(args: argparse.Namespace) -> int:
         return _estimator_montecarlo(args)
     return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
                                   args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures,
-                                  formats=args.formats)
+                                  formats=args.formats, force=args.force)
 
 
 def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
                            *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
                            figures: bool = True, progress: bool = True, backend: str = "auto",
-                           formats: Sequence[str] = ("png",)) -> int:
+                           formats: Sequence[str] = ("png",), force: bool = False) -> int:
     """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``envelopes.csv``,
     ``statistics.json``, ``figures/*`` in each of ``formats``); ``dt_s`` is the RK4 step, s (the Monte
-    Carlo default, :data:`casrecon.simulation.batch.DEFAULT_DT_S`).
-    Returns 0, or 2 after printing one located line on bad input."""
-    from casrecon.analysis.montecarlo import Dispersions, run_montecarlo
+    Carlo default, :data:`casrecon.simulation.batch.DEFAULT_DT_S`); ``force`` as ``--force``.
+    Returns 0, or 2 after printing one located line on bad input, an ``--out`` that may not be
+    written, a scheduler that is malformed or unreachable, or more cases than the memory holds."""
+    from casrecon.analysis.montecarlo import Dispersions, memory_estimate_bytes, run_montecarlo
+    from casrecon.cli_guard import available_memory_bytes, scheduler_problem
     from casrecon.output.montecarlo_results import write_cases_csv, write_envelopes_csv
+    from casrecon.output.out_folder import check_out_folder, input_paths
     from casrecon.output.results import atomic_folder, write_json
-    from casrecon.parallel import import_distributed
     from casrecon.report.montecarlo_plots import plot_montecarlo
     from casrecon.scenario import Scenario
 
@@ -225,20 +238,28 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
         disp = Dispersions(center=center)
     except ValueError as err:
         return bad(str(err))
-    if scheduler is not None:
-        try:
-            import_distributed()
-        except ImportError as err:
-            return bad(f"--scheduler {scheduler}: {err}")
+    need, have = memory_estimate_bytes(cases), available_memory_bytes()
+    if have is not None and need > 0.8 * have:
+        return bad(f"--cases {cases}: needs about {need / 1e9:.3g} GB of memory, more than 80 % of the "
+                   f"{have / 1e9:.3g} GB available; run at most {int(cases * 0.8 * have / need)} cases at a "
+                   "time (several runs with different --seed)")
+    if scheduler is not None and (why := scheduler_problem(scheduler)) is not None:
+        return bad(f"--scheduler {scheduler}: {why}")
     try:
         sc = Scenario.load(problem)
     except InputError as err:
-        print(str(err), file=sys.stderr)
+        print(f"casrecon: {err}", file=sys.stderr)
         return 2
     except FileNotFoundError as err:
         return bad(f"{problem}: {err.strerror or err}")
     if sc.config.release.h_agl_m <= 0:
         return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
+    inputs = input_paths([problem])
+    try:
+        check_out_folder(out, inputs=inputs, force=force)
+    except InputError as err:
+        print(f"casrecon: {err}", file=sys.stderr)
+        return 2
     try:
         result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
                                 chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
@@ -249,7 +270,7 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
     stats = result.statistics()
     stats.update(workers=workers, scheduler=scheduler, wall_s=result.wall_s,
                  cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
-    with atomic_folder(out) as tmp:
+    with atomic_folder(out, kind="montecarlo", force=force, inputs=inputs) as tmp:
         write_cases_csv(tmp / "cases.csv", result)
         if result.histories is not None:
             write_envelopes_csv(tmp / "envelopes.csv", result.histories.envelopes())
@@ -266,6 +287,7 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, work
 
 def _estimator_montecarlo(args: argparse.Namespace) -> int:
     from casrecon.analysis.estimator_mc import estimator_montecarlo
+    from casrecon.cli_guard import scheduler_problem
     from casrecon.output.consistency import write_consistency
     from casrecon.output.results import atomic_folder
     from casrecon.scenario import Scenario
@@ -273,11 +295,22 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
     if args.cases < 2 or args.workers < 1 or args.seed < 0:
         print("casrecon montecarlo --estimator: --cases must be >= 2, --workers >= 1, --seed >= 0", file=sys.stderr)
         return 2
+    if args.scheduler is not None and (why := scheduler_problem(args.scheduler)) is not None:
+        print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: {why}", file=sys.stderr)
+        return 2
     Scenario.load(Path(args.problem))  # a bad problem fails here, located, before any worker starts
     t0 = time.perf_counter()
-    res = estimator_montecarlo(Path(args.problem), args.cases, args.seed, args.workers, args.scheduler, progress=True)
+    try:
+        res = estimator_montecarlo(Path(args.problem), args.cases, args.seed, args.workers, args.scheduler,
+                                   progress=True)
+    except OSError as err:
+        if args.scheduler is None:
+            raise
+        print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: cannot reach the Dask scheduler "
+              f"({err})", file=sys.stderr)
+        return 2
     wall = time.perf_counter() - t0
-    with atomic_folder(Path(args.out)) as tmp:
+    with atomic_folder(Path(args.out), **args.where) as tmp:
         write_consistency(tmp, res, wall)
     n_ok = args.cases - len(res.failed)
     print(f"{n_ok} of {args.cases} fits converged in {wall:.0f} s; NEES sum {res.nees_sum:.1f}, chi2 95 % interval "
@@ -288,6 +321,7 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
 
 def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
+    from casrecon.estimation.drop import parameter_set
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.output.results import atomic_folder, write_json
     from casrecon.output.sensitivity_results import design_document, fisher_document, parameter_unit, profile_document
@@ -295,33 +329,41 @@ def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.scenario import Scenario
 
     scenario = Scenario.load(args.problem)
-    with atomic_folder(args.out) as out:
-        if args.study == "design":
-            design = obs.design_study(scenario, args.parameter)
+    specs = parameter_set(scenario.config).specs  # design predicts the shared (aero) factors only
+    known = [sp.name for sp in specs if args.study == "profile" or sp.group == "aero"]
+    if args.study != "fisher" and args.parameter not in known:
+        what = "an estimated parameter" if args.study == "profile" else "an aero dispersion factor (shared in a design)"
+        print(f"casrecon: sensitivity {args.study}: --parameter {args.parameter!r} is not {what} of "
+              f"{scenario.config.name}; known: {', '.join(known)}", file=sys.stderr)
+        return 2
+    if args.study == "design":  # everything is computed before the folder is written: a failure keeps the old one
+        design = obs.design_study(scenario, args.parameter)
+        with atomic_folder(args.out, **args.where) as out:
             write_json(out / "design.json", design_document(design, parameter_unit(scenario.config, args.parameter)))
             sensitivity_plots.plot_design(design, out, args.formats)
-            print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
-                            for k, v in design.items() if k != "parameter"))
-            return 0
-        try:
-            result = fit_drop(scenario)
-        except FitError as err:
-            print(f"casrecon: fit of {scenario.config.name} failed: {err}", file=sys.stderr)
-            return 3
-        directions = obs.fisher_directions(result)
-        fisher = fisher_document(scenario.config.name, directions, result.params.specs)
+        print("\n".join(f"{k}: " + ", ".join(f"{x:g} -> {y:.4g}" for x, y in v)
+                        for k, v in design.items() if k != "parameter"))
+        return 0
+    try:
+        result = fit_drop(scenario)
+    except FitError as err:
+        return fit_failed(f"fit of {scenario.config.name}", err)
+    directions = obs.fisher_directions(result)
+    print("weakest parameter combinations (parameters in units of their scale):")
+    for d in directions[:5]:
+        print("   " + d.describe())
+    prof = obs.profile_likelihood(result, args.parameter, args.points) if args.study == "profile" else None
+    fisher = fisher_document(scenario.config.name, directions, result.params.specs)
+    with atomic_folder(args.out, **args.where) as out:
         write_json(out / "fisher.json", fisher)
         sensitivity_plots.plot_fisher(fisher, out, args.formats)
-        print("weakest parameter combinations (parameters in units of their scale):")
-        for d in directions[:5]:
-            print("   " + d.describe())
-        if args.study == "profile":
-            prof = obs.profile_likelihood(result, args.parameter, args.points)
+        if prof is not None:
             write_json(out / f"profile_{prof.name}.json",
                        profile_document(prof, parameter_unit(scenario.config, prof.name)))
             sensitivity_plots.plot_profile(prof, out, args.formats)
-            print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
-                  f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")
+    if prof is not None:
+        print(f"{prof.name}: profile interval {prof.interval[0]:.5g} to {prof.interval[1]:.5g}, "
+              f"Fisher 3-sigma {prof.fisher_three_sigma:.4g}, ratio {prof.agreement:.3f}")
     return 0
 
 
@@ -346,28 +388,35 @@ def _report(args: argparse.Namespace) -> int:
     return 0
 
 
+OUT_HELP = "results folder: written atomically, kept on failure; an existing one only if casrecon wrote it"
+FORCE_HELP = ("replace an existing --out that casrecon did not write (or a file); never a folder holding "
+              "the inputs")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="casrecon", description=__doc__.splitlines()[0])
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("inspect", help="read any supported input file and say what it holds")
     p.add_argument("file", help="FlySight track, sounding or IMU CSV")
     p.add_argument("--plot", metavar="OUT.png", default=None,
                    help="also draw the file's data (IMU: specific force and rates; GPS: track, speeds, accuracies, "
                         "satellites; sounding: wind, temperature, density) into OUT")
-    _add_format(p, default=None)
+    add_format_argument(p, default=None)
     p.set_defaults(func=_inspect)
     p = sub.add_parser("simulate", help="forward-simulate a problem from release to impact")
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--data", action="store_true",
                    help="also write synthetic imu.csv, gps.csv (FlySight 1), sounding.csv and truth.json")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: [truth] seed)")
     p.add_argument("--every", type=int, default=1,
                    help="write every N-th sample of the time history (and the impact sample); default 1")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_simulate)
     p = sub.add_parser("fit", help="reconstruct one drop: trajectory, parameters and 3-sigma")
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically, kept on failure)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--linear-solver", choices=("mumps", "spral"), default=None,
                    help="Ipopt linear solver (default: [estimation] linear_solver)")
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
@@ -375,11 +424,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="do not print the fit report")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
-    _add_format(p)
+    add_format_argument(p)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_fit)
     p = sub.add_parser("joint", help="joint aero fit of several drops sharing the dispersion factors")
     p.add_argument("problems", nargs="+", help="problem folders, or one joint .toml file ([joint] drops = [...])")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically, kept on failure)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--name", default="joint", help="name of the joint fit (when problems are listed)")
     p.add_argument("--shared", nargs="*", default=None, help="dispersion factors shared (default: all estimated)")
     p.add_argument("--per-drop", nargs="*", default=[], help="dispersion factors each drop estimates for itself")
@@ -391,11 +441,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: each problem's [estimation] hessian)")
     p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
-    _add_format(p)
+    add_format_argument(p)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_joint)
     p = sub.add_parser("montecarlo", help="dispersed forward simulations: touchdown time and impact speed")
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--cases", type=int, default=1000, help="number of dispersed cases")
     p.add_argument("--seed", type=int, default=0, help="case i uses the random stream (seed, i)")
     p.add_argument("--workers", type=int, default=2, help="local processes (ignored with --scheduler)")
@@ -407,31 +458,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--estimator", action="store_true",
                    help="estimator Monte Carlo instead: draw a truth from the fit's priors, simulate, fit, and test "
                         "the normalised estimation errors (NEES) against chi-square at 95 %%; exit 4 if not consistent")
-    _add_format(p)
+    add_format_argument(p)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_montecarlo)
     p = sub.add_parser("sensitivity", help="observability: Fisher directions, profile likelihood, drop design")
     p.add_argument("study", choices=("fisher", "profile", "design"))
     p.add_argument("problem", help="problem folder or problem.toml")
-    p.add_argument("--out", required=True, help="results folder (replaced atomically)")
+    p.add_argument("--out", required=True, help=OUT_HELP)
     p.add_argument("--parameter", default="Cmq_mult", help="parameter to profile or to design for")
     p.add_argument("--points", type=int, default=9, help="profile grid points (over +-4 Fisher sigma)")
-    _add_format(p)
+    add_format_argument(p)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_sensitivity)
     p = sub.add_parser("report", help="(re)draw the figures of a fit or joint results folder")
     p.add_argument("results", help="results folder written by casrecon fit or casrecon joint")
-    _add_format(p)
+    add_format_argument(p)
     p.set_defaults(func=_report)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; returns its exit status (module docstring), one line on stderr on failure."""
     args = build_parser().parse_args(argv)
-    try:
-        return args.func(args)
-    except InputError as err:
-        print(f"casrecon: {err}", file=sys.stderr)
-        return 2
+    return run_command(_run, args, debug=debug_enabled(args.debug))
+
+
+def run() -> None:
+    """The console script ``casrecon``: :func:`main`, then exit with its status (see ``exit_process``)."""
+    exit_process(main())
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -14,6 +14,7 @@ new dependency, and the same line the Monte Carlo has always printed.
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -37,6 +38,9 @@ class Progress:
         Name of the units after the count.
     """
 
+    #: A bar is on screen without its newline (a message printed now would run into it).
+    line_open = False
+
     def __init__(self, total: int, enabled: bool = True, label: str = "", unit: str = "cases") -> None:
         self.total, self.done, self.enabled, self.label, self.unit = total, 0, enabled, label, unit
         self.t0 = time.perf_counter()
@@ -52,8 +56,17 @@ class Progress:
         bar = "#" * int(30 * frac)
         sys.stderr.write(f"\r{self.label} [{bar:<30s}] {self.done}/{self.total} {self.unit}  {el:6.1f} s  "
                          f"ETA {eta:5.1f} s")
-        if self.done >= self.total:
+        Progress.line_open = self.done < self.total
+        if not Progress.line_open:
             sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def end_progress_line() -> None:
+    """End a progress bar's line cut short (by an error or a signal), so the next message starts a line."""
+    if Progress.line_open:
+        Progress.line_open = False
+        sys.stderr.write("\n")
         sys.stderr.flush()
 
 
@@ -76,6 +89,24 @@ def import_distributed() -> tuple[type, Callable]:
 def apply_to_chunk(fn: Callable, chunk: Sequence) -> list:
     """``[fn(item) for item in chunk]``: the unit of work of :func:`parallel_map` (top level, so picklable)."""
     return [fn(item) for item in chunk]
+
+
+def ignore_interrupts() -> None:
+    """Worker initializer: Ctrl-C reaches the whole process group, but only the parent acts on it
+    (it stops the workers; no worker prints a KeyboardInterrupt traceback)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel the pending work of ``pool`` and terminate its workers (after an error or a signal in
+    the parent), so that leaving the ``with`` block does not wait for the running work."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        try:
+            proc.terminate()
+        except (OSError, ValueError, AttributeError):
+            pass
 
 
 def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1, scheduler: str | None = None,
@@ -140,8 +171,13 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
             done(k, apply_to_chunk(fn, chunk))
     else:
         ctx = multiprocessing.get_context(start_method)
-        with ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx) as pool:
-            futs = {pool.submit(apply_to_chunk, fn, chunk): k for k, chunk in enumerate(chunks)}
-            for fut in as_completed(futs):
-                done(futs[fut], fut.result())
+        with ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx,
+                                 initializer=ignore_interrupts) as pool:
+            try:
+                futs = {pool.submit(apply_to_chunk, fn, chunk): k for k, chunk in enumerate(chunks)}
+                for fut in as_completed(futs):
+                    done(futs[fut], fut.result())
+            except BaseException:
+                stop_pool(pool)
+                raise
     return [value for k in range(len(chunks)) for value in results[k]]

@@ -24,6 +24,7 @@ from casrecon.output.fit_results import (
     trajectory_table,
     write_fit_results,
 )
+from casrecon.output.out_folder import input_paths
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.results import save_results_folder, to_builtin
 from casrecon.report.results_folder import DropTables
@@ -244,12 +245,14 @@ class DropFit:
                   for k, df in self.tables.items()}
         return DropTables(self.name, self.summary, tables, self.documents)
 
-    def save(self, folder: str | Path, *, figures: bool = False) -> Path:
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
         """Write the results folder ``casrecon fit --out folder`` writes, atomically (an earlier folder
         is replaced only once the new one is complete); figures only if ``figures``.
 
         A loaded result is saved as a copy of the files it was loaded from (without ``figures/``
-        unless ``figures``). Returns the folder.
+        unless ``figures``). An existing folder that casrecon did not write (no
+        ``.casrecon-results.json``), or a file, is replaced only with ``force``; a folder holding the
+        problem's inputs never (:class:`~casrecon.output.out_folder.OutFolderError`). Returns the folder.
         """
         from casrecon.report.tables import drop_tables
 
@@ -260,7 +263,9 @@ class DropFit:
             def write(out: Path) -> None:
                 write_fit_results(out, fit, products, self.report_text, drop_tables(fit, products))
 
-        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None)
+        inputs = input_paths([self.fit.scenario.config.path] if self.fit is not None else [])
+        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+                                   kind="fit", force=force, inputs=inputs)
 
 
 def _draw_figures(out: Path) -> None:

@@ -15,6 +15,7 @@ from casrecon.analysis.fit_adequacy import JointAdequacy, joint_adequacy
 from casrecon.io.errors import InputError
 from casrecon.output.drop_fit import DropFit, adequacy_of, read_document
 from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
+from casrecon.output.out_folder import input_paths
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.results import save_results_folder, to_builtin
 
@@ -157,9 +158,10 @@ class JointFit:
         return (f"<JointFit {self.name!r}: {len(self.drops)} drops, {len(self.shared)} shared factors, "
                 f"reduced chi2 {self.reduced_chi2:.4f}, {len(self.params)} parameters{where}>")
 
-    def save(self, folder: str | Path, *, figures: bool = False) -> Path:
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
         """Write the folder ``casrecon joint --out folder`` writes, atomically; figures only if asked.
-        A loaded result is saved as a copy of its files (without ``figures/`` unless ``figures``)."""
+        A loaded result is saved as a copy of its files (without ``figures/`` unless ``figures``). A
+        foreign existing folder or a file is replaced only with ``force``, a folder holding inputs never."""
         write = None
         if self.fit is not None and self.products is not None:
             fit, single, products = self.fit, self.single, self.products
@@ -167,7 +169,9 @@ class JointFit:
             def write(out: Path) -> None:
                 write_joint_results(out, fit, single, products)
 
-        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None)
+        inputs = input_paths([d.scenario.config.path for d in self.fit.drops] if self.fit is not None else [])
+        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+                                   kind="joint", force=force, inputs=inputs)
 
 
 def _draw_figures(out: Path) -> None:

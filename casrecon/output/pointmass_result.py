@@ -17,6 +17,7 @@ from casrecon.analysis.adequacy import Adequacy
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
 from casrecon.output.drop_fit import adequacy_of, history_columns, read_document, read_frame, sample_frame
+from casrecon.output.out_folder import input_paths
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.pointmass_results import write_pointmass_results
 from casrecon.output.results import save_results_folder
@@ -141,8 +142,9 @@ class PointMassFit:
         column (listing the available ones) or a time outside the segment."""
         return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
 
-    def save(self, folder: str | Path, *, figures: bool = False) -> Path:
-        """Write the folder ``casrecon fit --out folder`` writes for a point-mass problem, atomically."""
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
+        """Write the folder ``casrecon fit --out folder`` writes for a point-mass problem, atomically; a
+        foreign existing folder or a file is replaced only with ``force``, a folder holding inputs never."""
         write = None
         if self.fit is not None and self.constant is not None:
             fit, constant = self.fit, self.constant
@@ -150,7 +152,9 @@ class PointMassFit:
             def write(out: Path) -> None:
                 write_pointmass_results(out, fit, constant, self.report_text)
 
-        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None)
+        inputs = input_paths([self.fit.config.path] if self.fit is not None else [])
+        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+                                   kind="fit", force=force, inputs=inputs)
 
 
 def _draw_figures(out: Path) -> None:

@@ -36,12 +36,13 @@ def test_failed_simulate_leaves_existing_out_untouched(tmp_path, capsys, problem
     out = tmp_path / "run"
     out.mkdir()
     (out / "keep.txt").write_text("previous result")
+    (out / ".casrecon-results.json").write_text("{}")  # a casrecon results folder (else --out is refused)
     text = problem_copy.read_text().replace("h_agl_m = 1618.04", "h_agl_m = -5.0")
     problem_copy.write_text(text)
     assert main(["simulate", str(problem_copy.parent), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "release.h_agl_m" in err[0] and str(problem_copy) in err[0]
-    assert [p.name for p in out.iterdir()] == ["keep.txt"]
+    assert sorted(p.name for p in out.iterdir()) == [".casrecon-results.json", "keep.txt"]
     assert (out / "keep.txt").read_text() == "previous result"
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".run")]
 

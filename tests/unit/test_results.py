@@ -1,4 +1,5 @@
-"""atomic_folder: a results folder is replaced only when writing it succeeded."""
+"""atomic_folder: a results folder is replaced only when writing it succeeded (the ownership rules and
+the failure paths are in tests/reliability/test_output_safety.py)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+from casrecon.output.out_folder import MARKER
 from casrecon.output.results import atomic_folder, write_columns, write_json
 
 
@@ -20,6 +22,7 @@ def test_creates_folder(tmp_path):
         assert tmp != target and not target.exists()  # nothing visible while writing
         (tmp / "a.txt").write_text("new")
     assert (target / "a.txt").read_text() == "new"
+    assert json.loads((target / MARKER).read_text())["kind"] == "results"
     assert leftovers(target.parent) == []
 
 
@@ -27,10 +30,11 @@ def test_replaces_existing_folder_on_success(tmp_path):
     target = tmp_path / "out"
     target.mkdir()
     (target / "old.txt").write_text("old")
-    with atomic_folder(target) as tmp:
+    (target / MARKER).write_text("{}")
+    with atomic_folder(target, kind="fit") as tmp:
         (tmp / "new.txt").write_text("new")
         assert (target / "old.txt").exists()  # the old result stays until the swap
-    assert sorted(p.name for p in target.iterdir()) == ["new.txt"]
+    assert sorted(p.name for p in target.iterdir()) == [MARKER, "new.txt"]
     assert leftovers(tmp_path) == []
 
 
@@ -38,11 +42,12 @@ def test_exception_keeps_existing_folder_and_cleans_up(tmp_path):
     target = tmp_path / "out"
     target.mkdir()
     (target / "old.txt").write_text("old")
+    (target / MARKER).write_text("{}")
     with pytest.raises(RuntimeError, match="boom"):
         with atomic_folder(target) as tmp:
             (tmp / "half.txt").write_text("half")
             raise RuntimeError("boom")
-    assert sorted(p.name for p in target.iterdir()) == ["old.txt"]
+    assert sorted(p.name for p in target.iterdir()) == [MARKER, "old.txt"]
     assert (target / "old.txt").read_text() == "old"
     assert leftovers(tmp_path) == []  # no temporary folder left behind
 

@@ -82,6 +82,50 @@ def decrement_if_feasible(nlp: Nlp, z: np.ndarray, g: np.ndarray,
     return gauss_newton_decrement(nlp, z, at_bounds(z, bounds))
 
 
+class Interruption:
+    """Ctrl-C (or the command line's SIGTERM exception, a ``KeyboardInterrupt``) during one solve.
+
+    CasADi turns an exception into a failed evaluation, so: the first error raised inside any Ipopt
+    callback is kept; once an interrupt is kept, every callback raises it again (Ipopt gives up at
+    once, the iteration callback asks it to stop), and :meth:`after_solve` raises it after Ipopt has
+    returned. When CasADi's own interrupt check caught the signal between callbacks, Ipopt ends with
+    ``NonIpopt_Exception_Thrown`` while no callback failed: :meth:`after_solve` raises
+    ``KeyboardInterrupt`` then too, so that a loop of solves (a profile) stops at once.
+    """
+
+    def __init__(self) -> None:
+        self.first: BaseException | None = None
+
+    @property
+    def error(self) -> BaseException | None:
+        """The kept interrupt (None if none, or if the first error was an ordinary exception)."""
+        return None if self.first is None or isinstance(self.first, Exception) else self.first
+
+    def check(self) -> None:
+        """Raise the kept interrupt, if any."""
+        if self.error is not None:
+            raise self.error
+
+    def keep(self, err: BaseException) -> BaseException:
+        """Keep the first error of a callback; return what the callback should raise: ``err``, or the
+        interrupt in its cause chain (a signal inside a CasADi-to-numpy conversion surfaces as a
+        ``SystemError`` caused by the ``KeyboardInterrupt``)."""
+        seen, inner = set(), err
+        while inner is not None and isinstance(inner, Exception) and id(inner) not in seen:
+            seen.add(id(inner))
+            inner = inner.__cause__ or inner.__context__
+        raised = inner if inner is not None and not isinstance(inner, Exception) else err
+        if self.first is None:
+            self.first = raised
+        return raised
+
+    def after_solve(self, status: str) -> None:
+        """Raise the interrupt that stopped Ipopt (``status``: its return status), if one did."""
+        self.check()
+        if status == "NonIpopt_Exception_Thrown" and self.first is None:
+            raise KeyboardInterrupt("Ipopt stopped by an exception outside the callbacks (an interrupt)")
+
+
 class DecrementStop(ca.Callback):
     """Ipopt iteration callback: stop when the iterate is feasible and its decrement is small.
 
@@ -89,8 +133,10 @@ class DecrementStop(ca.Callback):
     reports User_Requested_Stop and the last iterate is the estimate.
     """
 
-    def __init__(self, nlp: Nlp, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    def __init__(self, nlp: Nlp, bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                 interruption: Interruption | None = None) -> None:
         ca.Callback.__init__(self)
+        self.interruption = interruption if interruption is not None else Interruption()
         self.nlp, self.n_z, self.n_g, self.bounds = nlp, nlp.n_z, nlp.n_g, bounds
         self.previous_f: float | None = None
         self.stopped_at: float | None = None
@@ -113,6 +159,18 @@ class DecrementStop(ca.Callback):
         return ca.Sparsity.dense(n[ca.nlpsol_out(i)], 1)
 
     def eval(self, args):
+        if self.interruption.error is not None:
+            return [1]
+        try:
+            return self.stop(args)
+        except BaseException as err:
+            raised = self.interruption.keep(err)
+            if raised is err:
+                raise
+            raise raised from None
+
+    def stop(self, args) -> list[int]:
+        """``[1]`` to stop Ipopt at this iterate, else ``[0]``."""
         f = float(args[1])
         previous, self.previous_f = self.previous_f, f
         if previous is None or abs(f - previous) > OBJECTIVE_CHANGE * max(abs(f), 1.0):

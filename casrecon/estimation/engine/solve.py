@@ -73,9 +73,9 @@ class _Evaluation(BufferCallback):
              "grad_f": (["x", "p"], ["f", "grad_f_x"]), "jac_g": (["x", "p"], ["g", "jac_g_x"]),
              "hess_lag": (["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])}
 
-    def __init__(self, which: str, nlp: Nlp) -> None:
+    def __init__(self, which: str, nlp: Nlp, interruption: convergence.Interruption) -> None:
         ca.Callback.__init__(self)
-        self.which, self.nlp = which, nlp
+        self.which, self.nlp, self.interruption = which, nlp, interruption
         self.n_z, self.n_g = nlp.n_z, nlp.n_g
         d = nlp.derivatives
         f_sp, g_sp = ca.Sparsity.dense(1, 1), ca.Sparsity.dense(self.n_g, 1)
@@ -103,6 +103,16 @@ class _Evaluation(BufferCallback):
         return self.out_sp[i]
 
     def fill(self, inputs, outputs):
+        try:
+            self.interruption.check()
+            self.write(inputs, outputs)
+        except BaseException as err:
+            raised = self.interruption.keep(err)
+            if raised is err:
+                raise
+            raise raised from None
+
+    def write(self, inputs, outputs):
         z = inputs[0].copy()
         d = self.nlp.derivatives
         if self.which == "hess_lag":
@@ -124,7 +134,8 @@ def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol
                 print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[ca.Function, list]:
     """Build the Ipopt solver of ``nlp``; also returns the callbacks, which must outlive it (the
     last is the :class:`~casrecon.estimation.engine.convergence.DecrementStop`, or None)."""
-    callbacks = [_Evaluation(which, nlp) for which in ("grad_f", "jac_g", "hess_lag", "f", "g")]
+    interruption = convergence.Interruption()  # shared: Ctrl-C in one callback stops them all
+    callbacks = [_Evaluation(which, nlp, interruption) for which in ("grad_f", "jac_g", "hess_lag", "f", "g")]
     opts = {"ipopt.linear_solver": linear_solver, "ipopt.max_iter": max_iter, "ipopt.tol": tol,
             "ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes",
             # f and g are callbacks without derivatives: every derivative comes from the blocks
@@ -132,7 +143,7 @@ def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol
             "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": ACCEPTABLE_TOL,
             "ipopt.acceptable_iter": ACCEPTABLE_ITER, "grad_f": callbacks[0], "jac_g": callbacks[1],
             "hess_lag": callbacks[2]}
-    stop = convergence.DecrementStop(nlp, bounds) if convergence.applies(nlp) else None
+    stop = convergence.DecrementStop(nlp, bounds, interruption) if convergence.applies(nlp) else None
     if stop is not None:
         opts["iteration_callback"] = stop
     callbacks.append(stop)
@@ -153,6 +164,8 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
     n_g = nlp.n_g
     lbx, ubx = bounds if bounds is not None else (-np.inf, np.inf)
     sol = solver(x0=z0, lbg=np.zeros(n_g), ubg=np.zeros(n_g), lbx=lbx, ubx=ubx)
+    # Ctrl-C or SIGTERM during the solve stopped Ipopt: stop the caller too
+    callbacks[0].interruption.after_solve(str(solver.stats()["return_status"]))
     z = np.asarray(sol["x"]).ravel()
     converged, status, decrement = _judge(nlp, solver.stats(), callbacks[-1], z, np.asarray(sol["g"]).ravel(), bounds)
     t2 = time.perf_counter()
