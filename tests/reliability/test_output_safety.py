@@ -301,10 +301,13 @@ def test_failed_sensitivity_fit_keeps_the_earlier_result(study, drop_problem, tm
     assert leftover_temp_folders(tmp_path) == []
 
 
-@pytest.mark.parametrize("writer", ["write_columns", "write_json", "write_marker"])
-def test_disk_full_while_writing_keeps_the_earlier_result(writer, drop_problem, tmp_path, capsys, monkeypatch):
-    import casrecon.output.results as results
+@pytest.mark.parametrize("module, writer", [("casrecon.output.simulation_results", "write_table"),
+                                            ("casrecon.output.results", "write_json"),
+                                            ("casrecon.output.results", "write_marker")])
+def test_disk_full_while_writing_keeps_the_earlier_result(module, writer, drop_problem, tmp_path, capsys, monkeypatch):
+    import importlib
 
+    results = importlib.import_module(module)  # the namespace the simulate command's writer is looked up in
     real = getattr(results, writer)
 
     def full(path, *args, **kwargs):

@@ -75,3 +75,38 @@ def test_duplicate_group_is_refused():
     terms = line_terms(t, t, 0.1)
     with pytest.raises(ValueError, match="appears in two terms"):
         assemble_nlp(terms + [replace(terms[0])], 2, dependent=np.zeros(0, int), parameter_names={})
+
+
+def test_an_interrupt_casadi_reports_as_text_stops_the_solve_like_one():
+    """CasADi turns a KeyboardInterrupt caught by its own signal check inside a nested call into a
+    RuntimeError whose text ends in 'KeyboardInterrupt': the solver must treat it as the interrupt
+    (else Ipopt takes it for a failed evaluation and goes on), and an ordinary error must stay one."""
+    from casrecon.estimation.engine.convergence import Interruption
+
+    caught = Interruption()
+    raised = caught.keep(RuntimeError("Error in Function::call for 'block_evaluator' [MXFunction]:\nKeyboardInterrupt"))
+    assert isinstance(raised, KeyboardInterrupt) and caught.error is raised
+    with pytest.raises(KeyboardInterrupt):
+        caught.check()
+    ordinary = Interruption()
+    err = RuntimeError("Error in Function::call: NaN detected")
+    assert ordinary.keep(err) is err and ordinary.error is None
+
+
+def test_block_evaluator_raises_what_its_sink_raised():
+    """An exception raised inside the sink callback (e.g. Ctrl-C arriving there) comes out of the
+    evaluator as itself, not as CasADi's RuntimeError text."""
+    from casrecon.estimation.engine.buffers import BlockEvaluator
+
+    x = ca.SX.sym("x", 2)
+    fn = ca.Function("f", [x], [ca.densify(x * 2)]).map(3, "serial")
+    evaluator = BlockEvaluator([fn], [np.arange(6).reshape(3, 2)], [[]], 6)
+    out = evaluator(np.arange(6.0))
+    np.testing.assert_array_equal(out[0][0], 2 * np.arange(6.0).reshape(3, 2))
+
+    def interrupted(inputs, outputs):
+        raise KeyboardInterrupt("test")
+
+    evaluator.sink.fill = interrupted
+    with pytest.raises(KeyboardInterrupt, match="test"):
+        evaluator(np.arange(6.0))

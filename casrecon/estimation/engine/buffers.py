@@ -24,6 +24,10 @@ class BufferCallback(ca.Callback):
     """A CasADi callback evaluated through raw buffers: subclasses implement
     :meth:`fill` ``(inputs, outputs)`` on numpy views (flat nonzeros, column-major)."""
 
+    #: The exception :meth:`fill` raised last, if any: CasADi passes it on only as the text of a
+    #: RuntimeError, so a caller that needs the exception itself (an interrupt) takes it from here.
+    raised: BaseException | None = None
+
     def has_eval_buffer(self) -> bool:
         return True
 
@@ -33,7 +37,11 @@ class BufferCallback(ca.Callback):
                   for i, a in enumerate(arg)]
         outputs = [np.zeros(self.sparsity_out(i).nnz()) if r is None else np.frombuffer(r, dtype=np.float64)
                    for i, r in enumerate(res)]
-        self.fill(inputs, outputs)
+        try:
+            self.fill(inputs, outputs)
+        except BaseException as err:
+            self.raised = err
+            raise
         return 0
 
     def fill(self, inputs: list[np.ndarray], outputs: list[np.ndarray]) -> None:
@@ -96,8 +104,15 @@ class BlockEvaluator:
         self.function = ca.Function("block_evaluator", [z], [self.sink(*outs)])
 
     def __call__(self, z: np.ndarray) -> list[list[np.ndarray]]:
-        """Per set, its outputs at ``z`` as arrays of shape (n_blocks, n_rows) (one row per block)."""
-        self.function(z)
+        """Per set, its outputs at ``z`` as arrays of shape (n_blocks, n_rows) (one row per block).
+        An exception raised inside the sink (e.g. Ctrl-C arriving there) is raised again as itself."""
+        self.sink.raised = None
+        try:
+            self.function(z)
+        except RuntimeError as err:
+            if self.sink.raised is not None:
+                raise self.sink.raised from err
+            raise
         arrays = iter(self.sink.arrays)
         self.sink.arrays = []
         return [[next(arrays).reshape(shape) for shape in shapes] for shapes in self.shapes]

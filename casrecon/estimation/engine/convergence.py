@@ -109,12 +109,17 @@ class Interruption:
     def keep(self, err: BaseException) -> BaseException:
         """Keep the first error of a callback; return what the callback should raise: ``err``, or the
         interrupt in its cause chain (a signal inside a CasADi-to-numpy conversion surfaces as a
-        ``SystemError`` caused by the ``KeyboardInterrupt``)."""
+        ``SystemError`` caused by the ``KeyboardInterrupt``), or a ``KeyboardInterrupt`` for a
+        RuntimeError whose text ends in ``KeyboardInterrupt`` (CasADi's report of one)."""
         seen, inner = set(), err
         while inner is not None and isinstance(inner, Exception) and id(inner) not in seen:
             seen.add(id(inner))
             inner = inner.__cause__ or inner.__context__
         raised = inner if inner is not None and not isinstance(inner, Exception) else err
+        if isinstance(raised, RuntimeError) and str(raised).rstrip().endswith("KeyboardInterrupt"):
+            # CasADi's own signal check inside a nested Function call (e.g. the block evaluator)
+            # reports the interrupt only as the last line of a RuntimeError's text
+            raised = KeyboardInterrupt("interrupted inside a CasADi function call")
         if self.first is None:
             self.first = raised
         return raised
