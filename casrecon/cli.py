@@ -36,6 +36,7 @@ from casrecon.cli_guard import (
     out_folder_arguments,
     run_command,
 )
+from casrecon.cli_options import HelpFormatter, add_verbosity_arguments, configure_logging, log_level, version_text
 from casrecon.io.errors import InputError
 
 
@@ -164,7 +165,8 @@ def _joint(args: argparse.Namespace) -> int:
         write_joint_results(out, result, single, products)
         if not args.no_figures:
             _figures(out, args.formats)
-        print((out / "tables.md").read_text())
+        if not args.quiet:
+            print((out / "tables.md").read_text())
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
     return 0
 
@@ -200,7 +202,7 @@ def _montecarlo(args: argparse.Namespace) -> int:
         return _estimator_montecarlo(args)
     return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
                                   args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures,
-                                  formats=args.formats, force=args.force)
+                                  formats=args.formats, force=args.force, progress=not args.quiet)
 
 
 def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
@@ -302,7 +304,7 @@ def _estimator_montecarlo(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     try:
         res = estimator_montecarlo(Path(args.problem), args.cases, args.seed, args.workers, args.scheduler,
-                                   progress=True)
+                                   progress=not args.quiet)
     except OSError as err:
         if args.scheduler is None:
             raise
@@ -394,7 +396,9 @@ FORCE_HELP = ("replace an existing --out that casrecon did not write (or a file)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="casrecon", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="casrecon", description=__doc__.splitlines()[0],
+                                     formatter_class=HelpFormatter)
+    parser.add_argument("--version", action="version", version=version_text())
     parser.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("inspect", help="read any supported input file and say what it holds")
@@ -411,7 +415,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also write synthetic imu.csv, gps.csv (FlySight 1), sounding.csv and truth.json")
     p.add_argument("--seed", type=int, default=None, help="noise seed (default: [truth] seed)")
     p.add_argument("--every", type=int, default=1,
-                   help="write every N-th sample of the time history (and the impact sample); default 1")
+                   help="write every N-th sample of the time history (and the impact sample)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_simulate)
     p = sub.add_parser("fit", help="reconstruct one drop: trajectory, parameters and 3-sigma")
@@ -421,9 +425,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Ipopt linear solver (default: [estimation] linear_solver)")
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: [estimation] hessian)")
-    p.add_argument("--quiet", action="store_true", help="do not print the fit report")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
-    p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
     add_format_argument(p)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_fit)
@@ -440,7 +442,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Ipopt linear solver (default: each problem's [estimation] linear_solver)")
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: each problem's [estimation] hessian)")
-    p.add_argument("--verbose", action="store_true", help="show Ipopt's iterations")
     add_format_argument(p)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_joint)
@@ -474,12 +475,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("results", help="results folder written by casrecon fit or casrecon joint")
     add_format_argument(p)
     p.set_defaults(func=_report)
+    for name, p in sub.choices.items():
+        p.formatter_class = HelpFormatter  # defaults shown in every command's --help
+        add_verbosity_arguments(p, "do not print the fit report or progress" if name in ("fit", "joint")
+                                else "print only results and errors, no progress")
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; returns its exit status (module docstring), one line on stderr on failure."""
     args = build_parser().parse_args(argv)
+    configure_logging(log_level(args))
     return run_command(_run, args, debug=debug_enabled(args.debug))
 
 

@@ -23,12 +23,16 @@ and the test is not made (Ipopt's own test stands).
 
 from __future__ import annotations
 
+import logging
+
 import casadi as ca
 import numpy as np
 from scipy.linalg import null_space
 
 from casrecon.estimation.engine.covariance import fisher_and_jacobian, reduced_hessian
 from casrecon.estimation.engine.nlp import Nlp
+
+LOG = logging.getLogger(__name__)
 
 #: Largest predicted chi-square decrease of a full Gauss-Newton step at a converged iterate: the
 #: iterate is then within sqrt(1e-3) = 0.03 sigma of the optimum.
@@ -132,17 +136,24 @@ class Interruption:
 
 
 class DecrementStop(ca.Callback):
-    """Ipopt iteration callback: stop when the iterate is feasible and its decrement is small.
+    """Ipopt iteration callback: log the progress, and stop when the iterate is feasible and its
+    decrement is small.
 
-    ``stopped_at`` holds the decrement that stopped Ipopt (None if it never did); Ipopt then
-    reports User_Requested_Stop and the last iterate is the estimate.
+    At every iterate it logs (INFO, logger ``casrecon.estimation.engine.convergence``) one line
+    ``iteration K: chi-square X, constraint violation Y`` (chi-square = 2 f plus the NLP's constant
+    chi-square; violation = max |g|, scaled units). ``test`` False (NLPs the test does not
+    :func:`apply <applies>` to): progress only, never a stop. ``stopped_at`` holds the decrement that
+    stopped Ipopt (None if it never did); Ipopt then reports User_Requested_Stop and the last
+    iterate is the estimate.
     """
 
     def __init__(self, nlp: Nlp, bounds: tuple[np.ndarray, np.ndarray] | None = None,
-                 interruption: Interruption | None = None) -> None:
+                 interruption: Interruption | None = None, test: bool = True) -> None:
         ca.Callback.__init__(self)
         self.interruption = interruption if interruption is not None else Interruption()
-        self.nlp, self.n_z, self.n_g, self.bounds = nlp, nlp.n_z, nlp.n_g, bounds
+        self.nlp, self.n_z, self.n_g, self.bounds, self.test = nlp, nlp.n_z, nlp.n_g, bounds, test
+        self.const_chi2 = float(sum(nlp.const_chi2.values()))
+        self.iteration = 0
         self.previous_f: float | None = None
         self.stopped_at: float | None = None
         self.construct("decrement_stop", {})
@@ -177,6 +188,9 @@ class DecrementStop(ca.Callback):
     def stop(self, args) -> list[int]:
         """``[1]`` to stop Ipopt at this iterate, else ``[0]``."""
         f = float(args[1])
+        self.log_progress(f, args[2])
+        if not self.test:
+            return [0]
         previous, self.previous_f = self.previous_f, f
         if previous is None or abs(f - previous) > OBJECTIVE_CHANGE * max(abs(f), 1.0):
             return [0]
@@ -185,3 +199,12 @@ class DecrementStop(ca.Callback):
             self.stopped_at = delta
             return [1]
         return [0]
+
+    def log_progress(self, f: float, g) -> None:
+        """Log this iterate's chi-square and constraint violation (INFO), and count it."""
+        if LOG.isEnabledFor(logging.INFO):
+            g = np.asarray(g).ravel()
+            violation = float(np.abs(g).max()) if g.size else 0.0
+            LOG.info("iteration %d: chi-square %.6g, constraint violation %.2g",
+                     self.iteration, 2.0 * f + self.const_chi2, violation)
+        self.iteration += 1

@@ -133,7 +133,7 @@ class _Evaluation(BufferCallback):
 def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
                 print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[ca.Function, list]:
     """Build the Ipopt solver of ``nlp``; also returns the callbacks, which must outlive it (the
-    last is the :class:`~casrecon.estimation.engine.convergence.DecrementStop`, or None)."""
+    last is the :class:`~casrecon.estimation.engine.convergence.DecrementStop`)."""
     interruption = convergence.Interruption()  # shared: Ctrl-C in one callback stops them all
     callbacks = [_Evaluation(which, nlp, interruption) for which in ("grad_f", "jac_g", "hess_lag", "f", "g")]
     opts = {"ipopt.linear_solver": linear_solver, "ipopt.max_iter": max_iter, "ipopt.tol": tol,
@@ -143,9 +143,9 @@ def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol
             "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": ACCEPTABLE_TOL,
             "ipopt.acceptable_iter": ACCEPTABLE_ITER, "grad_f": callbacks[0], "jac_g": callbacks[1],
             "hess_lag": callbacks[2]}
-    stop = convergence.DecrementStop(nlp, bounds, interruption) if convergence.applies(nlp) else None
-    if stop is not None:
-        opts["iteration_callback"] = stop
+    # every iterate's chi-square is logged; the decrement test only where it applies
+    stop = convergence.DecrementStop(nlp, bounds, interruption, test=convergence.applies(nlp))
+    opts["iteration_callback"] = stop
     callbacks.append(stop)
     if linear_solver == "spral":
         os.environ.setdefault("OMP_CANCELLATION", "TRUE")
@@ -167,7 +167,8 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
     # Ctrl-C or SIGTERM during the solve stopped Ipopt: stop the caller too
     callbacks[0].interruption.after_solve(str(solver.stats()["return_status"]))
     z = np.asarray(sol["x"]).ravel()
-    converged, status, decrement = _judge(nlp, solver.stats(), callbacks[-1], z, np.asarray(sol["g"]).ravel(), bounds)
+    stop = callbacks[-1] if callbacks[-1].test else None
+    converged, status, decrement = _judge(nlp, solver.stats(), stop, z, np.asarray(sol["g"]).ravel(), bounds)
     t2 = time.perf_counter()
     stats = solver.stats()
     evaluation_s = sum(float(stats.get(f"t_wall_nlp_{k}", 0.0)) for k in ("f", "g", "grad_f", "jac_g", "hess_l"))
