@@ -51,15 +51,26 @@ def log_level(args: argparse.Namespace) -> int:
 
 
 def configure_logging(level: int, stream=None) -> logging.Logger:
-    """Send the ``casrecon`` logger's messages of ``level`` and above to ``stream`` (stderr), one
-    plain line each; replaces the handler a previous call installed."""
+    """Send the ``casrecon`` logger's messages of ``level`` and above to ``stream`` (default: the
+    current ``sys.stderr``), one plain line each; replaces the handler a previous call installed.
+    Records still propagate (the root logger has no handler unless an application adds one)."""
     logger = logging.getLogger(LOGGER)
     for handler in [h for h in logger.handlers if getattr(h, "casrecon_cli", False)]:
         logger.removeHandler(handler)
-    handler = logging.StreamHandler(stream if stream is not None else sys.stderr)
+    handler = logging.StreamHandler(stream) if stream is not None else StderrHandler()
     handler.casrecon_cli = True
     handler.setFormatter(logging.Formatter("%(message)s"))
     logger.addHandler(handler)
     logger.setLevel(level)
-    logger.propagate = False
     return logger
+
+
+class StderrHandler(logging.StreamHandler):
+    """Writes to whatever ``sys.stderr`` is at the time of each message (as ``logging.lastResort``)."""
+
+    def __init__(self) -> None:
+        logging.Handler.__init__(self)
+
+    @property
+    def stream(self):
+        return sys.stderr

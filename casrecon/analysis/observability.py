@@ -7,6 +7,7 @@ All sigmas come from the same KKT-matrix covariance as the fits (Gauss-Newton, a
 from __future__ import annotations
 
 import dataclasses
+import logging
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +21,8 @@ from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.fit import FitResult, prepare_drop
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import simulate_truth, truth_parameters_by_name, with_synthetic_data
+
+LOG = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -95,14 +98,17 @@ def refit_with_held(result: FitResult, name: str, value: float, max_iter: int = 
 
 def profile_likelihood(result: FitResult, name: str, n_points: int = 9, span_sigma: float = 4.0) -> Profile:
     """Refit with ``name`` held at each of ``n_points`` values across +-``span_sigma`` Fisher
-    sigmas (warm-started from the fit); delta chi-square = 2 (objective - best objective)."""
+    sigmas (warm-started from the fit); delta chi-square = 2 (objective - best objective). Logs one
+    line per grid point (INFO)."""
     value, sigma = result.parameter(name)
     grid = value + sigma * np.linspace(-span_sigma, span_sigma, n_points)
     best = result.solver.objective
     delta = []
-    for v in grid:
+    for i, v in enumerate(grid, 1):
         sol = refit_with_held(result, name, v)
         delta.append(2 * (sol.objective - best) if sol.converged else np.nan)
+        LOG.info("profile %s: point %d of %d, %s = %.6g: delta chi-square %s", name, i, len(grid), name, v,
+                 f"{delta[-1]:.4g}" if sol.converged else f"not converged ({sol.status})")
     delta = np.maximum(np.array(delta), 0.0)
     mid = len(grid) // 2
     lo = _crossing(grid[:mid + 1][::-1], delta[:mid + 1][::-1], 9.0)

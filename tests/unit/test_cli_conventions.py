@@ -81,7 +81,7 @@ def _line_fit_log(level: int) -> str:
         nlp = assemble_nlp(line_terms(t, y, 0.05), 2, dependent=np.zeros(0, int), parameter_names={0: "a", 1: "b"})
         sol = solve(nlp, np.zeros(2))
     finally:
-        configure_logging(logging.WARNING, io.StringIO())
+        configure_logging(logging.WARNING)
     assert sol.converged
     chi2 = 2.0 * sol.objective + sum(nlp.const_chi2.values())
     return stream.getvalue(), sol.iterations, chi2
@@ -113,3 +113,18 @@ def test_cli_fit_progress_on_stderr_unless_quiet(tmp_path):
     quiet = run_module("fit", problem, "--out", str(tmp_path / "b"), "--no-figures", "--quiet")
     assert quiet.returncode == 0, quiet.stderr
     assert "iteration" not in quiet.stderr and "results ->" in quiet.stdout
+
+
+def test_profile_logs_one_line_per_grid_point(monkeypatch, caplog):
+    from types import SimpleNamespace
+
+    from casrecon.analysis import observability as obs
+
+    result = SimpleNamespace(parameter=lambda name: (1.0, 0.1), solver=SimpleNamespace(objective=10.0))
+    monkeypatch.setattr(obs, "refit_with_held", lambda res, name, v: SimpleNamespace(
+        objective=10.0 + 50.0 * (v - 1.0) ** 2, converged=True, status="ok"))
+    with caplog.at_level(logging.INFO, logger=obs.LOG.name):
+        obs.profile_likelihood(result, "Cmq_mult", n_points=5)
+    lines = [r.getMessage() for r in caplog.records if r.name == obs.LOG.name]
+    assert len(lines) == 5
+    assert lines[0] == "profile Cmq_mult: point 1 of 5, Cmq_mult = 0.6: delta chi-square 16"
