@@ -57,8 +57,8 @@ def test_non_converged_fit_exits_nonzero_and_keeps_the_old_folder(problem_copy, 
     out.mkdir()
     (out / "earlier.txt").write_text("an earlier result")
     (out / ".casrecon-results.json").write_text("{}")  # a casrecon results folder (else --out is refused)
-    assert main(["fit", str(problem_copy), "--out", str(out)]) == 3
-    err = capsys.readouterr().err
+    assert main(["fit", str(problem_copy), "--out", str(out), "--quiet"]) == 3
+    err = capsys.readouterr().err  # --quiet: no progress lines, only the one failure line
     assert "did not converge" in err and err.count("\n") == 1
     assert sorted(p.name for p in out.iterdir()) == [".casrecon-results.json", "earlier.txt"]
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".fit.")]
