@@ -39,6 +39,14 @@ def _y_range(values: list[np.ndarray]) -> tuple[float, float] | None:
     return float(lo - pad), float(hi + pad)
 
 
+def label_time_panels(axes) -> None:
+    """Time axis labels under the bottom row, and the force / moment column titles."""
+    for ax in axes[-1]:
+        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
+    axes[0, 0].set_title("force coefficients, body axes")
+    axes[0, 1].set_title("moment coefficients about the MRP, body axes")
+
+
 def aero_coefficients_figure(drop: DropFolder) -> Figure:
     """C_A, C_Y, C_N (body axes) and C_l, C_m, C_n (about the MRP) against flight time (s): the
     reconstruction with its 3-sigma band, the best-fit database with its band and the nominal
@@ -63,10 +71,7 @@ def aero_coefficients_figure(drop: DropFolder) -> Figure:
             if limits is not None:
                 ax.set_ylim(*limits)
             ax.set_ylabel(f"{SYMBOLS[coef]}, -")
-    for ax in axes[-1]:
-        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
-    axes[0, 0].set_title("force coefficients, body axes")
-    axes[0, 1].set_title("moment coefficients about the MRP, body axes")
+    label_time_panels(axes)
     style.figure_legend(fig, ncol=5)
     fig.suptitle(f"{drop.name}: aerodynamic coefficients along the reconstructed trajectory")
     return fig
@@ -85,10 +90,7 @@ def aero_sigma_figure(drop: DropFolder) -> Figure:
                 ax.plot(t, tab[cols.sigma_column(coef, variant)], color=color, lw=1.0, label=label)
             ax.set_yscale("log")
             ax.set_ylabel(f"3$\\sigma$ of {SYMBOLS[coef]}, -")
-    for ax in axes[-1]:
-        ax.set_xlabel(style.FLIGHT_TIME_LABEL)
-    axes[0, 0].set_title("force coefficients, body axes")
-    axes[0, 1].set_title("moment coefficients about the MRP, body axes")
+    label_time_panels(axes)
     style.figure_legend(fig)
     fig.suptitle(f"{drop.name}: size of the {style.PM3SIGMA} bands of the aerodynamic coefficients")
     return fig
