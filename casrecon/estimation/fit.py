@@ -19,7 +19,6 @@ from casrecon.estimation.drop import FitNlp, build_nlp, load_measurements, param
 from casrecon.estimation.engine.checks import (
     FitError,
     covariance_or_fail,
-    residual_vector,
 )
 from casrecon.estimation.engine.covariance import Covariance, KktCovariance
 from casrecon.estimation.engine.nlp import Nlp
@@ -181,7 +180,7 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
 
     fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: cfg.estimation.clock_offset_guess_s}, settings)
     t3 = time.perf_counter()
-    r = residual_vector(fit_nlp.nlp, sol.z)
+    r = fit_nlp.nlp.residual_vector(sol.z)
     cov = covariance_or_fail(fit_nlp.nlp, sol.z, r)
     timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
                "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s}

@@ -19,7 +19,7 @@ import numpy as np
 
 from casrecon.estimation.continuation import solve_fit
 from casrecon.estimation.drop import FitNlp, assemble_drops, load_measurements, parameter_set
-from casrecon.estimation.engine.checks import FitError, covariance_or_fail, residual_vector
+from casrecon.estimation.engine.checks import FitError, covariance_or_fail
 from casrecon.estimation.fit import FitResult, drop_result, prepare_drop
 from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.kinds.base import DropContext
@@ -198,7 +198,7 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     fit_nlp, sol, build_s = solve_fit(build, start, guesses0, settings)
     nlp = fit_nlp.nlp
     t2 = time.perf_counter()
-    r = residual_vector(nlp, sol.z)
+    r = nlp.residual_vector(sol.z)
     cov = covariance_or_fail(nlp, sol.z, r)
     timings = {"build_s": build_s, "solve_s": sol.solve_s}
     drops = [drop_result(sc, data, fit_nlp, i, sol, cov, r, timings)

@@ -28,7 +28,6 @@ from casrecon.estimation.engine.checks import (
     check_converged,
     check_determined,
     covariance_or_fail,
-    residual_vector,
 )
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
@@ -212,7 +211,7 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
     check_converged(sol, nlp)
     t2 = time.perf_counter()
-    r = residual_vector(nlp, sol.z)
+    r = nlp.residual_vector(sol.z)
     cov = covariance_or_fail(nlp, sol.z, r)
     result = _result(cfg, model_name, data, part, nlp, sol, cov, r, basis)
     result.timings.update(build_s=t1 - t0 + sol.build_s, solve_s=sol.solve_s, covariance_s=time.perf_counter() - t2,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term, unit_norm_term
-from casrecon.estimation.engine.checks import FitError, check_determined, covariance_or_fail, residual_vector
+from casrecon.estimation.engine.checks import FitError, check_determined, covariance_or_fail
 from casrecon.estimation.engine.nlp import assemble_nlp
 from casrecon.estimation.engine.solve import solve
 
@@ -33,7 +33,7 @@ def test_line_fit_matches_closed_form():
     design = np.column_stack([np.ones_like(t), t]) / 0.05
     want = np.linalg.lstsq(design, y / 0.05, rcond=None)[0]
     assert sol.z == pytest.approx(want, abs=1e-9)
-    r = residual_vector(nlp, sol.z)
+    r = nlp.residual_vector(sol.z)
     cov = covariance_or_fail(nlp, sol.z, r)
     assert cov.covariance_of([0, 1]) == pytest.approx(np.linalg.inv(design.T @ design), rel=1e-9)
     assert nlp.dof() == t.size - 2
@@ -54,7 +54,7 @@ def test_unit_norm_side_constraint_and_null_space_covariance():
     sol = solve(nlp, np.array([1.0, 0.0]))
     mean = obs.mean(axis=0)
     assert sol.z == pytest.approx(mean / np.linalg.norm(mean), abs=1e-7)
-    cov = covariance_or_fail(nlp, sol.z, residual_vector(nlp, sol.z))
+    cov = covariance_or_fail(nlp, sol.z, nlp.residual_vector(sol.z))
     c = cov.covariance_of([0, 1])
     radial = sol.z / np.linalg.norm(sol.z)
     assert radial @ c @ radial == pytest.approx(0.0, abs=1e-12)

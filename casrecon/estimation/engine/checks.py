@@ -19,11 +19,6 @@ class FitError(RuntimeError):
     """The fit did not produce a trustworthy result; the message says why."""
 
 
-def residual_vector(nlp: Nlp, z: np.ndarray) -> np.ndarray:
-    """Whitened residual vector at ``z`` (scaled)."""
-    return nlp.residual_vector(z)
-
-
 def check_determined(nlp: Nlp, z: np.ndarray) -> None:
     """FitError before solving when a parameter has no effect on any residual or constraint and no
     prior (its column of the KKT matrix is zero, so the matrix is singular whatever the data)."""

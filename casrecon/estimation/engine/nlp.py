@@ -75,12 +75,10 @@ class Nlp:
         """(z, residuals, constraints) as one MX graph of the mapped block value functions."""
         z = ca.MX.sym("z", self.n_z)
         d = self.derivatives
-        r_parts, g_parts = [], []
-        for _, bs in sorted(zip(d.r_rows, d.sets), key=lambda t: t[0]):
-            r_parts.append(ca.vec(bs.symbolic_values(z)[0]))
-        for bs, g_rows in zip(d.sets, d.g_rows):  # constrained sets come first, in row order
-            if g_rows is not None:
-                g_parts.append(ca.vec(bs.symbolic_values(z)[1]))
+        out = [bs.symbolic_values(z) for bs in d.sets]  # each set's (residuals[, constraints]) once
+        r_parts = [ca.vec(o[0]) for _, o in sorted(zip(d.r_rows, out), key=lambda t: t[0])]
+        # constrained sets come first in d.sets, in constraint-row order
+        g_parts = [ca.vec(o[1]) for o, g_rows in zip(out, d.g_rows) if g_rows is not None]
         return z, ca.vertcat(*r_parts), ca.vertcat(*g_parts) if g_parts else ca.MX(0, 1)
 
     @property
