@@ -76,8 +76,8 @@ def parts(problem: Path, runs: int, figures: bool) -> dict[str, list[float]]:
                                   - result.timings["solve_stop_test_s"])
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            report = fit_report(result)
             products = fit_products(result)
+            report = fit_report(result, products.adequacy)
             write_fit_results(Path(tmp), result, products, report, drop_tables(result, products))
             t1 = time.perf_counter()
             if figures:

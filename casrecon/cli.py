@@ -118,10 +118,10 @@ def _fit(args: argparse.Namespace) -> int:
                           print_level=5 if args.verbose else 0)
     except FitError as err:
         return fit_failed(f"fit of {scenario.config.name}", err)
-    report = fit_report(result)
+    products = fit_products(result)
+    report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
     with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
-        products = fit_products(result)
         write_fit_results(out, result, products, report, drop_tables(result, products))
         if not args.no_figures:
             _figures(out, args.formats)
