@@ -75,7 +75,10 @@ def drop_channels(imu: dict, gps: dict, others: dict) -> dict[str, np.ndarray]:
         used = np.asarray(imu["valid"][:, k], dtype=bool)
         channels[name] = np.asarray(imu["residual"][:, k])[used] / float(imu["sigma"][k])
     for k, name in enumerate(GPS_NAMES.values()):
-        channels[name] = np.asarray(gps["residual"][:, k]) / np.asarray(gps["sigma"][:, k])
+        if "normalised" in gps:  # whitened under the fit's GPS error model
+            channels[name] = np.asarray(gps["normalised"][:, k])
+        else:
+            channels[name] = np.asarray(gps["residual"][:, k]) / np.asarray(gps["sigma"][:, k])
     baro = others.get("baro")
     if baro is not None:
         channels["baro"] = np.asarray(baro["pressure_residual_pa"]) / np.asarray(baro["pressure_sigma_pa"])

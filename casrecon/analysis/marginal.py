@@ -63,7 +63,7 @@ def latent_log_det(result: FitResult, z: np.ndarray) -> float:
     in orthonormal independent coordinates (scaled units)."""
     nlp, part = result.nlp, result.part
     h, a = fisher_and_jacobian(nlp, z)
-    basis, _ = reduced_hessian(nlp, h, a)
+    basis = reduced_hessian(nlp, h, a).basis
     latent = basis @ null_space(basis[part.theta_cols])
     h_l = latent.T @ (h @ latent)
     sign, log_det = np.linalg.slogdet(0.5 * (h_l + h_l.T))

@@ -11,7 +11,7 @@ measurement means adding a module under :mod:`casrecon.estimation.kinds` and lis
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from casrecon.estimation.kinds.disturbance import disturbance_terms
 from casrecon.estimation.kinds.gps import GpsKind
 from casrecon.estimation.kinds.imu import ImuKind
 from casrecon.estimation.kinds.priors import prior_terms
-from casrecon.estimation.layout import NS, DropLayout
+from casrecon.estimation.layout import NS, DropLayout, ExtraColumns
 from casrecon.estimation.parameters import ParameterSet, model_parameters
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.problem import ProblemConfig
@@ -59,6 +59,21 @@ def load_measurements(cfg: ProblemConfig, data: FitData,
         if m is not None:
             out[kind.name] = m
     return out
+
+
+def with_extra_columns(layout: DropLayout, cfg: ProblemConfig, measurements: dict[str, object], first_col: int,
+                       kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> tuple[DropLayout, int]:
+    """The layout with the extra unknowns its kinds ask for (a kind's optional
+    ``latent_size(config, measurements) -> (count, eliminable)``) from z column ``first_col`` on,
+    and the next free column."""
+    extras, col = [], first_col
+    for kind in kinds:
+        if kind.name in measurements and hasattr(kind, "latent_size"):
+            count, eliminable = kind.latent_size(cfg, measurements[kind.name])
+            if count:
+                extras.append(ExtraColumns(kind.name, col, count, eliminable))
+                col += count
+    return replace(layout, extras=tuple(extras)), col
 
 
 def drop_terms(context: DropContext, kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> list[Term]:
@@ -110,7 +125,8 @@ def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-
     terms.append(unit_norm_term(np.array([lay.node_offset + QUATERNION for lay in layouts])))
     nlp = assemble_nlp(terms, n_z, dependent=np.concatenate([lay.dependent_cols for lay in layouts]),
                        parameter_names=parameter_names(layouts), hessian=hessian,
-                       latent=any(lay.n_u for lay in layouts))
+                       latent=any(lay.n_u for lay in layouts),
+                       eliminated=np.concatenate([lay.eliminated_cols for lay in layouts]))
     return FitNlp(nlp, tuple(contexts))
 
 
@@ -126,5 +142,6 @@ def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSe
                         disturbance=cfg.estimation.disturbance, u_offset=n_sv + params.n)
     if measurements is None:
         measurements = load_measurements(cfg, data)
+    layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.u_cols.size)
     context = DropContext(model, cfg, layout, data, measurements)
-    return assemble_drops([context], n_sv + params.n + layout.u_cols.size, hessian)
+    return assemble_drops([context], n_z, hessian)

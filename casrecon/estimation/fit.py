@@ -95,7 +95,7 @@ def drop_statistics(fit_nlp: FitNlp, part: DropLayout, r: np.ndarray) -> tuple[d
     mine = [g for g in nlp.groups if g.startswith(prefix)] if len(fit_nlp.parts) > 1 else list(nlp.groups)
     chi2 = {g.removeprefix(prefix): v for g, v in nlp.group_chi2(r, mine).items()}
     counts = {g.removeprefix(prefix): nlp.n_measurements[g] for g in mine}
-    n_cols = part.n_state_vars + part.u_cols.size + part.params.n
+    n_cols = part.n_state_vars + part.u_cols.size + part.params.n + part.n_extra
     n_constraints = part.n_states * part.mesh.n_intervals + 1
     return chi2, counts, sum(counts.values()) - (n_cols - n_constraints)
 

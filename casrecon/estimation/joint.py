@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.estimation.continuation import solve_fit
-from casrecon.estimation.drop import FitNlp, assemble_drops, load_measurements, parameter_set
+from casrecon.estimation.drop import FitNlp, assemble_drops, load_measurements, parameter_set, with_extra_columns
 from casrecon.estimation.engine.checks import FitError, covariance_or_fail
 from casrecon.estimation.fit import FitResult, drop_result, prepare_drop
 from casrecon.estimation.initial_guess import initial_guess
@@ -130,8 +130,10 @@ def _parameter_sets(scenarios: list[Scenario], cfg: JointConfig) -> tuple[list[P
     return out, shared
 
 
-def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float]) -> tuple[list[DropLayout], int]:
-    """DropLayouts with global columns: all nodes, then shared factors, then each drop's own."""
+def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
+             measurements: list[dict]) -> tuple[list[DropLayout], int]:
+    """DropLayouts with global columns: all nodes, then shared factors, then each drop's own, then
+    each drop's extra unknowns (latent sensor errors)."""
     node_offsets = np.cumsum([0] + [NS * m.t_nodes.size for m in meshes])
     shared_col = {n: int(node_offsets[-1]) + i for i, n in enumerate(shared)}
     next_col = int(node_offsets[-1]) + len(shared)
@@ -146,7 +148,11 @@ def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float]) -> tup
                 next_col += 1
         layouts.append(DropLayout(sc.config.name, mesh, ps, int(off), np.array(cols),
                                   guess_clock_s=guesses[sc.config.name]))
-    return layouts, next_col
+    out = []
+    for sc, layout, meas in zip(scenarios, layouts, measurements):
+        layout, next_col = with_extra_columns(layout, sc.config, meas, next_col)
+        out.append(layout)
+    return out, next_col
 
 
 def joint_settings(scenarios: list[Scenario], **overrides) -> tuple[FitSettings, list[str]]:
@@ -183,7 +189,7 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
            for sc, (data, mesh) in zip(scenarios, prepared)]
 
     def build(guesses: dict[str, float]) -> FitNlp:
-        layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses)
+        layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses, measurements)
         contexts = [DropContext(sc.model, sc.config, layout, data, meas, prefixed=True)
                     for sc, (data, _), layout, meas in zip(scenarios, prepared, layouts, measurements)]
         return assemble_drops(contexts, n_z, settings.hessian)

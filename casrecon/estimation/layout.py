@@ -25,6 +25,31 @@ NS = 13
 
 
 @dataclass(frozen=True)
+class ExtraColumns:
+    """A run of further unknowns of a drop (scaled to order one by their owner).
+
+    Attributes
+    ----------
+    name : str
+        Owner (a measurement kind's name, e.g. ``"gps"``).
+    offset, count : int
+        First z column and number of columns.
+    eliminable : bool
+        Whether no constraint involves them and their Hessian block is sparse (they are then
+        eliminated by a Schur complement in the covariance; see ``Nlp.eliminated``).
+    """
+
+    name: str
+    offset: int
+    count: int
+    eliminable: bool = False
+
+    @property
+    def cols(self) -> np.ndarray:
+        return self.offset + np.arange(self.count)
+
+
+@dataclass(frozen=True)
 class DropLayout:
     """One drop inside an NLP: its mesh, parameters and the z columns they occupy.
 
@@ -46,6 +71,9 @@ class DropLayout:
         Weak-constraint disturbances estimated at the nodes (None: strong constraint).
     u_offset : int
         z column of the first latent disturbance value.
+    extras : tuple of ExtraColumns
+        Further unknowns of the drop after everything above, in this order (e.g. the latent GPS
+        errors of every fix).
     """
 
     name: str
@@ -57,6 +85,22 @@ class DropLayout:
     guess_clock_s: float = 0.0
     disturbance: DisturbanceModel | None = None
     u_offset: int = 0
+    extras: tuple[ExtraColumns, ...] = ()
+
+    def extra(self, name: str) -> ExtraColumns | None:
+        """The extra unknowns called ``name`` (None when the drop has none)."""
+        return next((e for e in self.extras if e.name == name), None)
+
+    @property
+    def n_extra(self) -> int:
+        """Number of extra unknowns."""
+        return sum(e.count for e in self.extras)
+
+    @property
+    def eliminated_cols(self) -> np.ndarray:
+        """z columns of the extra unknowns that no constraint involves (see ``Nlp.eliminated``)."""
+        cols = [e.cols for e in self.extras if e.eliminable]
+        return np.concatenate(cols) if cols else np.zeros(0, np.int64)
 
     @property
     def active(self) -> tuple[int, ...]:

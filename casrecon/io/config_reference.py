@@ -35,6 +35,7 @@ from casrecon.io.problem import (
 )
 from casrecon.physics.aero import DISPERSION_NAMES, AnalyticCoefficients, DispersionSizes, SpinVanes
 from casrecon.physics.dynamics import DynamicsOptions
+from casrecon.physics.sensor_errors import GpsErrorModel
 
 
 def _k(key, type_, unit, meaning=None, default=FROM_FIELD, source=None, field=None, attr=None) -> Key:
@@ -51,6 +52,25 @@ _DISTURBANCE = (
      "mass, body x, y, z (Gauss-Markov)", (0.0, 0.0, 0.0)),
     ("model_error_time_s", "float", "s", "Correlation time of the model-error force and moment", 1.0),
 )
+
+
+def _gps_error_keys(prefix: str) -> tuple[Key, ...]:
+    """The GPS error-model keys (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`), read into
+    ``{prefix}error_model``."""
+    m = f"{prefix}error_model"
+    return (
+        _k("position_error_time_s", "float", "s", "Correlation time of the correlated part of each GPS position "
+           "error component (first-order Gauss-Markov, estimated at every fix); 0: white", source=GpsErrorModel,
+           field="position_time_s", attr=f"{m}.position_time_s"),
+        _k("velocity_error_time_s", "float", "s", "Correlation time of the correlated part of each GPS velocity "
+           "error component; 0: white", source=GpsErrorModel, field="velocity_time_s", attr=f"{m}.velocity_time_s"),
+        _k("position_correlated_fraction", "float", "", "Fraction of the reported position variance (hAcc^2, "
+           "vAcc^2) that is correlated, at most 0.99", source=GpsErrorModel, field="position_fraction",
+           attr=f"{m}.position_fraction"),
+        _k("velocity_correlated_fraction", "float", "", "Fraction of the reported velocity variance (sAcc^2) that "
+           "is correlated, at most 0.99", source=GpsErrorModel, field="velocity_fraction",
+           attr=f"{m}.velocity_fraction"),
+    )
 
 
 def _disturbance_keys(where: str) -> tuple[Key, ...]:
@@ -161,7 +181,9 @@ SIX_DOF = FileKind(
                source=GpsConfig, attr="gps.v_acc_m"),
             _k("s_acc_mps", "float", "m/s", "Speed accuracy (1-sigma) the synthetic receiver reports",
                source=GpsConfig, attr="gps.s_acc_mps"),
-        ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc).",
+            *_gps_error_keys("gps."),
+        ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc); the "
+                "error-model keys split that variance into a white and a time-correlated part.",
             required=True),
         Table("sensors.baro", (
             _k("file", "path", "", "FlySight 2 SENSOR.CSV (its BARO rows, on UTC) or a plain CSV with a time column "

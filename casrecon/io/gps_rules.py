@@ -14,7 +14,9 @@ import numpy as np
 import pymap3d
 
 from casrecon.io.flysight import GpsTrack, no_fix_mask
+from casrecon.io.toml_fields import Fields
 from casrecon.physics.dynamics import Site
+from casrecon.physics.sensor_errors import MAX_CORRELATED_FRACTION, GpsErrorModel
 
 
 @dataclass(frozen=True)
@@ -82,3 +84,19 @@ def ned_to_geodetic(pos_ned: np.ndarray, site: Site) -> tuple[np.ndarray, np.nda
     lat, lon, h = pymap3d.ned2geodetic(pos[:, 0], pos[:, 1], pos[:, 2], site.lat_deg, site.lon_deg,
                                        site.ground_alt_msl_m)
     return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float), np.asarray(h, dtype=float)
+
+
+def gps_error_model(t: Fields) -> GpsErrorModel:
+    """The GPS error model keys of ``[sensors.gps]`` (6-DOF) or ``[gps]`` (point-mass problems)."""
+    default = GpsErrorModel()
+    times = [t.number(f"{g}_error_time_s", getattr(default, f"{g}_time_s"), minimum=0.0)
+             for g in ("position", "velocity")]
+    fractions = []
+    for g in ("position", "velocity"):
+        key = f"{g}_correlated_fraction"
+        f = t.number(key, getattr(default, f"{g}_fraction"), minimum=0.0)
+        if f > MAX_CORRELATED_FRACTION:
+            raise t.error(key, f"expected a fraction of the variance in [0, {MAX_CORRELATED_FRACTION}] (some white "
+                               f"noise must remain), got {f}")
+        fractions.append(f)
+    return GpsErrorModel(times[0], times[1], fractions[0], fractions[1])

@@ -28,13 +28,14 @@ import numpy as np
 
 from casrecon.io.baro import BaroConfig, parse_baro
 from casrecon.io.errors import InputError
-from casrecon.io.gps_rules import GpsQuality
+from casrecon.io.gps_rules import GpsQuality, gps_error_model
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.toml_fields import Fields, load_toml
 from casrecon.io.vehicle_files import load_aero, load_vehicle
 from casrecon.physics.aero import DISPERSION_NAMES, AeroDatabase
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.physics.dynamics import DynamicsOptions, Site
+from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.physics.vehicle import Vehicle
 
 
@@ -85,13 +86,15 @@ class ImuConfig:
 
 @dataclass(frozen=True)
 class GpsConfig:
-    """GPS (FlySight) file and the synthetic receiver's accuracy levels (1-sigma)."""
+    """GPS (FlySight) file, the synthetic receiver's accuracy levels (1-sigma) and the fit's model of
+    time-correlated GPS errors (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`)."""
 
     file: Path | None
     rate_hz: float = 5.0
     h_acc_m: float = 1.5
     v_acc_m: float = 2.5
     s_acc_mps: float = 0.25
+    error_model: GpsErrorModel = GpsErrorModel()
 
 
 @dataclass(frozen=True)
@@ -391,7 +394,7 @@ def _imu(t: Fields) -> ImuConfig:
 def _gps(t: Fields) -> GpsConfig:
     cfg = GpsConfig(file=t.path_of("file", must_exist=False), rate_hz=t.number("rate_hz", 5.0, positive=True),
                     h_acc_m=t.number("h_acc_m", 1.5, positive=True), v_acc_m=t.number("v_acc_m", 2.5, positive=True),
-                    s_acc_mps=t.number("s_acc_mps", 0.25, positive=True))
+                    s_acc_mps=t.number("s_acc_mps", 0.25, positive=True), error_model=gps_error_model(t))
     t.reject_unknown()
     return cfg
 

@@ -65,14 +65,23 @@ def gauss_newton_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = ()) -> f
     """Predicted chi-square decrease of a full constrained Gauss-Newton step from ``z`` (scaled),
     holding the variables ``fixed`` (e.g. those on a bound, as Ipopt's active set does)."""
     h, a = fisher_and_jacobian(nlp, z)
-    basis, _ = reduced_hessian(nlp, h, a)
+    system = reduced_hessian(nlp, h, a)
+    basis, hr, grad = system.basis, system.hessian, nlp.derivatives.gradient(z)
+    elim = system.elimination
+    if elim is None:
+        gr, extra = basis.T @ grad, 0.0
+    else:  # [Z_c^T g; g_E] against [[A, B^T], [B, H_EE]]: eliminate g_E through the Schur complement
+        g_e = grad[elim.cols]
+        core = np.ones(grad.size, bool)
+        core[elim.cols] = False
+        gr = basis[core].T @ grad[core] - system.coupling.T @ g_e
+        extra = float(g_e @ elim.lu.solve(g_e))
     fixed = np.asarray(fixed, int)
     if fixed.size:
-        basis = basis @ null_space(basis[fixed])
-    hr = basis.T @ (h @ basis)
-    gr = basis.T @ nlp.derivatives.gradient(z)
+        n = null_space(basis[fixed])
+        gr, hr = n.T @ gr, n.T @ hr @ n
     try:
-        return float(gr @ np.linalg.solve(hr, gr))
+        return float(gr @ np.linalg.solve(hr, gr)) + extra
     except np.linalg.LinAlgError:
         return float("inf")
 

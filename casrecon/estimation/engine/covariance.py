@@ -10,6 +10,15 @@ constraints (unit norms) in the independent columns. Z has as many columns as th
 directions, so marginal variances of every node state and every derived output cost a few small
 dense products. ``tests/unit/test_covariance.py`` checks this against a dense inverse of K.
 
+*Eliminated* columns (``Nlp.eliminated``: unknowns in no constraint whose Hessian block H_EE is
+sparse, e.g. one latent error value per GPS fix with a Gauss-Markov prior) are kept out of Z: with
+Z_c the null-space basis of the other columns, the reduced precision of (w_c, z_E) is
+[[Z_c^T H Z_c, B^T], [B, H_EE]], B = H_Ec Z_c, and H_EE is eliminated by its sparse LU:
+cov(w_c) = S^-1 with S = Z_c^T H Z_c - B^T H_EE^-1 B, cov(z_E) = H_EE^-1 + M S^-1 M^T and
+cov(z_c, z_E) = -Z_c S^-1 M^T with M = H_EE^-1 B. Storing -M as the rows of the eliminated
+columns in the basis makes every covariance read the same formula, plus the H_EE^-1 block where
+two eliminated columns meet.
+
 With latent process values at every node (``Nlp.latent``, the weak constraint) Z would have
 thousands of columns, and the z-block is instead read from sparse LU solves of K itself
 (:class:`KktCovariance`): the parameters' columns once, each requested node's columns on demand.
@@ -38,25 +47,69 @@ class SingularCovariance(RuntimeError):
 
 
 @dataclass(frozen=True)
+class Elimination:
+    """The eliminated columns of a reduced system (see the module docstring).
+
+    Attributes
+    ----------
+    cols : int array
+        The eliminated z columns E, sorted.
+    lu : scipy SuperLU
+        Sparse LU of H_EE.
+    """
+
+    cols: np.ndarray
+    lu: object
+
+    def inverse_block(self, idx: np.ndarray) -> np.ndarray:
+        """(len(idx), len(idx)) block of H_EE^-1 between the z columns ``idx``, zero where an index
+        is not eliminated."""
+        idx = np.asarray(idx, int)
+        pos = np.searchsorted(self.cols, idx)
+        pos = np.minimum(pos, self.cols.size - 1)
+        mine = self.cols[pos] == idx
+        out = np.zeros((idx.size, idx.size))
+        if mine.any():
+            e = np.zeros((self.cols.size, int(mine.sum())))
+            e[pos[mine], np.arange(e.shape[1])] = 1.0
+            out[np.ix_(mine, mine)] = self.lu.solve(e)[pos[mine]]
+        return out
+
+
+@dataclass(frozen=True)
+class ReducedSystem:
+    """Z (with -M in the eliminated rows) and the reduced Hessian S (the Schur complement of the
+    eliminated block when there is one): see the module docstring."""
+
+    basis: np.ndarray
+    hessian: np.ndarray
+    elimination: Elimination | None = None
+    coupling: np.ndarray | None = None   # M = H_EE^-1 B, (n_E, n_w)
+
+
+@dataclass(frozen=True)
 class Covariance:
     """Covariance of the fit in reduced coordinates w: dz = Z w, cov(w) = Hr^-1.
 
     Attributes
     ----------
     basis : (n_z, n_w) array
-        Z, in scaled z units.
+        Z, in scaled z units (eliminated columns: -M, see the module docstring).
     cov_w : (n_w, n_w) array
-        (Z^T H Z)^-1 (absolute: noise sigmas as given).
+        (Z^T H Z)^-1 (absolute: noise sigmas as given); with eliminated columns, S^-1.
     reduced_chi2 : float
         chi2 / dof; multiply variances by it for the chi-square-scaled covariance.
     condition : float
-        Condition number of Z^T H Z.
+        Condition number of Z^T H Z (of S).
+    elimination : Elimination or None
+        The eliminated columns and the LU of their Hessian block.
     """
 
     basis: np.ndarray
     cov_w: np.ndarray
     reduced_chi2: float
     condition: float
+    elimination: Elimination | None = None
 
     def rows(self, idx) -> np.ndarray:
         """Z rows of the given z indices (scaled units)."""
@@ -65,15 +118,22 @@ class Covariance:
     def covariance_of(self, idx, scale=None) -> np.ndarray:
         """Absolute covariance matrix of z[idx] (times ``scale`` per entry, e.g. to SI)."""
         zr = self.rows(idx)
+        c = zr @ self.cov_w @ zr.T
+        if self.elimination is not None:
+            c = c + self.elimination.inverse_block(idx)
         if scale is not None:
-            zr = zr * np.asarray(scale)[:, None]
-        return zr @ self.cov_w @ zr.T
+            c = c * np.outer(scale, scale)
+        return c
 
     def variance_of_combination(self, idx, weights) -> float:
         """Variance of sum_j weights[j] z[idx[j]] (scaled z units, not chi-square-scaled), e.g. of a
         time mean of a node history."""
-        w = self.rows(idx).T @ np.asarray(weights, float)
-        return float(w @ self.cov_w @ w)
+        weights = np.asarray(weights, float)
+        w = self.rows(idx).T @ weights
+        extra = 0.0
+        if self.elimination is not None:
+            extra = float(weights @ self.elimination.inverse_block(idx) @ weights)
+        return float(w @ self.cov_w @ w) + extra
 
     def blocks(self, index_sets: list[np.ndarray]) -> list[np.ndarray]:
         """Covariance matrices of z[idx] for each idx of ``index_sets`` (scaled units)."""
@@ -174,12 +234,14 @@ class KktCovariance:
         return out
 
 
-def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int) -> np.ndarray:
+def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
+                     excluded: np.ndarray = ()) -> np.ndarray:
     """Z with A Z = 0 for a constraint Jacobian whose first ``n_determining`` rows fix the
-    columns ``dep`` given the others (the rest are side constraints, e.g. unit norms)."""
+    columns ``dep`` given the others (the rest are side constraints, e.g. unit norms); the
+    ``excluded`` columns (in no constraint) get zero rows."""
     n_z = a.shape[1]
     n_def = n_determining
-    indep = np.setdiff1d(np.arange(n_z), dep)
+    indep = np.setdiff1d(np.arange(n_z), np.union1d(dep, excluded))
     a_def = a[:n_def]
     a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].toarray()
     n_basis = null_space(a[n_def:, indep].toarray()) if a.shape[0] > n_def else np.eye(indep.size)
@@ -198,12 +260,27 @@ def fisher_and_jacobian(nlp: Nlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.cs
     return h_upper + sps.triu(h_upper, 1).T, a
 
 
-def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> tuple[np.ndarray, np.ndarray]:
-    """(Z, Z^T H Z): a null-space basis of the constraint Jacobian and the reduced Hessian
-    (NLPs without latent process values: with them Z would have thousands of columns)."""
-    basis = null_space_basis(a, nlp.dependent, nlp.n_determining)
-    hr = basis.T @ (h @ basis)
-    return basis, 0.5 * (hr + hr.T)
+def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> ReducedSystem:
+    """The null-space basis of the constraint Jacobian and the reduced Hessian, the eliminated
+    columns' block taken out by its Schur complement (NLPs without latent process values at the
+    nodes: with them Z would have thousands of columns)."""
+    elim = np.asarray(nlp.eliminated, np.int64)
+    basis = null_space_basis(a, nlp.dependent, nlp.n_determining, elim)
+    hz = h @ basis
+    hr = basis.T @ hz
+    if not elim.size:
+        return ReducedSystem(basis, 0.5 * (hr + hr.T))
+    if abs(a[:, elim]).sum() != 0:
+        raise ValueError("an eliminated column appears in a constraint")
+    try:
+        lu = splu(h[elim][:, elim].tocsc())
+    except RuntimeError as err:
+        raise SingularCovariance(f"the Hessian block of the latent sensor errors is singular ({err})") from None
+    b = hz[elim]
+    m = lu.solve(b)
+    hr = hr - b.T @ m
+    basis[elim] = -m
+    return ReducedSystem(basis, 0.5 * (hr + hr.T), Elimination(elim, lu), m)
 
 
 def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int) -> Covariance | KktCovariance:
@@ -211,13 +288,13 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int) -> Covari
     h, a = fisher_and_jacobian(nlp, z)
     if nlp.latent:
         return _kkt_covariance(nlp, h, a, chi2, dof)
-    basis, hr = reduced_hessian(nlp, h, a)
-    eig, vec = np.linalg.eigh(hr)
+    system = reduced_hessian(nlp, h, a)
+    eig, vec = np.linalg.eigh(system.hessian)
     cond = float(eig[-1] / max(eig[0], 1e-300))
     if eig[0] <= 0 or cond > MAX_CONDITION:
-        raise SingularCovariance(_weakest_direction(nlp, basis, vec[:, 0], cond))
+        raise SingularCovariance(_weakest_direction(nlp, system.basis, vec[:, 0], cond))
     cov_w = (vec / eig) @ vec.T
-    return Covariance(basis, cov_w, chi2 / max(dof, 1), cond)
+    return Covariance(system.basis, cov_w, chi2 / max(dof, 1), cond, system.elimination)
 
 
 def _kkt_covariance(nlp: Nlp, h, a, chi2: float, dof: int) -> KktCovariance:

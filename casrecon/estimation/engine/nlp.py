@@ -13,7 +13,7 @@ both summed from per-block pieces (see :class:`BlockDerivatives`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import casadi as ca
@@ -56,6 +56,10 @@ class Nlp:
         Whether z holds latent process values with their own prior at every node (a weak
         constraint): the null space is then large, the covariance comes from a sparse LU of the
         KKT matrix and the Gauss-Newton-decrement stopping test is not made.
+    eliminated : int array
+        Columns in no constraint whose Hessian block is sparse (e.g. latent sensor errors with a
+        Gauss-Markov prior): the null-space covariance and the decrement test eliminate them by a
+        Schur complement instead of carrying them in Z (see :mod:`.covariance`).
     """
 
     n_z: int
@@ -69,6 +73,7 @@ class Nlp:
     n_determining: int
     parameter_names: dict[int, str]
     latent: bool = False
+    eliminated: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @cached_property
     def symbolic(self) -> tuple[ca.MX, ca.MX, ca.MX]:
@@ -241,7 +246,8 @@ class BlockDerivatives:
 
 
 def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, parameter_names: dict[int, str],
-                 hessian: str = "gauss-newton", latent: bool = False) -> Nlp:
+                 hessian: str = "gauss-newton", latent: bool = False,
+                 eliminated: np.ndarray = ()) -> Nlp:
     """The NLP made of ``terms`` over a decision vector of ``n_z`` scaled entries.
 
     Parameters
@@ -255,6 +261,8 @@ def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, paramete
     parameter_names : dict of int to str
     hessian : {"gauss-newton", "exact"}
     latent : bool
+        See :class:`Nlp`.
+    eliminated : int array
         See :class:`Nlp`.
     """
     groups, const, counts, start = {}, {}, {}, 0
@@ -287,4 +295,4 @@ def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, paramete
     n_determining = sum(bs.kind.n_constraints * bs.n_blocks for bs in determining)
     derivs = BlockDerivatives(sets, g_rows, [r_row[id(bs)] for bs in sets], n_z, row, start, hessian)
     return Nlp(n_z, row, start, groups, const, counts, derivs, np.asarray(dependent, np.int64), n_determining,
-               dict(sorted(parameter_names.items())), latent)
+               dict(sorted(parameter_names.items())), latent, np.unique(np.asarray(eliminated, np.int64)))

@@ -1,7 +1,8 @@
-"""The disturbance kind (weak constraint): the first-order Gauss-Markov prior of the disturbance
-values estimated at every node (gusts, model-error force and moment), exactly whitened: the first
-node's u_0 / sigma, and per interval (u_k+1 - phi u_k) / (sigma sqrt(1 - phi^2)), phi = exp(-h/tau).
-The node values are scaled by their sigma, so these rows are linear in z.
+"""Gauss-Markov priors of latent values, exactly whitened: the first value's u_0 / sigma, and per
+step (u_k+1 - phi_k u_k) / (sigma sqrt(1 - phi_k^2)). Used for the disturbance values estimated at
+every node (weak constraint: gusts, model-error force and moment; phi = exp(-h/tau)) and for the
+correlated GPS errors estimated at every fix (phi from the time between fixes). The values are
+scaled by their sigma, so these rows are linear in z.
 """
 
 from __future__ import annotations
@@ -13,16 +14,33 @@ from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
 from casrecon.estimation.layout import DropLayout
 
 
+def gauss_markov_terms(cols: np.ndarray, phi: np.ndarray, start_group: str, step_group: str) -> list[Term]:
+    """Start and step terms of unit-variance Gauss-Markov values at the z columns ``cols`` (K, n).
+
+    Parameters
+    ----------
+    cols : (K, n) int array
+        z columns of the values at K successive times, n processes.
+    phi : (K - 1, n) array
+        Transition of each step, in (0, 1).
+    start_group, step_group : str
+        Residual group names of the first values and of the steps.
+    """
+    n = cols.shape[1]
+    u0, v, ph = ca.SX.sym("u0", n), ca.SX.sym("v", 2 * n), ca.SX.sym("phi", n)
+    step = (v[n:] - ph * v[:n]) / ca.sqrt(1.0 - ph * ph)
+    start_kind = BlockKind(start_group.rsplit("/", 1)[-1], u0, [], u0, None)
+    step_kind = BlockKind(step_group.rsplit("/", 1)[-1], v, [ph], step, None)
+    terms = [Term(start_group, (BlockSet(start_kind, cols[:1]),))]
+    if cols.shape[0] > 1:
+        terms.append(Term(step_group, (BlockSet(step_kind, np.column_stack([cols[:-1], cols[1:]]),
+                                                [ca.DM(np.asarray(phi, float).T)]),)))
+    return terms
+
+
 def disturbance_terms(layout: DropLayout, group=lambda g: g) -> list[Term]:
     """The start and step terms of a drop's latent disturbances (empty without them)."""
-    n_u = layout.n_u
-    if not n_u:
+    if not layout.n_u:
         return []
-    phi = layout.disturbance.transition(layout.mesh.h)
-    u0, v = ca.SX.sym("u0", n_u), ca.SX.sym("v", 2 * n_u)
-    step = (v[n_u:] - ca.DM(phi) * v[:n_u]) / ca.DM(np.sqrt(1.0 - phi**2))
-    start_kind = BlockKind("disturbance_start", u0, [], u0, None)
-    step_kind = BlockKind("disturbance_step", v, [], step, None)
-    cols = layout.u_cols
-    return [Term(group("disturbance_start"), (BlockSet(start_kind, cols[:1]),)),
-            Term(group("disturbance"), (BlockSet(step_kind, np.column_stack([cols[:-1], cols[1:]])),))]
+    phi = np.tile(layout.disturbance.transition(layout.mesh.h), (layout.n_nodes - 1, 1))
+    return gauss_markov_terms(layout.u_cols, phi, group("disturbance_start"), group("disturbance"))

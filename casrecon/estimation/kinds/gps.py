@@ -2,6 +2,12 @@
 polynomial at its own time, t_fix - clock_offset on the IMU clock (so the clock offset, which this
 kind adds as a parameter, is estimable). Fixes are whitened by the receiver's reported accuracies
 (north and east by hAcc, down by vAcc, each velocity component by sAcc).
+
+With a GPS error model (``[sensors.gps]`` correlation times and fractions,
+:class:`~casrecon.physics.sensor_errors.GpsErrorModel`) the correlated part of each active
+component's error is a latent unit-variance value e_k at every fix (extra unknowns of the drop,
+eliminated in the covariance), the fix residual is (y - h(x) - s sqrt(f) e_k) / (s sqrt(1 - f)),
+and e carries the exactly whitened Gauss-Markov prior (group ``gps_error``).
 """
 
 from __future__ import annotations
@@ -12,10 +18,12 @@ import numpy as np
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
 from casrecon.estimation.fitdata import FitData
 from casrecon.estimation.kinds.base import DropContext
+from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.layout import BlockLocals
 from casrecon.estimation.parameters import ParameterSpec
 from casrecon.estimation.transcription import gps_function
 from casrecon.io.problem import ProblemConfig
+from casrecon.physics.sensor_errors import innovations
 
 #: Name of the IMU-to-GPS clock-offset parameter (s): a fix stamped t happened at IMU time t - offset.
 CLOCK = "clock_offset_s"
@@ -37,26 +45,61 @@ class GpsKind:
     def load(self, config: ProblemConfig, data: FitData) -> FitData:
         return data
 
+    def latent_size(self, config: ProblemConfig, data: FitData) -> tuple[int, bool]:
+        """(number of latent GPS error values, eliminable): one per fix and correlated component."""
+        return data.gps_time_s.size * config.gps.error_model.active.size, True
+
     def terms(self, context: DropContext) -> list[Term]:
         layout, model, data = context.layout, context.model, context.data
+        errors = context.config.gps.error_model
+        active = errors.active
         loc = BlockLocals(layout)
         tau0, y, w = ca.SX.sym("tau0"), ca.SX.sym("y", 6), ca.SX.sym("w", 6)
+        e, amp = ca.SX.sym("e", active.size), ca.SX.sym("amp", active.size)
         xk, xk1, theta, uk, uk1 = loc.split()
         clock = loc.theta_of(theta, CLOCK, layout.guess_clock_s)
         tau = tau0 - clock / layout.mesh.h
-        r = gps_function(model, layout.mesh.h, layout.active)(xk, xk1, loc.model_params(theta), tau, y, w, uk, uk1)
-        kind = BlockKind("gps", loc.symbol, [tau0, y, w], r, None)
+        select = np.zeros((6, active.size))
+        select[active, np.arange(active.size)] = 1.0
+        y_white = y - ca.DM(select) @ (amp * e) if active.size else y
+        r = gps_function(model, layout.mesh.h, layout.active)(xk, xk1, loc.model_params(theta), tau, y_white, w,
+                                                              uk, uk1)
         k, tau_fix = layout.interval_of(data.gps_time_s)
+        fraction = errors.fraction
         block_data = [ca.DM(tau_fix).T, ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T),
-                      ca.DM(1.0 / data.gps_sigma.T)]
-        return [Term(context.group(self.name), (BlockSet(kind, layout.two_node_columns(k), block_data),))]
+                      ca.DM(1.0 / (data.gps_sigma * np.sqrt(1.0 - fraction)).T)]
+        cols = layout.two_node_columns(k)
+        if not active.size:
+            kind = BlockKind("gps", loc.symbol, [tau0, y, w], r, None)
+            return [Term(context.group(self.name), (BlockSet(kind, cols, block_data),))]
+        e_cols = layout.extra(self.name).cols.reshape(-1, active.size)
+        kind = BlockKind("gps", ca.vertcat(loc.symbol, e), [tau0, y, w, amp], r, None)
+        block_data.append(ca.DM((data.gps_sigma[:, active] * np.sqrt(fraction[active])).T))
+        phi = errors.transition(np.diff(data.gps_time_s))
+        return [Term(context.group(self.name), (BlockSet(kind, np.column_stack([cols, e_cols]), block_data),)),
+                *gauss_markov_terms(e_cols, phi, context.group("gps_error_start"), context.group("gps_error"))]
 
     def residuals(self, result) -> dict[str, np.ndarray]:
-        """GPS antenna position/velocity residuals (NED, SI) at every fix used, with the fix sigmas."""
+        """GPS antenna position/velocity residuals y - h(x) (NED, SI) at every fix used, with the fix
+        sigmas; with a GPS error model also the estimated correlated error (``correlated``, SI) and
+        the residuals whitened under the model (``normalised``: Kalman innovations over sigma, see
+        :func:`~casrecon.physics.sensor_errors.innovations`)."""
         data = result.data
+        errors = result.scenario.config.gps.error_model
+        white_sigma = data.gps_sigma * np.sqrt(1.0 - errors.fraction)
         whitened = result.residuals[result.nlp.groups[result.group(self.name)]].reshape(-1, 6)
-        return {"time_imu_s": data.gps_time_s - clock_offset(result), "residual": whitened * data.gps_sigma,
-                "sigma": data.gps_sigma}
+        correlated = np.zeros_like(whitened)
+        extra = result.part.extra(self.name)
+        if extra is not None:
+            e = result.z[extra.cols].reshape(-1, errors.active.size)
+            act = errors.active
+            correlated[:, act] = e * data.gps_sigma[:, act] * np.sqrt(errors.fraction[act])
+        residual = whitened * white_sigma + correlated
+        time = data.gps_time_s - clock_offset(result)
+        normalised = np.column_stack([innovations(residual[:, c] / data.gps_sigma[:, c], time, errors.time_s[c],
+                                                  errors.fraction[c]) for c in range(6)])
+        return {"time_imu_s": time, "residual": residual, "sigma": data.gps_sigma, "correlated": correlated,
+                "normalised": normalised}
 
 
 def clock_offset(result) -> float:
