@@ -33,7 +33,7 @@ import numpy as np
 from scipy.signal import savgol_coeffs
 
 from casrecon.analysis import aero_columns as cols
-from casrecon.estimation.bands import MAX_BAND_NODES
+from casrecon.estimation.bands import MAX_BAND_NODES, node_cell_inputs, node_parameters
 from casrecon.estimation.kinds.imu import SENSOR_NAMES, imu_sigma
 from casrecon.estimation.layout import NS, BlockLocals
 from casrecon.estimation.transcription import STATE_SCALE, disturbance_selection
@@ -116,10 +116,11 @@ def _node_function(result) -> ca.Function:
     model, part = result.scenario.model, result.part
     loc = BlockLocals(part)
     zx, zt, zu = ca.SX.sym("zx", NS), ca.SX.sym("zt", part.params.n), ca.SX.sym("zu", part.n_u)
+    zg, base = ca.SX.sym("zg", part.n_profile_local), ca.SX.sym("base")
     s = ca.SX.sym("s", 9)
     x, theta = zx * ca.DM(STATE_SCALE), zt * ca.DM(part.params.scales)
     d = disturbance_selection(part.active) @ (zu * ca.DM(part.u_scale)) if part.n_u else ca.DM.zeros(9)
-    p = loc.model_params(theta)
+    p = node_parameters(part, x, theta, zg, base)
     n_disp = len(DISPERSION_NAMES)
     p_nominal = ca.vertcat(ca.DM.zeros(n_disp), p[n_disp:])
     best = database_coefficients(model, x, p, d)
@@ -127,8 +128,8 @@ def _node_function(result) -> ca.Function:
     qbar, fl, _ = _flow(model, x, p, d)
     y = ca.vertcat(best, rec, database_coefficients(model, x, p_nominal, d), fl.alpha_t * 180 / np.pi, qbar)
     banded = ca.vertcat(best, rec)
-    jac = ca.horzcat(ca.jacobian(banded, ca.vertcat(zx, zt, zu)), ca.jacobian(banded, s))
-    return ca.Function("aero_coefficients_node", [zx, zt, zu, s], [y, jac])
+    jac = ca.horzcat(ca.jacobian(banded, ca.vertcat(zx, zt, zu, zg)), ca.jacobian(banded, s))
+    return ca.Function("aero_coefficients_node", [zx, zt, zu, zg, base, s], [y, jac])
 
 
 def smoothed_imu(time_s: np.ndarray, accel: np.ndarray, gyro: np.ndarray, valid: np.ndarray,
@@ -211,13 +212,14 @@ def aero_coefficients(result) -> dict[str, np.ndarray]:
     zx = z[part.node_cols].reshape(k, NS).T
     zt = np.repeat(z[part.theta_cols, None], k, axis=1)
     zu = z[part.u_cols].T
-    y, jac = fn(zx, zt, zu, np.nan_to_num(s).T)
+    cell_cols, zg, base = node_cell_inputs(part, z, np.arange(k))
+    y, jac = fn(zx, zt, zu, zg, base, np.nan_to_num(s).T)
     y = np.asarray(y).T                                               # (K, 26)
-    n_v = NS + part.params.n + part.n_u
+    n_v = NS + part.params.n + part.n_u + part.n_profile_local
     jac = np.asarray(jac).reshape(2 * N_COEF, k, n_v + 9).transpose(1, 0, 2)   # (K, 16, n_v + 9)
     nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))
-    index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i]]
-                  for i in nodes]
+    index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i],
+                        cell_cols[i]] for i in nodes]
     var_z = np.zeros((nodes.size, 2 * N_COEF))
     for j, (i, c) in enumerate(zip(nodes, result.covariance.blocks(index_sets))):
         var_z[j] = np.einsum("ij,jk,ik->i", jac[i, :, :n_v], c, jac[i, :, :n_v])

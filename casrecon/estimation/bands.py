@@ -32,20 +32,56 @@ def columns_of(part: DropLayout) -> tuple[str, ...]:
     return tuple(c for c, _ in COLUMNS) + tuple(DISTURBANCE_COLUMNS[i][0] for i in part.active)
 
 
+def node_parameters(part: DropLayout, x, theta, z_cell, cell_base_msl_m):
+    """The FlightModel parameters at a node of state ``x`` (SI): the estimates ``theta`` (SI) plus,
+    with a profile, the corrections on its cell (scaled level values ``z_cell``, lower level at
+    ``cell_base_msl_m``)."""
+    p = BlockLocals(part).model_params(theta)
+    grid = part.profile
+    if grid is None:
+        return p
+    return grid.add_to_parameters(p, grid.correction(z_cell, part.ground_alt_msl_m - x[2], cell_base_msl_m))
+
+
+def node_cell_inputs(part: DropLayout, z: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(z columns (len(nodes), n_profile_local), their values (n_profile_local, len(nodes)), the cells'
+    lower altitudes (1, len(nodes))) of the profile cells of ``nodes`` (empty without a profile)."""
+    nodes = np.asarray(nodes, np.int64)
+    if part.profile is None:
+        return np.zeros((nodes.size, 0), np.int64), np.zeros((0, nodes.size)), np.zeros((1, nodes.size))
+    cells = part.node_cells[nodes]
+    cols = part.profile_cell_columns(cells)
+    return cols, z[cols].T, part.profile.altitudes_msl_m[cells][None, :]
+
+
+def node_parameter_values(part: DropLayout, z: np.ndarray) -> np.ndarray:
+    """The FlightModel parameters (n_params, K) at every node of a fit at ``z`` (scaled): the
+    estimates plus the profile corrections at each node's altitude."""
+    k = part.n_nodes
+    zx, zt = ca.SX.sym("zx", NS), ca.SX.sym("zt", part.params.n)
+    zg, base = ca.SX.sym("zg", part.n_profile_local), ca.SX.sym("base")
+    x, theta = zx * ca.DM(STATE_SCALE), zt * ca.DM(part.params.scales)
+    fn = ca.Function("node_parameters", [zx, zt, zg, base], [node_parameters(part, x, theta, zg, base)])
+    _, zg_v, base_v = node_cell_inputs(part, z, np.arange(k))
+    return np.asarray(fn.map(k)(z[part.node_cols].reshape(k, NS).T, np.repeat(z[part.theta_cols, None], k, axis=1),
+                                zg_v, base_v))
+
+
 def _output_function(model: FlightModel, part: DropLayout) -> ca.Function:
-    """(z_node (13), z_theta, z_u) -> (y, dy/d[z_node; z_theta; z_u]) for the columns, scaled inputs."""
+    """(z_node (13), z_theta, z_u, z_cell, cell base) -> (y, dy/d[z_node; z_theta; z_u; z_cell]) for the
+    columns, scaled inputs."""
     params, active = part.params, part.active
-    loc = BlockLocals(part)
     zx, zt, zu = ca.SX.sym("zx", NS), ca.SX.sym("zt", params.n), ca.SX.sym("zu", len(active))
+    zg, base = ca.SX.sym("zg", part.n_profile_local), ca.SX.sym("base")
     x, theta = zx * ca.DM(STATE_SCALE), zt * ca.DM(params.scales)
     u = zu * ca.DM(part.u_scale)
-    out = model.outputs_d(x, loc.model_params(theta), disturbance_selection(active) @ u)
+    out = model.outputs_d(x, node_parameters(part, x, theta, zg, base), disturbance_selection(active) @ u)
     idx = OUTPUT_NAMES.index
     y = ca.vertcat(x[0:3], out[idx("h_agl")], x[3:6], out[idx("roll"):idx("yaw") + 1], x[10:13],
                    out[idx("alpha")], out[idx("beta")], out[idx("alpha_t")], out[idx("qbar")], out[idx("mach")], u)
     y = y * ca.DM([f for _, f in COLUMNS] + [DISTURBANCE_COLUMNS[i][1] for i in active])
-    v = ca.vertcat(zx, zt, zu)
-    return ca.Function("outputs_with_jacobian", [zx, zt, zu], [y, ca.jacobian(y, v)])
+    v = ca.vertcat(zx, zt, zu, zg)
+    return ca.Function("outputs_with_jacobian", [zx, zt, zu, zg, base], [y, ca.jacobian(y, v)])
 
 
 def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, cov):
@@ -57,13 +93,14 @@ def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, c
     zx = z[part.node_cols].reshape(k, NS).T
     zt = np.repeat(z[part.theta_cols, None], k, axis=1)
     zu = z[part.u_cols].T
-    y, jac = fn(zx, zt, zu)
+    cell_cols, zg, base = node_cell_inputs(part, z, np.arange(k))
+    y, jac = fn(zx, zt, zu, zg, base)
     y = np.asarray(y).T
-    ny, nv = y.shape[1], NS + part.params.n + part.n_u
+    ny, nv = y.shape[1], NS + part.params.n + part.n_u + part.n_profile_local
     jac = np.asarray(jac).reshape(ny, k, nv).transpose(1, 0, 2)  # (k, ny, nv)
     nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))
-    index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i]]
-                  for i in nodes]
+    index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i],
+                        cell_cols[i]] for i in nodes]
     sigma = np.zeros((nodes.size, ny))
     for j, (i, c) in enumerate(zip(nodes, cov.blocks(index_sets))):
         sigma[j] = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac[i], c, jac[i]), 0.0))

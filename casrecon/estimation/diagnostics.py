@@ -11,6 +11,7 @@ import casadi as ca
 import numpy as np
 from scipy.signal import savgol_filter
 
+from casrecon.estimation.bands import node_parameter_values
 from casrecon.estimation.kinds.gps import GpsKind
 from casrecon.estimation.kinds.imu import IMU_CHANNELS, ImuKind, model_and_bias_values
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment
@@ -41,13 +42,14 @@ def _moment_coefficient_function(result) -> ca.Function:
     return ca.Function("moment_coefficients", [vb, w, a, disp], [moment / veh.ref_length_m])
 
 
-def _air_at_nodes(result, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Air-relative velocity in body axes (K, 3) and speed of sound (K,) at the fit's nodes."""
+def _air_at_nodes(result) -> tuple[np.ndarray, np.ndarray]:
+    """Air-relative velocity in body axes (K, 3) and speed of sound (K,) at the fit's nodes (with
+    the profile corrections at each node, if any)."""
     model = result.scenario.model
     x, pp = ca.SX.sym("x", model.n_states), ca.SX.sym("p", model.n_params)
     t = model.terms(x, pp)
     fn = ca.Function("air", [x, pp], [t["v_air_body"], t["air"].sound_speed]).map(result.states.shape[0])
-    vb, a = fn(result.states.T, np.tile(p[:, None], result.states.shape[0]))
+    vb, a = fn(result.states.T, node_parameter_values(result.part, result.z))
     return np.asarray(vb).T, np.asarray(a).ravel()
 
 
@@ -81,7 +83,7 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     qbar = result.column("qbar_pa")[0]
     coef = _moment_coefficient_function(result)
     k = result.states.shape[0]
-    vb, sound = _air_at_nodes(result, p)
+    vb, sound = _air_at_nodes(result)
     disp = np.tile(p[:len(DISPERSION_NAMES), None], k)
     with_rates = np.asarray(coef.map(k)(vb.T, w.T, sound[None, :], disp))
     without = np.asarray(coef.map(k)(vb.T, np.zeros((3, k)), sound[None, :], disp))

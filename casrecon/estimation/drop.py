@@ -21,12 +21,13 @@ from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.fitdata import FitData, FitDataError
 from casrecon.estimation.kinds.baro import BaroKind
 from casrecon.estimation.kinds.base import DropContext, MeasurementKind
-from casrecon.estimation.kinds.disturbance import disturbance_terms
+from casrecon.estimation.kinds.disturbance import disturbance_terms, profile_terms
 from casrecon.estimation.kinds.gps import GpsKind
 from casrecon.estimation.kinds.imu import ImuKind
 from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.layout import NS, DropLayout, ExtraColumns
 from casrecon.estimation.parameters import ParameterSet, model_parameters
+from casrecon.estimation.profile import ProfileGrid
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.dynamics import FlightModel
@@ -67,13 +68,32 @@ def with_extra_columns(layout: DropLayout, cfg: ProblemConfig, measurements: dic
     ``latent_size(config, measurements) -> (count, eliminable)``) from z column ``first_col`` on,
     and the next free column."""
     extras, col = [], first_col
+    grid, interval_cells, node_cells = profile_grid(layout, cfg, measurements)
+    if grid is not None:
+        extras.append(ExtraColumns("profile", col, grid.size))
+        col += grid.size
     for kind in kinds:
         if kind.name in measurements and hasattr(kind, "latent_size"):
             count, eliminable = kind.latent_size(cfg, measurements[kind.name])
             if count:
                 extras.append(ExtraColumns(kind.name, col, count, eliminable))
                 col += count
-    return replace(layout, extras=tuple(extras)), col
+    return replace(layout, extras=tuple(extras), profile=grid, ground_alt_msl_m=cfg.site.ground_alt_msl_m,
+                   interval_cells=interval_cells, node_cells=node_cells), col
+
+
+def profile_grid(layout: DropLayout, cfg: ProblemConfig, measurements: dict[str, object]):
+    """(ProfileGrid, cell of each interval, cell of each node) of a drop from ``[atmosphere]`` and
+    the GPS altitudes interpolated to the nodes, or (None, None, None) without a profile error."""
+    atm = cfg.atmosphere
+    data = measurements.get("gps")
+    sigmas = (atm.profile_wind_sigma_mps, atm.profile_wind_sigma_mps, atm.profile_density_sigma)
+    if data is None or not any(sigmas):
+        return None, None, None
+    t = layout.mesh.t_nodes
+    alt = cfg.site.ground_alt_msl_m - np.interp(t, data.gps_time_s - layout.guess_clock_s, data.gps_pos_ned[:, 2])
+    grid = ProfileGrid.covering(alt, atm.profile_step_m, sigmas, atm.profile_length_m)
+    return grid, grid.cell_of(0.5 * (alt[:-1] + alt[1:])), grid.cell_of(alt)
 
 
 def drop_terms(context: DropContext, kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> list[Term]:
@@ -83,7 +103,7 @@ def drop_terms(context: DropContext, kinds: tuple[MeasurementKind, ...] = MEASUR
         if kind.name in context.measurements:
             terms += kind.terms(context)
     terms += prior_terms(context.layout.params, context.layout.theta_cols, lambda g: context.group(f"prior_{g}"))
-    return terms + disturbance_terms(context.layout, context.group)
+    return terms + disturbance_terms(context.layout, context.group) + profile_terms(context.layout, context.group)
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.parameters import ParameterSet
+from casrecon.estimation.profile import ProfileGrid
 from casrecon.estimation.transcription import STATE_SCALE, Mesh
 from casrecon.physics.disturbance import N_DISTURBANCES, DisturbanceModel
 from casrecon.physics.dynamics import PARAMETER_NAMES
@@ -72,8 +73,15 @@ class DropLayout:
     u_offset : int
         z column of the first latent disturbance value.
     extras : tuple of ExtraColumns
-        Further unknowns of the drop after everything above, in this order (e.g. the latent GPS
-        errors of every fix).
+        Further unknowns of the drop after everything above, in this order: the atmosphere-profile
+        corrections (``"profile"``), then the kinds' (e.g. the latent GPS errors of every fix).
+    profile : ProfileGrid or None
+        The altitude grid of the profile corrections (:mod:`casrecon.estimation.profile`).
+    ground_alt_msl_m : float
+        The site's ground altitude (m MSL): altitude MSL = it - pos_d.
+    interval_cells, node_cells : int arrays
+        With a profile: the grid cell each interval (at its guessed mid-altitude) and each node
+        (at its guessed altitude) uses.
     """
 
     name: str
@@ -86,6 +94,29 @@ class DropLayout:
     disturbance: DisturbanceModel | None = None
     u_offset: int = 0
     extras: tuple[ExtraColumns, ...] = ()
+    profile: ProfileGrid | None = None
+    ground_alt_msl_m: float = 0.0
+    interval_cells: np.ndarray | None = None
+    node_cells: np.ndarray | None = None
+
+    @property
+    def n_profile_local(self) -> int:
+        """Profile unknowns a two-node block sees: the two levels of its cell."""
+        return 0 if self.profile is None else 2 * self.profile.n_components
+
+    def profile_cell_columns(self, cells: np.ndarray) -> np.ndarray:
+        """z columns (len(cells), n_profile_local) of the given grid cells."""
+        if self.profile is None:
+            return np.zeros((len(cells), 0), np.int64)
+        return self.profile.cell_columns(self.extra("profile").offset, cells)
+
+    def profile_block_data(self, k: np.ndarray) -> list:
+        """Per-block data of the profile for two-node blocks on intervals ``k``: the lower level's
+        altitude of each interval's cell (m MSL) as one DM row, or nothing without a profile."""
+        if self.profile is None:
+            return []
+        cells = self.interval_cells[np.asarray(k, np.int64)]
+        return [ca.DM(self.profile.altitudes_msl_m[cells]).T]
 
     def extra(self, name: str) -> ExtraColumns | None:
         """The extra unknowns called ``name`` (None when the drop has none)."""
@@ -170,11 +201,13 @@ class DropLayout:
         return z
 
     def two_node_columns(self, k: np.ndarray) -> np.ndarray:
-        """Global columns (len(k), 2 n_states + n_params + 2 n_u) of the two-node blocks on
-        intervals ``k``: [x_k, x_k+1, theta, u_k, u_k+1]."""
+        """Global columns (len(k), 2 n_states + n_params + 2 n_u + n_profile_local) of the two-node
+        blocks on intervals ``k``: [x_k, x_k+1, theta, u_k, u_k+1, profile cell]."""
         k = np.asarray(k, np.int64)
         first = self.node_offset + self.n_states * k[:, None] + np.arange(2 * self.n_states)[None, :]
-        return np.column_stack([first, np.tile(self.theta_cols, (k.size, 1)), self.u_cols[k], self.u_cols[k + 1]])
+        profile = self.profile_cell_columns(self.interval_cells[k] if self.profile is not None else k)
+        return np.column_stack([first, np.tile(self.theta_cols, (k.size, 1)), self.u_cols[k], self.u_cols[k + 1],
+                                profile])
 
     def interval_of(self, t_imu_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(interval index, fraction tau within it) of IMU-clock times (s) for measurements whose
@@ -198,7 +231,26 @@ class BlockLocals:
         self.layout = layout
         self.params = layout.params
         self.n_s, self.n_p, self.n_u = layout.n_states, layout.params.n, layout.n_u
-        self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u)
+        self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u + layout.n_profile_local)
+        #: Per-block data symbols the locals need (the profile cell's lower altitude), to be listed
+        #: after a kind's own data, with :meth:`DropLayout.profile_block_data` as their values.
+        self.data = [ca.SX.sym("profile_cell_msl_m")] if layout.profile is not None else []
+
+    def point_params(self, theta: ca.SX, x: ca.SX, v: ca.SX | None = None) -> ca.SX:
+        """The FlightModel parameter vector at the point of state ``x``: :meth:`model_params` plus the
+        profile corrections at its altitude (see :mod:`casrecon.estimation.profile`)."""
+        p = self.model_params(theta)
+        grid = self.layout.profile
+        if grid is None:
+            return p
+        v = self.symbol if v is None else v
+        cell = v[v.numel() - self.layout.n_profile_local:]
+        alt = self.layout_altitude(x)
+        return grid.add_to_parameters(p, grid.correction(cell, alt, self.data[0]))
+
+    def layout_altitude(self, x: ca.SX) -> ca.SX:
+        """Altitude MSL (m) of state ``x`` (SI)."""
+        return self.layout.ground_alt_msl_m - x[2]
 
     def split(self, v: ca.SX | None = None):
         """(x_k, x_k+1, theta, u_k, u_k+1) in SI from the scaled local vector (default: the

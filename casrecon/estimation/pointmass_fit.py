@@ -32,6 +32,7 @@ from casrecon.estimation.engine.checks import (
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.engine.solve import SolveResult, solve
+from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.kinds.drag import CDA_SCALE, SCALE, drag_interval_kind, drag_prior_terms
 from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.layout import DropLayout
@@ -44,6 +45,7 @@ from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.pointmass import PointMassModel
+from casrecon.physics.sensor_errors import innovations
 
 
 @dataclass
@@ -86,6 +88,7 @@ class PointMassResult:
     inv_sigma: np.ndarray             # (K, 6) inverse 1-sigma of those fixes, 0 where none
     areas: np.ndarray                 # (K, n_areas) CdA and (with lift) AN, AE, m^2
     area_sigma: np.ndarray            # (K, n_areas) absolute 1-sigma, m^2
+    whitened_residuals: np.ndarray | None = None  # (K, 6) innovations under the GPS error model, NaN where no fix
     notes: tuple[str, ...] = ()
 
     def residual_stats(self) -> dict[str, dict[str, float]]:
@@ -186,24 +189,35 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     mesh = Mesh(t_rel, h, 1)
     part = DropLayout(cfg.name, mesh, params, 0, 6 * k + np.arange(params.n), state_scale=SCALE)
     n_int = k - 1
+    errors = cfg.gps_errors
+    active = errors.active
+    e_cols = 6 * k + params.n + np.arange(k * active.size).reshape(k, active.size)
     cols = np.column_stack([6 * np.arange(n_int)[:, None] + np.arange(12)[None, :],
-                            np.tile(part.theta_cols, (n_int, 1))])
+                            np.tile(part.theta_cols, (n_int, 1)), e_cols[:-1], e_cols[1:]])
     b_mid = drag_basis(cfg, model_name, t_rel[:-1] + h / 2)
     last = np.zeros((n_int, 6))
     last[-1] = 1.0
+    white = data.inv_sigma / np.sqrt(1.0 - errors.fraction)
     block_data = [ca.DM(basis[:-1].T), ca.DM(b_mid.T), ca.DM(basis[1:].T), ca.DM(data.y[:-1].T),
-                  ca.DM(data.inv_sigma[:-1].T), ca.DM(data.y[1:].T), ca.DM((data.inv_sigma[1:] * last).T)]
-    kind = drag_interval_kind(model, h, n_coef, n_areas, params.scales[-1])
+                  ca.DM(white[:-1].T), ca.DM(data.y[1:].T), ca.DM((white[1:] * last).T)]
+    if active.size:
+        with np.errstate(divide="ignore"):
+            amp = np.where(data.inv_sigma > 0, np.sqrt(errors.fraction) / data.inv_sigma, 0.0)[:, active]
+        block_data += [ca.DM(amp[:-1].T), ca.DM(amp[1:].T)]
+    kind = drag_interval_kind(model, h, n_coef, n_areas, params.scales[-1], tuple(active.tolist()))
     terms = [Term("gps", (BlockSet(kind, cols, block_data),)),
              *drag_prior_terms(n_coef, n_areas, part.theta_cols[:n_coef * n_areas], cfg),
              *prior_terms(params, part.theta_cols)]
-    nlp = assemble_nlp(terms, 6 * k + params.n, dependent=part.dependent_cols,
-                       parameter_names=dict(zip(part.theta_cols.tolist(), params.names)))
+    if active.size:
+        phi = np.tile(errors.transition(np.array([h])), (k - 1, 1))
+        terms += gauss_markov_terms(e_cols, phi, "gps_error_start", "gps_error")
+    nlp = assemble_nlp(terms, 6 * k + params.n + e_cols.size, dependent=part.dependent_cols,
+                       parameter_names=dict(zip(part.theta_cols.tolist(), params.names)), eliminated=e_cols.ravel())
     cda0 = _initial_cda(data, cfg, atm)
     pos_vel = np.column_stack([np.interp(t_rel, t_rel[data.inv_sigma[:, i] > 0], data.y[data.inv_sigma[:, i] > 0, i])
                                for i in range(6)])
     z0 = np.concatenate([(pos_vel / SCALE).ravel(), np.full(n_coef, cda0 / CDA_SCALE),
-                         np.zeros(n_coef * (n_areas - 1) + 2)])
+                         np.zeros(n_coef * (n_areas - 1) + 2 + e_cols.size)])
     t1 = time.perf_counter()
     check_determined(nlp, z0)
     lbx = np.full(z0.size, -np.inf)
@@ -236,6 +250,11 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     cda, cda_sigma = areas[0], area_sigma[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         norm = np.where(data.inv_sigma > 0, (data.y - states) * data.inv_sigma, np.nan)
+    errors = cfg.gps_errors
+    whitened = np.full_like(norm, np.nan)
+    for c in range(6):
+        ok = np.isfinite(norm[:, c])
+        whitened[ok, c] = innovations(norm[ok, c], data.t_unix[ok], errors.time_s[c], errors.fraction[c])
     chi2 = nlp.group_chi2(r)
     counts = dict(nlp.n_measurements)
     counts["gps"] = int((data.inv_sigma > 0).sum())
@@ -243,4 +262,6 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     return PointMassResult(cfg, model_name, data.t_unix, states, state_sigma, cda, cda_sigma, part.params, values,
                            sigma, norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, nlp=nlp,
                            z=sol.z, covariance=cov, track=data.track, y=data.y, inv_sigma=data.inv_sigma,
-                           areas=np.column_stack(areas), area_sigma=np.column_stack(area_sigma), notes=data.notes)
+                           areas=np.column_stack(areas), area_sigma=np.column_stack(area_sigma),
+                           whitened_residuals=whitened,
+                           notes=data.notes + ((errors.describe(),) if errors.enabled else ()))

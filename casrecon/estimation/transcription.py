@@ -124,21 +124,24 @@ def imu_model_function(model: FlightModel, active=()) -> ca.Function:
 
 
 def interval_function(model: FlightModel, h: float, active=()) -> ca.Function:
-    """``interval(xk, xk1, p, bias6, d, R, uk, uk1) -> (defect13 scaled, r_imu, c)`` for one interval.
+    """``interval(xk, xk1, pk, pk1, bias6, d, R, uk, uk1) -> (defect13 scaled, r_imu, c)`` for one
+    interval.
 
-    ``d`` holds Q^T W y of the 6 IMU channels and ``R`` their R factors (column major), stacked at
-    ``D_OFFSETS`` and ``R_OFFSETS``; ``bias6`` the accelerometer and gyro biases (IMU axes); ``c``
-    the model's basis coefficients of every channel (see the module docstring); ``uk``, ``uk1``
-    the estimated disturbance entries ``active`` at the two nodes (linear in between).
+    ``pk``, ``pk1`` are the model parameters at the two nodes (they differ only by the
+    atmosphere-profile corrections; linear in between); ``d`` holds Q^T W y of the 6 IMU channels
+    and ``R`` their R factors (column major), stacked at ``D_OFFSETS`` and ``R_OFFSETS``; ``bias6``
+    the accelerometer and gyro biases (IMU axes); ``c`` the model's basis coefficients of every
+    channel (see the module docstring); ``uk``, ``uk1`` the estimated disturbance entries
+    ``active`` at the two nodes (linear in between).
     """
     xk, xk1 = ca.SX.sym("xk", 13), ca.SX.sym("xk1", 13)
-    p, b = ca.SX.sym("p", model.n_params), ca.SX.sym("b", 6)
+    pk, pk1, b = ca.SX.sym("pk", model.n_params), ca.SX.sym("pk1", model.n_params), ca.SX.sym("b", 6)
     d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
     uk, uk1 = ca.SX.sym("uk", len(active)), ca.SX.sym("uk1", len(active))
     imu = imu_model_function(model, active)
-    (fk, yk), (fk1, yk1) = imu(xk, p, uk), imu(xk1, p, uk1)
+    (fk, yk), (fk1, yk1) = imu(xk, pk, uk), imu(xk1, pk1, uk1)
     xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
-    fm, ym = imu(xm, p, 0.5 * (uk + uk1))
+    fm, ym = imu(xm, 0.5 * (pk + pk1), 0.5 * (uk + uk1))
     defect = (xk1 - xk - h / 6 * (fk + 4 * fm + fk1)) / ca.DM(STATE_SCALE)
     c_ib = ca.DM(np.asarray(model.vehicle.imu_to_body)).T
     wdot_k, wdot_k1 = c_ib @ fk[10:13], c_ib @ fk1[10:13]
@@ -148,22 +151,23 @@ def interval_function(model: FlightModel, h: float, active=()) -> ca.Function:
     for c, n in enumerate(CHANNEL_BASIS):
         r_c = ca.reshape(rr[int(R_OFFSETS[c]):int(R_OFFSETS[c + 1])], n, n)
         res.append(d[int(D_OFFSETS[c]):int(D_OFFSETS[c + 1])] - r_c @ coefs[c])
-    return ca.Function("interval", [xk, xk1, p, b, d, rr, uk, uk1],
+    return ca.Function("interval", [xk, xk1, pk, pk1, b, d, rr, uk, uk1],
                        [defect, ca.vertcat(*res), ca.vertcat(*coefs)],
-                       ["xk", "xk1", "p", "bias", "d", "R", "uk", "uk1"], ["defect", "r_imu", "c"])
+                       ["xk", "xk1", "pk", "pk1", "bias", "d", "R", "uk", "uk1"], ["defect", "r_imu", "c"])
 
 
 def gps_function(model: FlightModel, h: float, active=()) -> ca.Function:
-    """``gps(xk, xk1, p, tau, y6, inv_sigma6, uk, uk1) -> r6``: whitened antenna position/velocity
-    residual (``uk``, ``uk1``: the estimated disturbance entries ``active`` at the two nodes)."""
+    """``gps(xk, xk1, pk, pk1, tau, y6, inv_sigma6, uk, uk1) -> r6``: whitened antenna position/velocity
+    residual (``pk``, ``pk1``: model parameters at the two nodes; ``uk``, ``uk1``: the estimated
+    disturbance entries ``active`` at the two nodes)."""
     xk, xk1 = ca.SX.sym("xk", 13), ca.SX.sym("xk1", 13)
-    p, tau = ca.SX.sym("p", model.n_params), ca.SX.sym("tau")
+    pk, pk1, tau = ca.SX.sym("pk", model.n_params), ca.SX.sym("pk1", model.n_params), ca.SX.sym("tau")
     y, w = ca.SX.sym("y", 6), ca.SX.sym("w", 6)
     uk, uk1 = ca.SX.sym("uk", len(active)), ca.SX.sym("uk1", len(active))
     sel = disturbance_selection(active)
-    x = hermite(tau, h, xk, model.rhs_d(xk, p, sel @ uk), xk1, model.rhs_d(xk1, p, sel @ uk1))
+    x = hermite(tau, h, xk, model.rhs_d(xk, pk, sel @ uk), xk1, model.rhs_d(xk1, pk1, sel @ uk1))
     pos, vel = gps_antenna_ned(model.vehicle, x[0:3], x[3:6], x[6:10], x[10:13])
-    return ca.Function("gps", [xk, xk1, p, tau, y, w, uk, uk1], [(y - ca.vertcat(pos, vel)) * w])
+    return ca.Function("gps", [xk, xk1, pk, pk1, tau, y, w, uk, uk1], [(y - ca.vertcat(pos, vel)) * w])
 
 
 @dataclass(frozen=True)

@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import math
 
+from casrecon.io.atmosphere_config import AtmosphereConfig
 from casrecon.io.baro import BaroConfig
 from casrecon.io.config_records import FROM_FIELD, REQUIRED, FileKind, Key, Table
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.pointmass_problem import DragConfig, GpsQuality, PointMassConfig, SegmentConfig
 from casrecon.io.problem import (
-    AtmosphereConfig,
     EstimationConfig,
     GpsConfig,
     ReleaseConfig,
@@ -56,8 +56,8 @@ _DISTURBANCE = (
 
 def _gps_error_keys(prefix: str) -> tuple[Key, ...]:
     """The GPS error-model keys (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`), read into
-    ``{prefix}error_model``."""
-    m = f"{prefix}error_model"
+    ``{prefix}`` (``"gps.error_model"`` or ``"gps_errors"``)."""
+    m = prefix
     return (
         _k("position_error_time_s", "float", "s", "Correlation time of the correlated part of each GPS position "
            "error component (first-order Gauss-Markov, estimated at every fix); 0: white", source=GpsErrorModel,
@@ -125,6 +125,18 @@ SIX_DOF = FileKind(
                "bias north and east", source=AtmosphereConfig, attr="atmosphere.wind_3sigma_mps"),
             _k("density_3sigma", "float", "", "3-sigma of the balloon's density as a fraction, the prior of the "
                "estimated density factor", source=AtmosphereConfig, attr="atmosphere.density_3sigma"),
+            _k("profile_wind_sigma_mps", "float", "m/s", "1-sigma of the difference between the wind the vehicle "
+               "flew through and the sounding's (plus the wind bias), each of north and east: a Gauss-Markov process "
+               "in altitude estimated on a grid; 0: none", source=AtmosphereConfig,
+               attr="atmosphere.profile_wind_sigma_mps"),
+            _k("profile_density_sigma", "float", "", "1-sigma of the relative difference between the density flown "
+               "through and the sounding's (times 1 + density factor), Gauss-Markov in altitude; 0: none",
+               source=AtmosphereConfig, attr="atmosphere.profile_density_sigma"),
+            _k("profile_length_m", "float", "m", "Correlation length in altitude of the profile errors",
+               source=AtmosphereConfig, attr="atmosphere.profile_length_m"),
+            _k("profile_step_m", "float", "m", "Altitude step of the grid the profile errors are estimated on "
+               "(linear in between), at most profile_length_m", source=AtmosphereConfig,
+               attr="atmosphere.profile_step_m"),
         ), required=True),
         _DYNAMICS,
         Table("release", (
@@ -181,7 +193,7 @@ SIX_DOF = FileKind(
                source=GpsConfig, attr="gps.v_acc_m"),
             _k("s_acc_mps", "float", "m/s", "Speed accuracy (1-sigma) the synthetic receiver reports",
                source=GpsConfig, attr="gps.s_acc_mps"),
-            *_gps_error_keys("gps."),
+            *_gps_error_keys("gps.error_model"),
         ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc); the "
                 "error-model keys split that variance into a white and a time-correlated part.",
             required=True),
@@ -283,6 +295,7 @@ POINT_MASS = FileKind(
                source=GpsQuality, attr="quality.max_s_acc_mps"),
             _k("min_num_sv", "int", "", "Fixes with fewer satellites are dropped", source=GpsQuality,
                attr="quality.min_num_sv"),
+            *_gps_error_keys("gps_errors"),
         ), required=True),
         Table("segment", (
             _k("start_utc", "datetime or string", "UTC", "Start of the fitted segment", "<found from the data>"),

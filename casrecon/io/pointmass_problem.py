@@ -16,10 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from casrecon.io.gps_rules import GpsQuality
+from casrecon.io.gps_rules import GpsQuality, gps_error_model
 from casrecon.io.problem import parse_dynamics, parse_site, parse_utc
 from casrecon.io.toml_fields import Fields, load_toml
 from casrecon.physics.dynamics import DynamicsOptions, Site
+from casrecon.physics.sensor_errors import GpsErrorModel
 
 
 @dataclass(frozen=True)
@@ -66,6 +67,7 @@ class PointMassConfig:
     quality: GpsQuality
     segment: SegmentConfig
     dynamics: DynamicsOptions
+    gps_errors: GpsErrorModel = GpsErrorModel()
     linear_solver: str = "mumps"
     max_iter: int = 200
     tol: float = 1e-8
@@ -124,7 +126,8 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
                            gps.number("max_s_acc_mps", 1.0, positive=True), gps.integer("min_num_sv", 6, 0)),
         segment=_segment(seg), dynamics=parse_dynamics(f.table("dynamics") or empty["dynamics"]),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
-        max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True))
+        max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True),
+        gps_errors=gps_error_model(gps))
     for t in (head, atm, veh, gps, drag, est, f):
         t.reject_unknown()
     return cfg

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.io.atmosphere_config import AtmosphereConfig, parse_atmosphere
 from casrecon.io.baro import BaroConfig, parse_baro
 from casrecon.io.errors import InputError
 from casrecon.io.gps_rules import GpsQuality, gps_error_model
@@ -37,16 +38,6 @@ from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.physics.dynamics import DynamicsOptions, Site
 from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.physics.vehicle import Vehicle
-
-
-@dataclass(frozen=True)
-class AtmosphereConfig:
-    """Balloon sounding file and its stated uncertainty (3-sigma, as the EES paper gives it)."""
-
-    sounding: Path
-    launch: int = 0
-    wind_3sigma_mps: float = 1.0
-    density_3sigma: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -274,7 +265,7 @@ def load_problem(path: str | Path) -> ProblemConfig:
         description=head.string("description", default=""),
         vehicle=load_vehicle(vehicle_path), aero=load_aero(aero_path),
         site=parse_site(f.table("site", required=True)),
-        atmosphere=_atmosphere(f.table("atmosphere", required=True)),
+        atmosphere=parse_atmosphere(f.table("atmosphere", required=True)),
         dynamics=parse_dynamics(f.table("dynamics") or Fields({}, path, "dynamics.")),
         release=_release(f.table("release", required=True)),
         imu=_imu(sensors.table("imu", required=True)), gps=_gps(sensors.table("gps", required=True)),
@@ -318,14 +309,6 @@ def parse_site(t: Fields) -> Site:
         raise t.error("lat_deg", f"expected a latitude within +-90 deg, got {site.lat_deg}")
     t.reject_unknown()
     return site
-
-
-def _atmosphere(t: Fields) -> AtmosphereConfig:
-    cfg = AtmosphereConfig(sounding=t.path_of("sounding", required=True), launch=t.integer("launch", 0, 0),
-                           wind_3sigma_mps=t.number("wind_3sigma_mps", 1.0, positive=True),
-                           density_3sigma=t.number("density_3sigma", 0.01, positive=True))
-    t.reject_unknown()
-    return cfg
 
 
 def parse_dynamics(t: Fields) -> DynamicsOptions:

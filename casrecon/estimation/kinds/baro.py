@@ -96,19 +96,20 @@ class BaroKind:
         loc = BlockLocals(layout)
         tau0, y = ca.SX.sym("tau0"), ca.SX.sym("p")
         xk, xk1, theta, uk, uk1 = loc.split()
-        p = loc.model_params(theta)
+        pk, pk1 = loc.point_params(theta, xk), loc.point_params(theta, xk1)
         clock = loc.theta_of(theta, CLOCK, layout.guess_clock_s) if samples.receiver_clock else 0.0
         tau = tau0 - clock / layout.mesh.h
         sel = disturbance_selection(layout.active)
-        x = hermite(tau, layout.mesh.h, xk, model.rhs_d(xk, p, sel @ uk), xk1, model.rhs_d(xk1, p, sel @ uk1))
+        x = hermite(tau, layout.mesh.h, xk, model.rhs_d(xk, pk, sel @ uk), xk1, model.rhs_d(xk1, pk1, sel @ uk1))
+        p = loc.point_params(theta, x)
         terms = model.terms(x, p, sel @ (uk + tau * (uk1 - uk)) if layout.n_u else None)
         air = terms["air"]
         qbar = 0.5 * air.density * ca.sumsqr(terms["v_air_body"])
         r = (y - air.pressure - loc.theta_of(theta, BIAS) - loc.theta_of(theta, PORT) * qbar) / samples.noise_pa
-        kind = BlockKind("baro", loc.symbol, [tau0, y], r, None)
+        kind = BlockKind("baro", loc.symbol, [tau0, y, *loc.data], r, None)
         shift = 0.0 if samples.receiver_clock else layout.guess_clock_s
         k, tau_sample = layout.interval_of(samples.time_s + shift)
-        block_data = [ca.DM(tau_sample).T, ca.DM(samples.pressure_pa).T]
+        block_data = [ca.DM(tau_sample).T, ca.DM(samples.pressure_pa).T, *layout.profile_block_data(k)]
         return [Term(context.group(self.name), (BlockSet(kind, layout.two_node_columns(k), block_data),))]
 
     def residuals(self, result) -> dict[str, np.ndarray] | None:

@@ -44,3 +44,14 @@ def disturbance_terms(layout: DropLayout, group=lambda g: g) -> list[Term]:
         return []
     phi = np.tile(layout.disturbance.transition(layout.mesh.h), (layout.n_nodes - 1, 1))
     return gauss_markov_terms(layout.u_cols, phi, group("disturbance_start"), group("disturbance"))
+
+
+def profile_terms(layout: DropLayout, group=lambda g: g) -> list[Term]:
+    """The Gauss-Markov-in-altitude prior of a drop's atmosphere-profile corrections (empty
+    without them): level 0, then each step of the grid."""
+    grid = layout.profile
+    if grid is None:
+        return []
+    cols = layout.extra("profile").cols.reshape(grid.n_levels, grid.n_components)
+    phi = np.full((grid.n_levels - 1, grid.n_components), grid.phi)
+    return gauss_markov_terms(cols, phi, group("profile_start"), group("profile"))

@@ -20,15 +20,18 @@ SCALE = np.array([100.0, 100.0, 100.0, 10.0, 10.0, 10.0])
 CDA_SCALE = 0.1
 
 
-def drag_interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: int, wind_scale: float) -> BlockKind:
+def drag_interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: int, wind_scale: float,
+                       active: tuple[int, ...] = ()) -> BlockKind:
     """Block of one interval: locals [x_k, x_k+1 (scaled), area coefficients (n_coef x n_areas,
-    scaled), wind bias north/east (scaled by ``wind_scale``, m/s)]; data: the spline basis at the
-    two nodes and the midpoint, and the fixes (NED position, velocity) with inverse sigmas at the
-    two nodes. Residuals: the whitened fixes; constraints: the scaled defects."""
-    n_c = n_coef * n_areas
-    v = ca.SX.sym("v", 12 + n_c + 2)
+    scaled), wind bias north/east (scaled by ``wind_scale``, m/s), with a GPS error model the
+    unit-variance correlated errors e_k, e_k+1 of the ``active`` components]; data: the spline
+    basis at the two nodes and the midpoint, the fixes (NED position, velocity) with inverse
+    white sigmas at the two nodes, and with errors their amplitudes sigma sqrt(f) at the two nodes.
+    Residuals: the whitened fixes (y - x - amplitude e) w; constraints: the scaled defects."""
+    n_c, n_e = n_coef * n_areas, len(active)
+    v = ca.SX.sym("v", 12 + n_c + 2 + 2 * n_e)
     xk, xk1 = v[:6] * ca.DM(SCALE), v[6:12] * ca.DM(SCALE)
-    coef, wind = ca.reshape(v[12:12 + n_c] * CDA_SCALE, n_coef, n_areas), v[12 + n_c:] * wind_scale
+    coef, wind = ca.reshape(v[12:12 + n_c] * CDA_SCALE, n_coef, n_areas), v[12 + n_c:14 + n_c] * wind_scale
     bk, bm, bk1 = (ca.SX.sym(n, n_coef) for n in ("bk", "bm", "bk1"))
     yk, wk, yk1, wk1 = ca.SX.sym("yk", 6), ca.SX.sym("wk", 6), ca.SX.sym("yk1", 6), ca.SX.sym("wk1", 6)
 
@@ -39,8 +42,16 @@ def drag_interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: in
     fk, fk1 = model.rhs(xk, area(bk), wind), model.rhs(xk1, area(bk1), wind)
     xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
     defect = (xk1 - xk - h / 6 * (fk + 4 * model.rhs(xm, area(bm), wind) + fk1)) / ca.DM(SCALE)
+    data = [bk, bm, bk1, yk, wk, yk1, wk1]
+    if n_e:
+        ak, ak1 = ca.SX.sym("ak", n_e), ca.SX.sym("ak1", n_e)
+        ek, ek1 = v[14 + n_c:14 + n_c + n_e], v[14 + n_c + n_e:]
+        select = np.zeros((6, n_e))
+        select[np.asarray(active), np.arange(n_e)] = 1.0
+        yk, yk1 = yk - ca.DM(select) @ (ak * ek), yk1 - ca.DM(select) @ (ak1 * ek1)
+        data += [ak, ak1]
     residual = ca.vertcat((yk - xk) * wk, (yk1 - xk1) * wk1)
-    return BlockKind("pm_interval", v, [bk, bm, bk1, yk, wk, yk1, wk1], residual, defect)
+    return BlockKind("pm_interval", v, data, residual, defect)
 
 
 def drag_prior_terms(n_coef: int, n_areas: int, coef_cols: np.ndarray, cfg: PointMassConfig) -> list[Term]:

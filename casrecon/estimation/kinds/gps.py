@@ -62,18 +62,18 @@ class GpsKind:
         select = np.zeros((6, active.size))
         select[active, np.arange(active.size)] = 1.0
         y_white = y - ca.DM(select) @ (amp * e) if active.size else y
-        r = gps_function(model, layout.mesh.h, layout.active)(xk, xk1, loc.model_params(theta), tau, y_white, w,
-                                                              uk, uk1)
+        r = gps_function(model, layout.mesh.h, layout.active)(
+            xk, xk1, loc.point_params(theta, xk), loc.point_params(theta, xk1), tau, y_white, w, uk, uk1)
         k, tau_fix = layout.interval_of(data.gps_time_s)
         fraction = errors.fraction
         block_data = [ca.DM(tau_fix).T, ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T),
-                      ca.DM(1.0 / (data.gps_sigma * np.sqrt(1.0 - fraction)).T)]
+                      ca.DM(1.0 / (data.gps_sigma * np.sqrt(1.0 - fraction)).T), *layout.profile_block_data(k)]
         cols = layout.two_node_columns(k)
         if not active.size:
-            kind = BlockKind("gps", loc.symbol, [tau0, y, w], r, None)
+            kind = BlockKind("gps", loc.symbol, [tau0, y, w, *loc.data], r, None)
             return [Term(context.group(self.name), (BlockSet(kind, cols, block_data),))]
         e_cols = layout.extra(self.name).cols.reshape(-1, active.size)
-        kind = BlockKind("gps", ca.vertcat(loc.symbol, e), [tau0, y, w, amp], r, None)
+        kind = BlockKind("gps", ca.vertcat(loc.symbol, e), [tau0, y, w, *loc.data, amp], r, None)
         block_data.append(ca.DM((data.gps_sigma[:, active] * np.sqrt(fraction[active])).T))
         phi = errors.transition(np.diff(data.gps_time_s))
         return [Term(context.group(self.name), (BlockSet(kind, np.column_stack([cols, e_cols]), block_data),)),

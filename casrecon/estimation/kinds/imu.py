@@ -72,9 +72,12 @@ class ImuKind:
         d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
         xk, xk1, theta, uk, uk1 = loc.split()
         defect, r_imu, _ = interval_function(model, mesh.h, layout.active)(
-            xk, xk1, loc.model_params(theta), loc.select(theta, SENSOR_NAMES), d, rr, uk, uk1)
-        kind = BlockKind("interval", loc.symbol, [d, rr], r_imu, defect)
-        blockset = BlockSet(kind, layout.two_node_columns(np.arange(n_int)), [ca.DM(blocks.d), ca.DM(blocks.R)])
+            xk, xk1, loc.point_params(theta, xk), loc.point_params(theta, xk1), loc.select(theta, SENSOR_NAMES), d,
+            rr, uk, uk1)
+        kind = BlockKind("interval", loc.symbol, [d, rr, *loc.data], r_imu, defect)
+        k_all = np.arange(n_int)
+        blockset = BlockSet(kind, layout.two_node_columns(k_all),
+                            [ca.DM(blocks.d), ca.DM(blocks.R), *layout.profile_block_data(k_all)])
         return [Term(context.group(self.name), (blockset,), float(blocks.const_chi2.sum()), int(blocks.n_used.sum()))]
 
     def residuals(self, result) -> dict[str, np.ndarray]:
@@ -83,11 +86,12 @@ class ImuKind:
         layout, data = result.part, result.data
         mesh, model = layout.mesh, result.scenario.model
         n, k = mesh.n_intervals, mesh.samples_per_interval
-        p, b = model_and_bias_values(result)
+        _, b = model_and_bias_values(result)
         f = interval_function(model, mesh.h, layout.active).map(n, "thread", 2)
         x = result.states.T
         u = layout.disturbances(result.z)[:, list(layout.active)].T
-        coefs = np.asarray(f(x[:, :-1], x[:, 1:], np.tile(p[:, None], n), np.tile(b[:, None], n),
+        pk, pk1 = interval_parameters(result)
+        coefs = np.asarray(f(x[:, :-1], x[:, 1:], pk, pk1, np.tile(b[:, None], n),
                              np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)),
                              u[:, :-1], u[:, 1:])[2])
         pred = np.zeros((n * k, 6))
@@ -96,6 +100,20 @@ class ImuKind:
         y, valid = measured_imu(data, n * k)
         return {"time_imu_s": data.imu_time_s[:n * k], "residual": y - pred, "valid": valid,
                 "sigma": imu_sigma(result.scenario.config)}
+
+
+def interval_parameters(result) -> tuple[np.ndarray, np.ndarray]:
+    """The model parameters (n_params, n_intervals) at the first and the second node of every
+    interval of a fit: its estimates plus, with a profile, each interval's profile corrections."""
+    layout = result.part
+    loc = BlockLocals(layout)
+    xk, xk1, theta, _, _ = loc.split()
+    fn = ca.Function("interval_parameters", [loc.symbol, *loc.data],
+                     [loc.point_params(theta, xk), loc.point_params(theta, xk1)])
+    k = np.arange(layout.mesh.n_intervals)
+    cols = layout.two_node_columns(k)
+    pk, pk1 = fn.map(k.size)(result.z[cols].T, *layout.profile_block_data(k))
+    return np.asarray(pk), np.asarray(pk1)
 
 
 def model_and_bias_values(result) -> tuple[np.ndarray, np.ndarray]:
