@@ -292,6 +292,9 @@ class Adequacy:
 HINTS = {
     "gps_correlated": "real GPS errors are time-correlated (FlySight: lag-1 0.8 to 1.0) and the fit assumes white "
                       "noise, so its sigmas and bands are too narrow",
+    "gps_model": "the GPS residuals stay correlated under the fit's GPS error model: its correlation times or "
+                 "fractions do not describe this receiver (set [sensors.gps] / [gps] *_error_time_s and "
+                 "*_correlated_fraction)",
     "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
              "moved parameters far to make up for it",
     "ground": "the site's ground altitude or the GPS height is wrong",
@@ -350,7 +353,7 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
 
 def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.ndarray, prior_sigma: np.ndarray,
            posterior_cov: np.ndarray, units: list[str] | None = None, ground: GroundCheck | None = None,
-           alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = ()) -> Adequacy:
+           alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = (), gps_model: bool = False) -> Adequacy:
     """The verdict of one fit.
 
     Parameters
@@ -370,6 +373,9 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
         Family-wise level.
     notes : tuple of str
         Carried to :attr:`Adequacy.notes`.
+    gps_model : bool
+        Whether the GPS channels were whitened under a GPS error model (changes the hint given
+        when only they are correlated).
 
     Returns
     -------
@@ -394,7 +400,9 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
                 f"(residuals white and at their sigmas, priors consistent){extra}")
     else:
         line = "bands NOT to be trusted: " + "; ".join(items)
-        hints = [HINTS[k] for k in ("gps_correlated", "prior", "ground") if k in kinds]
+        if gps_model and "gps_correlated" in kinds:
+            kinds = (kinds - {"gps_correlated"}) | {"gps_model"}
+        hints = [HINTS[k] for k in ("gps_correlated", "gps_model", "prior", "ground") if k in kinds]
         if hints:
             line += " (" + "; ".join(hints) + ")"
     return Adequacy(not reasons, line, tuple(reasons), tuple(tests), deviations, z_limit, nees, ground, alpha, n_tests,

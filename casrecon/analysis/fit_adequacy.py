@@ -101,7 +101,11 @@ def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAM
     ground, notes = impact_check(result)
     if result.part.n_u:
         notes += ("the Gauss-Markov priors of the disturbance states are not tested",)
-    return assess(drop_channels(imu, gps, others), names, values, prior_sigma, post, units, ground, alpha, notes)
+    if result.part.profile is not None:
+        notes += ("the Gauss-Markov prior of the atmosphere-profile corrections is not tested",)
+    gps_model = result.scenario.config.gps.error_model.enabled
+    return assess(drop_channels(imu, gps, others), names, values, prior_sigma, post, units, ground, alpha, notes,
+                  gps_model)
 
 
 def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
@@ -123,7 +127,8 @@ def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
                          f"lowest fitted point {h[k]:.1f} m above the site's ground; accepted down to -{limit:.1f} m "
                          f"(3-sigma {3 * result.state_sigma[k, 2]:.1f} m + {GROUND_TOLERANCE_M:g} m)")
     notes = ("the drag-area smoothness prior is not tested",) if len(names) < len(specs) else ()
-    return assess(channels, names, values, prior_sigma, post, units, ground, alpha, notes)
+    return assess(channels, names, values, prior_sigma, post, units, ground, alpha, notes,
+                  result.config.gps_errors.enabled)
 
 
 @dataclass(frozen=True)
