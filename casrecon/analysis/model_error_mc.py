@@ -1,0 +1,146 @@
+"""Estimator Monte Carlo under model error: the same synthetic drops fitted with and without the
+error models (atmosphere-profile corrections, correlated GPS errors), parameter NEES and the
+pooled coverage of the 3-sigma bands of the time history (issue 18's acceptance study).
+
+Each case draws a truth from the fit's priors (:func:`~casrecon.analysis.estimator_mc.draw_truth`),
+makes synthetic data with the problem's ``[truth]`` error processes (a profile error between the
+sounding and the air flown through, coloured GPS errors), fits it as the problem says (its
+``[atmosphere]`` profile and ``[sensors.gps]`` error-model keys) and again with those models off,
+and records for each fit the parameter errors, NEES and, per group of columns, how many node
+values of the truth lie inside the reported 3-sigma band.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+import time
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+from casrecon.analysis.estimator_mc import chi2_interval, draw_truth, parameter_errors
+from casrecon.parallel import parallel_map
+from casrecon.physics.sensor_errors import GpsErrorModel
+from casrecon.scenario import Scenario
+
+#: Groups of time-history columns whose band coverage is pooled, with the truth's source for each
+#: column: ("state", index) or ("output", name), and the unit factor from SI to the column's unit.
+BAND_GROUPS = {
+    "position": (("pos_n_m", ("state", 0), 1.0), ("pos_e_m", ("state", 1), 1.0), ("pos_d_m", ("state", 2), 1.0)),
+    "velocity": (("vel_n_mps", ("state", 3), 1.0), ("vel_e_mps", ("state", 4), 1.0),
+                 ("vel_d_mps", ("state", 5), 1.0)),
+    "euler": (("roll_deg", ("output", "roll"), np.degrees(1.0)), ("pitch_deg", ("output", "pitch"), np.degrees(1.0)),
+              ("yaw_deg", ("output", "yaw"), np.degrees(1.0))),
+    "rates": (("p_dps", ("state", 10), np.degrees(1.0)), ("q_dps", ("state", 11), np.degrees(1.0)),
+              ("r_dps", ("state", 12), np.degrees(1.0))),
+    "qbar": (("qbar_pa", ("output", "qbar"), 1.0),),
+    "alpha_t": (("alpha_t_deg", ("output", "alpha_t"), np.degrees(1.0)),),
+}
+#: Columns that are angles (differences wrapped to +-180 deg).
+ANGLES = ("roll_deg", "yaw_deg")
+
+
+def without_error_models(scenario: Scenario) -> Scenario:
+    """The scenario with the fit's atmosphere-profile and GPS error models off."""
+    cfg = scenario.config
+    atm = dataclasses.replace(cfg.atmosphere, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
+    gps = dataclasses.replace(cfg.gps, error_model=GpsErrorModel())
+    return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps))
+
+
+def band_coverage(result, trajectory, release_imu_s: float) -> dict[str, tuple[int, int]]:
+    """Per group of :data:`BAND_GROUPS`: (node values whose truth lies within 3 sigma, node values).
+
+    Parameters
+    ----------
+    result : casrecon.estimation.fit.FitResult
+    trajectory : casrecon.simulation.simulate.Trajectory
+        The truth (flight time since the true release).
+    release_imu_s : float
+        The true release time on the IMU clock, s.
+    """
+    t = result.node_time_s - release_imu_s
+    out = {}
+    for group, columns in BAND_GROUPS.items():
+        inside = total = 0
+        for column, (source, key), factor in columns:
+            series = trajectory.states[:, key] if source == "state" else trajectory.output(key)
+            truth = np.interp(t, trajectory.time_s, series) * factor
+            value, sigma = result.column(column)
+            diff = value - truth
+            if column in ANGLES:
+                diff = (diff + 180.0) % 360.0 - 180.0
+            ok = np.isfinite(diff) & np.isfinite(sigma)
+            inside += int(np.sum(np.abs(diff[ok]) <= 3.0 * sigma[ok]))
+            total += int(ok.sum())
+        out[group] = (inside, total)
+    return out
+
+
+def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release_imu_s: float) -> dict:
+    """Fit ``scenario`` and summarise it against the truth (or the failure)."""
+    from casrecon.analysis.fit_products import result_adequacy
+    from casrecon.estimation.fit import FitError, fit_drop
+
+    t0 = time.perf_counter()
+    try:
+        r = fit_drop(scenario)
+    except FitError as err:
+        return {"failed": str(err), "seconds": time.perf_counter() - t0}
+    e, nees = parameter_errors(r, truth)
+    return {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
+            "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
+            "coverage": band_coverage(r, trajectory, release_imu_s), "trusted": bool(result_adequacy(r).trusted)}
+
+
+def run_case(problem: str, seed: int, index: int) -> dict:
+    """Case ``index``: draw a truth, simulate with the problem's error processes, fit with and
+    without the error models."""
+    from casrecon.simulation.synthetic import make_synthetic, synthetic_scenario, truth_parameters_by_name
+
+    rng = np.random.default_rng([seed, index])
+    scenario = draw_truth(Scenario.load(problem), rng)
+    out = {"index": index}
+    with tempfile.TemporaryDirectory() as tmp:
+        data = make_synthetic(scenario, seed=int(rng.integers(2**31)))
+        sc = synthetic_scenario(scenario, data, Path(tmp))
+        truth = truth_parameters_by_name(sc)
+        release = float(data.truth["release_imu_time_s"])
+        out["with_models"] = fit_summary(sc, truth, data.trajectory, release)
+        out["without_models"] = fit_summary(without_error_models(sc), truth, data.trajectory, release)
+    return out
+
+
+@dataclass(frozen=True)
+class ModelErrorStudy:
+    """Every case of :func:`model_error_montecarlo` and the pooled statistics of one variant."""
+
+    cases: list[dict]
+
+    def variant(self, name: str) -> dict:
+        """Pooled figures of ``"with_models"`` or ``"without_models"``: converged cases, NEES sum and
+        its 95 % interval, per-parameter mean z, coverage per band group, trusted verdicts."""
+        fits = [c[name] for c in self.cases if name in c]
+        ok = [f for f in fits if "nees" in f]
+        n_params = len(ok[0]["names"]) if ok else 0
+        coverage = {}
+        for group in BAND_GROUPS:
+            inside = sum(f["coverage"][group][0] for f in ok)
+            total = sum(f["coverage"][group][1] for f in ok)
+            coverage[group] = inside / total if total else float("nan")
+        z = np.array([np.asarray(f["error"]) / np.asarray(f["sigma"]) for f in ok]) if ok else np.zeros((0, 0))
+        return {"converged": len(ok), "cases": len(fits), "nees_sum": float(sum(f["nees"] for f in ok)),
+                "interval": chi2_interval(n_params * len(ok)), "names": ok[0]["names"] if ok else [],
+                "mean_z": z.mean(axis=0).tolist() if ok else [], "coverage": coverage,
+                "trusted": sum(f["trusted"] for f in ok), "seconds": [f["seconds"] for f in fits]}
+
+
+def model_error_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
+                           scheduler: str | None = None) -> ModelErrorStudy:
+    """Run ``n_cases`` cases of :func:`run_case` (reproducible from (seed, index))."""
+    cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed), range(n_cases), workers=workers,
+                         scheduler=scheduler, progress="model-error montecarlo")
+    return ModelErrorStudy(cases)
