@@ -258,3 +258,100 @@ def fit_gauss_markov(segments: Sequence[np.ndarray], dt_s: float, max_lag: int, 
         fit.update(variance_ratio_se=float(se[0]), correlated_fraction_se=float(se[1]),
                    tau_factor=float(np.exp(np.sqrt((k - 1) / k * np.sum((ln_tau - ln_tau.mean()) ** 2)))))
     return GaussMarkovFit(**fit)
+
+
+def variogram(segments: Sequence[np.ndarray], sigmas: Sequence[np.ndarray], lags: Sequence[int]
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Normalised structure function D(lag) = mean of (x[k + lag] - x[k])^2 / s^2 over all pairs
+    within the segments, s^2 = (sigma[k]^2 + sigma[k + lag]^2) / 2, and the number of pairs per lag.
+    A constant offset of a segment (an unknown truth) cancels; for the model D = 2 r (1 - f) +
+    2 r f (1 - phi^lag) for lag >= 1."""
+    d, counts = np.zeros(len(lags)), np.zeros(len(lags))
+    for x, s in zip(segments, sigmas):
+        x, s2 = np.asarray(x, dtype=float), np.asarray(s, dtype=float) ** 2
+        for i, lag in enumerate(lags):
+            if 0 < lag < x.size:
+                d[i] += float(np.sum((x[lag:] - x[:-lag]) ** 2 / ((s2[lag:] + s2[:-lag]) / 2)))
+                counts[i] += x.size - lag
+    with np.errstate(invalid="ignore"):
+        return d / counts, counts
+
+
+def _fit_variogram(d: np.ndarray, lags: np.ndarray, tau_max: float) -> tuple[float, float, float]:
+    """(r, f, tau in samples) fitted to a normalised structure function, in relative units."""
+    ok = np.isfinite(d) & (d > 0)
+    w = 1.0 / d[ok]
+
+    def solve(log_tau: float) -> tuple[float, np.ndarray]:
+        phi = np.exp(-np.exp(-log_tau))
+        a = np.column_stack([np.full(ok.sum(), 2.0), 2.0 * (1.0 - phi ** lags[ok])]) * w[:, None]
+        coef, resid = nnls(a, d[ok] * w)
+        return resid, coef
+
+    grid = np.linspace(np.log(0.2), np.log(tau_max), 60)
+    costs = [solve(g)[0] for g in grid]
+    i = int(np.argmin(costs))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    best = minimize_scalar(lambda g: solve(g)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-4}).x
+    if solve(best)[0] > costs[i]:
+        best = grid[i]
+    coef = solve(best)[1]
+    total = float(coef.sum())
+    return total, float(coef[1] / total) if total > 0 else 0.0, float(np.exp(best))
+
+
+def fit_gauss_markov_variogram(segments: Sequence[np.ndarray], sigmas: Sequence[np.ndarray], dt_s: float,
+                               lags: Sequence[int], n_groups: int = 10, tau_max_s: float | None = None
+                               ) -> GaussMarkovFit:
+    """Fit white plus first-order Gauss-Markov noise to the normalised structure function of error
+    series known only up to a constant per segment (:func:`variogram`).
+
+    Parameters
+    ----------
+    segments : sequence of numpy.ndarray
+        Contiguous, uniformly sampled errors (any unit) plus an unknown constant per segment.
+    sigmas : sequence of numpy.ndarray
+        The reported 1-sigma of each sample (same unit), same shapes as ``segments``.
+    dt_s : float
+        Sampling interval, s.
+    lags : sequence of int
+        Lags fitted, samples (>= 1); the fit minimises the relative misfit of D at these lags, so
+        it describes the errors on the time scales they span and says nothing beyond the longest.
+    n_groups : int
+        Groups of consecutive segments for the jackknife standard errors.
+    tau_max_s : float, optional
+        Upper bound of the tau search, s (default 10 times the longest lag).
+
+    Returns
+    -------
+    GaussMarkovFit
+        r, f and tau (s); ``tau_at_bound`` when the structure function still grows linearly at the
+        longest lag (only r / tau is then determined). ``detrend_order`` is -1 and ``max_lag`` the
+        longest lag.
+    """
+    lag_arr = np.asarray(lags, dtype=int)
+    if lag_arr.size < 3 or np.any(lag_arr < 1) or dt_s <= 0:
+        raise ValueError("need at least 3 lags >= 1 and dt_s > 0")
+    pairs = [(np.asarray(x, dtype=float), np.asarray(s, dtype=float)) for x, s in zip(segments, sigmas)
+             if np.asarray(x).size > 1]
+    if not pairs:
+        raise ValueError("no segment long enough")
+    tau_max = (tau_max_s / dt_s) if tau_max_s else 10.0 * float(lag_arr.max())
+
+    def fit_of(sel: list[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float, float]:
+        d, _ = variogram([x for x, _ in sel], [s for _, s in sel], lag_arr)
+        return _fit_variogram(d, lag_arr.astype(float), tau_max)
+
+    r, f, tau = fit_of(pairs)
+    fit = dict(variance_ratio=r, correlated_fraction=f, tau_s=tau * dt_s, tau_at_bound=bool(tau > 0.95 * tau_max),
+               n_samples=int(sum(x.size for x, _ in pairs)), n_segments=len(pairs), max_lag=int(lag_arr.max()),
+               detrend_order=-1)
+    groups = np.array_split(np.arange(len(pairs)), min(n_groups, len(pairs)))
+    if len(groups) >= 4:
+        jack = np.array([fit_of([p for i, p in enumerate(pairs) if i not in set(g)]) for g in groups])
+        k = len(groups)
+        se = np.sqrt((k - 1) / k * np.sum((jack - jack.mean(axis=0)) ** 2, axis=0))
+        ln_tau = np.log(jack[:, 2])
+        fit.update(variance_ratio_se=float(se[0]), correlated_fraction_se=float(se[1]),
+                   tau_factor=float(np.exp(np.sqrt((k - 1) / k * np.sum((ln_tau - ln_tau.mean()) ** 2)))))
+    return GaussMarkovFit(**fit)
