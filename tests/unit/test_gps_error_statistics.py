@@ -98,7 +98,8 @@ def test_white_noise_gives_no_correlated_part():
     # with each segment's mean removed, a process much slower than the segments is invisible: the fit
     # either finds no correlated part or puts a small one at the tau bound, and says so
     fit = fit_gauss_markov(segs, 0.2, 20, detrend_order=0)
-    assert fit.correlated_fraction < 5 * s or (fit.tau_at_bound and fit.correlated_fraction < 3 * fit.correlated_fraction_se)
+    unseen = fit.tau_at_bound and fit.correlated_fraction < 3 * fit.correlated_fraction_se
+    assert fit.correlated_fraction < 5 * s or unseen
 
 
 def test_differences_with_a_known_shape_give_the_scale_despite_a_trend():
