@@ -9,14 +9,24 @@ with w, u white N(0, 1), phi = exp(-dt / tau). So the normalised error has varia
 variance ratio: 1 when the reported accuracies are right, below 1 when they are pessimistic) and
 autocorrelation rho(lag) = f phi^lag for lag >= 1.
 
-The series rarely reach us bare: the truth is unknown, so each segment is detrended first (its mean
-removed where the truth is a constant, a low-order polynomial where it is smooth), and detrending
-also removes the errors' lowest frequencies, which biases a naive autocorrelation towards short
-correlation times. :func:`fit_gauss_markov` therefore fits the pooled empirical autocovariances at
-lags 0..L to their *expected* values under the model after the same detrending (computed exactly,
-segment by segment), not to the model's own autocovariances: for a given phi the expected values
-are linear in r (1 - f) and r f (fitted by non-negative least squares), and phi is found by a grid
-and a bounded line search on log tau. Standard errors come from a jackknife over groups of segments.
+The series rarely reach us bare: the truth is unknown, so it has to be removed first, and how it
+is removed decides which estimator is exact:
+
+- :func:`fit_gauss_markov`: each segment is detrended (its mean removed where the truth is a
+  constant, a low-order polynomial where it is smooth) or differenced. Detrending also removes the
+  errors' lowest frequencies, which biases a naive autocorrelation towards short correlation times,
+  so the pooled empirical autocovariances at lags 0..L are fitted to their *expected* values under
+  the model after the same detrending or differencing (computed exactly, segment by segment), not to
+  the model's own. For a given phi the expected values are linear in r (1 - f) and r f (non-negative
+  least squares); phi is found by a grid and a bounded line search on log tau.
+- :func:`fit_gauss_markov_variogram`: for errors known up to a constant per segment (such as the
+  position minus the integrated velocity), the structure function D(lag) = E[(x[k + lag] - x[k])^2]
+  / sigma^2 = 2 r (1 - f) + 2 r f (1 - phi^lag) needs no detrending and no correction; it is fitted
+  in relative units at the given lags.
+
+Standard errors come from a jackknife over groups of segments. A tau that runs to its upper bound
+(``tau_at_bound``) means the data only see the start of the correlated part: its variance grows
+linearly with the lag over the lags seen, and only r f / tau is determined.
 """
 
 from __future__ import annotations
@@ -37,7 +47,8 @@ class GaussMarkovFit:
     Attributes
     ----------
     variance_ratio : float
-        r: variance of the normalised error (empirical error variance / reported sigma^2), 1.
+        r: variance of the normalised error (empirical error variance / reported sigma^2), before
+        any detrending or differencing, dimensionless.
     correlated_fraction : float
         f: share of that variance in the Gauss-Markov part, in [0, 1].
     tau_s : float
@@ -166,6 +177,34 @@ def _design(lengths: dict[int, int], max_lag: int, phi: float, how: tuple[int, i
     return np.column_stack([white, corr]) / counts[:, None]
 
 
+def _search(solve, tau_max: float, n_grid: int = 40) -> tuple[float, float, float]:
+    """Minimise ``solve(log tau) -> (cost, (white, correlated) variances)`` over tau in [0.2, tau_max]
+    samples (grid, then a bounded line search around the best point); (r, f, tau in samples)."""
+    grid = np.linspace(np.log(0.2), np.log(tau_max), n_grid)
+    costs = [solve(g)[0] for g in grid]
+    i = int(np.argmin(costs))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    best = minimize_scalar(lambda g: solve(g)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-4}).x
+    if solve(best)[0] > costs[i]:
+        best = grid[i]
+    coef = solve(best)[1]
+    total = float(coef.sum())
+    return total, float(coef[1] / total) if total > 0 else 0.0, float(np.exp(best))
+
+
+def _jackknife(fit_of, items: list, n_groups: int) -> dict[str, float]:
+    """Jackknife standard errors of (r, f) and the multiplicative one of tau, leaving out groups of
+    consecutive items in turn; empty with fewer than 4 groups."""
+    groups = np.array_split(np.arange(len(items)), min(n_groups, len(items)))
+    if len(groups) < 4:
+        return {}
+    jack = np.array([fit_of([x for i, x in enumerate(items) if i not in set(g)]) for g in groups])
+    k = len(groups)
+    jack[:, 2] = np.log(jack[:, 2])
+    se = np.sqrt((k - 1) / k * np.sum((jack - jack.mean(axis=0)) ** 2, axis=0))
+    return dict(variance_ratio_se=float(se[0]), correlated_fraction_se=float(se[1]), tau_factor=float(np.exp(se[2])))
+
+
 def _fit(segments: list[tuple[int, np.ndarray]], max_lag: int, how: tuple[int, int],
          tau_max: float, shape: tuple[float, float] | None = None) -> tuple[float, float, float]:
     """(variance ratio, f, tau in samples) from (raw length, processed series) pairs; with ``shape``
@@ -186,16 +225,7 @@ def _fit(segments: list[tuple[int, np.ndarray]], max_lag: int, how: tuple[int, i
         f, tau = shape
         col = _design(lengths, max_lag, float(np.exp(-1.0 / tau)), how, np.where(ok, counts, 1.0))[ok] @ [1 - f, f]
         return max(float(col @ c / (col @ col)), 0.0), f, tau
-    grid = np.linspace(np.log(0.2), np.log(tau_max), 40)
-    costs = [solve(g)[0] for g in grid]
-    i = int(np.argmin(costs))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    best = minimize_scalar(lambda g: solve(g)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-4}).x
-    if solve(best)[0] > costs[i]:
-        best = grid[i]
-    coef = solve(best)[1]
-    total = float(coef.sum())
-    return total, float(coef[1] / total) if total > 0 else 0.0, float(np.exp(best))
+    return _search(solve, tau_max)
 
 
 def fit_gauss_markov(segments: Sequence[np.ndarray], dt_s: float, max_lag: int, detrend_order: int = -1,
@@ -248,15 +278,7 @@ def fit_gauss_markov(segments: Sequence[np.ndarray], dt_s: float, max_lag: int, 
     fit = dict(variance_ratio=r, correlated_fraction=f, tau_s=tau * dt_s,
                tau_at_bound=bool(fixed is None and tau > 0.95 * tau_max), n_samples=int(sum(n for n, _ in segs)),
                n_segments=len(segs), max_lag=max_lag, detrend_order=detrend_order, differences=differences)
-    groups = np.array_split(np.arange(len(segs)), min(n_groups, len(segs)))
-    if len(groups) >= 4:
-        jack = np.array([_fit([s for i, s in enumerate(segs) if i not in set(g)], max_lag, how, tau_max, fixed)
-                         for g in groups])
-        k = len(groups)
-        se = np.sqrt((k - 1) / k * np.sum((jack - jack.mean(axis=0)) ** 2, axis=0))
-        ln_tau = np.log(jack[:, 2])
-        fit.update(variance_ratio_se=float(se[0]), correlated_fraction_se=float(se[1]),
-                   tau_factor=float(np.exp(np.sqrt((k - 1) / k * np.sum((ln_tau - ln_tau.mean()) ** 2)))))
+    fit.update(_jackknife(lambda sel: _fit(sel, max_lag, how, tau_max, fixed), segs, n_groups))
     return GaussMarkovFit(**fit)
 
 
@@ -288,16 +310,7 @@ def _fit_variogram(d: np.ndarray, lags: np.ndarray, tau_max: float) -> tuple[flo
         coef, resid = nnls(a, d[ok] * w)
         return resid, coef
 
-    grid = np.linspace(np.log(0.2), np.log(tau_max), 60)
-    costs = [solve(g)[0] for g in grid]
-    i = int(np.argmin(costs))
-    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-    best = minimize_scalar(lambda g: solve(g)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-4}).x
-    if solve(best)[0] > costs[i]:
-        best = grid[i]
-    coef = solve(best)[1]
-    total = float(coef.sum())
-    return total, float(coef[1] / total) if total > 0 else 0.0, float(np.exp(best))
+    return _search(solve, tau_max, 60)
 
 
 def fit_gauss_markov_variogram(segments: Sequence[np.ndarray], sigmas: Sequence[np.ndarray], dt_s: float,
@@ -346,12 +359,5 @@ def fit_gauss_markov_variogram(segments: Sequence[np.ndarray], sigmas: Sequence[
     fit = dict(variance_ratio=r, correlated_fraction=f, tau_s=tau * dt_s, tau_at_bound=bool(tau > 0.95 * tau_max),
                n_samples=int(sum(x.size for x, _ in pairs)), n_segments=len(pairs), max_lag=int(lag_arr.max()),
                detrend_order=-1)
-    groups = np.array_split(np.arange(len(pairs)), min(n_groups, len(pairs)))
-    if len(groups) >= 4:
-        jack = np.array([fit_of([p for i, p in enumerate(pairs) if i not in set(g)]) for g in groups])
-        k = len(groups)
-        se = np.sqrt((k - 1) / k * np.sum((jack - jack.mean(axis=0)) ** 2, axis=0))
-        ln_tau = np.log(jack[:, 2])
-        fit.update(variance_ratio_se=float(se[0]), correlated_fraction_se=float(se[1]),
-                   tau_factor=float(np.exp(np.sqrt((k - 1) / k * np.sum((ln_tau - ln_tau.mean()) ** 2)))))
+    fit.update(_jackknife(fit_of, pairs, n_groups))
     return GaussMarkovFit(**fit)
