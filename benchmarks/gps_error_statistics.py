@@ -164,19 +164,21 @@ def velocity_in_flight(tracks: list[Track], shape: dict[str, GaussMarkovFit]) ->
 
 
 # ---------------------------------------------------------------- P1: position
-def consistency_segments(tk: Track, mask: np.ndarray, comps: tuple[int, ...]):
-    """X = p - cumulative trapezoid of v on each run of ``mask``, with its sigma, at 5 Hz."""
+def consistency_segments(tk: Track, mask: np.ndarray, comps: tuple[int, ...], direct: bool = False):
+    """X = p - cumulative trapezoid of v on each run of ``mask``, with its sigma, at 5 Hz (``direct``:
+    p itself, for a device at rest)."""
     step = max(int(round(0.2 / tk.dt)), 1)
     out = []
     for a, b in runs(mask, int(10 / tk.dt)):
         steps = (tk.vel[a + 1:b] + tk.vel[a:b - 1]) / 2 * np.diff(tk.t[a:b])[:, None]
-        x = tk.pos[a:b] - np.vstack([np.zeros(3), np.cumsum(steps, axis=0)])
+        x = tk.pos[a:b] - (0.0 if direct else np.vstack([np.zeros(3), np.cumsum(steps, axis=0)]))
         out += [(x[::step, c], tk.sigma[a:b:step, c]) for c in comps]
     return out
 
 
 def position(tracks: list[Track]) -> dict[str, dict]:
-    print("\nP1  position from position-velocity consistency X = p - int v (all phases unless said)")
+    print("\nP1  position from position-velocity consistency X = p - int v (all phases unless said; 'still p': "
+          "the position itself where the device lay still, a check without the velocity)")
     lags = np.array([int(round(s / 0.2)) for s in LAGS_S])
     print("    normalised rms change of the position error sqrt(D(L)/2) at lag L "
           f"(first-order GM with r = 1, tau = 60 s: {' '.join(f'{np.sqrt(1 - np.exp(-s / 60)):.2f}' for s in LAGS_S)})")
@@ -185,8 +187,11 @@ def position(tracks: list[Track]) -> dict[str, dict]:
     for group in ("pos H", "pos D"):
         rows = [(tk.name, "all", [tk], [p for p in PHASES]) for tk in tracks]
         rows += [("pooled", ph, tracks, [ph]) for ph in PHASES] + [("pooled", "all", tracks, list(PHASES))]
+        rows += [("pooled", "still X", tracks, ["still"]), ("pooled", "still p", tracks, ["still p"])]
         for who, ph, tks, phs in rows:
-            segs = [s for tk in tks for p in phs for s in consistency_segments(tk, tk.phase[p], GROUPS[group])]
+            segs = [s for tk in tks for p in phs
+                    for s in consistency_segments(tk, tk.still if p.startswith("still") else tk.phase[p],
+                                                  GROUPS[group], direct=p == "still p")]
             d, _ = variogram([x for x, _ in segs], [s for _, s in segs], lags)
             print(f"  {group} {who:12s} {ph:8s}" + "".join(f"{np.sqrt(v / 2):8.2f}" if np.isfinite(v) else "       -"
                                                            for v in d))
