@@ -47,7 +47,7 @@ def without_error_models(scenario: Scenario) -> Scenario:
     """The scenario with the fit's atmosphere-profile and GPS error models off."""
     cfg = scenario.config
     atm = dataclasses.replace(cfg.atmosphere, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
-    gps = dataclasses.replace(cfg.gps, error_model=GpsErrorModel())
+    gps = dataclasses.replace(cfg.gps, error_model=GpsErrorModel.white())
     return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps))
 
 
@@ -99,14 +99,13 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
 def run_case(problem: str, seed: int, index: int) -> dict:
     """Case ``index``: draw a truth, simulate with the problem's error processes, fit with and
     without the error models."""
-    from casrecon.simulation.synthetic import make_synthetic, synthetic_scenario, truth_parameters_by_name
+    from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 
     rng = np.random.default_rng([seed, index])
     scenario = draw_truth(Scenario.load(problem), rng)
     out = {"index": index}
     with tempfile.TemporaryDirectory() as tmp:
-        data = make_synthetic(scenario, seed=int(rng.integers(2**31)))
-        sc = synthetic_scenario(scenario, data, Path(tmp))
+        sc, data = synthetic_scenario(scenario, Path(tmp), seed=int(rng.integers(2**31)))
         truth = truth_parameters_by_name(sc)
         release = float(data.truth["release_imu_time_s"])
         out["with_models"] = fit_summary(sc, truth, data.trajectory, release)

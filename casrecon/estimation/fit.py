@@ -116,8 +116,29 @@ def drop_result(scenario: Scenario, data: FitData, fit_nlp: FitNlp, index: int, 
         n_measurements=counts, dof=dof, reduced_chi2=sum(chi2.values()) / max(dof, 1), solver=sol, timings=timings,
         condition=cov.condition, covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r,
         measurements=dict(fit_nlp.contexts[index].measurements),
-        notes=data.notes + _weak_constraint_notes(part))
+        notes=data.notes + _weak_constraint_notes(part) + error_model_notes(scenario, part))
     return result
+
+
+def error_model_notes(scenario: Scenario, part: DropLayout) -> tuple[str, ...]:
+    """One note per error model of the fit: the atmosphere-profile corrections and the GPS errors."""
+    notes = []
+    grid = part.profile
+    if grid is not None:
+        atm = scenario.config.atmosphere
+        sizes = []
+        if atm.profile_wind_sigma_mps > 0:
+            sizes.append(f"wind {atm.profile_wind_sigma_mps:g} m/s per component")
+        if atm.profile_density_sigma > 0:
+            sizes.append(f"density {100 * atm.profile_density_sigma:g} %")
+        what = ", ".join(sizes)
+        notes.append(f"atmosphere-profile corrections ({what}, 1-sigma, {grid.length_m:g} m correlation length) "
+                     f"estimated on {grid.n_levels} levels every {grid.step_m:g} m from "
+                     f"{grid.base_msl_m:.0f} m MSL")
+    errors = scenario.config.gps.error_model
+    if errors.enabled:
+        notes.append(errors.describe() + ", estimated at every fix")
+    return tuple(notes)
 
 
 def _weak_constraint_notes(part: DropLayout) -> tuple[str, ...]:

@@ -13,14 +13,22 @@ from casrecon.io.toml_fields import Fields
 class AtmosphereConfig:
     """Balloon sounding file, its stated uncertainty (3-sigma, as the EES paper gives it) and the
     fit's model of the profile error (1-sigma, Gauss-Markov in altitude; see
-    :mod:`casrecon.estimation.profile`)."""
+    :mod:`casrecon.estimation.profile`).
+
+    Profile-error defaults: a GPS-tracked radiosonde measures wind to about 0.15 m/s and
+    temperature and pressure to about 0.1 % in density, but the balloon flies tens of minutes
+    before or after the drop and drifts kilometres downwind, where boundary-layer wind differs by
+    0.5 to 1 m/s over a few hundred metres of height; neglecting humidity (the sounding's density
+    from p / (R T)) is 0.2 to 1 %. Hence 0.5 m/s per wind component and 0.5 % in density, over a
+    300 m correlation length. A sounding that is the air flown through (synthetic data) sets both
+    sigmas to 0."""
 
     sounding: Path
     launch: int = 0
     wind_3sigma_mps: float = 1.0
     density_3sigma: float = 0.01
-    profile_wind_sigma_mps: float = 0.0
-    profile_density_sigma: float = 0.0
+    profile_wind_sigma_mps: float = 0.5
+    profile_density_sigma: float = 0.005
     profile_length_m: float = 300.0
     profile_step_m: float = 30.0
 
@@ -31,8 +39,8 @@ def parse_atmosphere(t: Fields) -> AtmosphereConfig:
     cfg = AtmosphereConfig(sounding=t.path_of("sounding", required=True), launch=t.integer("launch", 0, 0),
                            wind_3sigma_mps=t.number("wind_3sigma_mps", 1.0, positive=True),
                            density_3sigma=t.number("density_3sigma", 0.01, positive=True),
-                           profile_wind_sigma_mps=t.number("profile_wind_sigma_mps", 0.0, minimum=0.0),
-                           profile_density_sigma=t.number("profile_density_sigma", 0.0, minimum=0.0),
+                           profile_wind_sigma_mps=t.number("profile_wind_sigma_mps", 0.5, minimum=0.0),
+                           profile_density_sigma=t.number("profile_density_sigma", 0.005, minimum=0.0),
                            profile_length_m=t.number("profile_length_m", 300.0, positive=True),
                            profile_step_m=t.number("profile_step_m", 30.0, positive=True))
     if cfg.profile_step_m > cfg.profile_length_m:

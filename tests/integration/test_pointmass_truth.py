@@ -144,6 +144,9 @@ model = "{model}"
 
 [gps]
 file = "track.csv"
+# the synthetic track's errors are white
+position_error_time_s = 0.0
+velocity_error_time_s = 0.0
 {extra}""")
     return folder / "problem.toml"
 
