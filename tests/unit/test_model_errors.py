@@ -38,6 +38,19 @@ def _mean_and_se(samples: np.ndarray) -> tuple[float, float]:
     return float(samples.mean()), float(samples.std(ddof=1) / np.sqrt(samples.size))
 
 
+def _ratio_and_se(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """Ratio sum(a) / sum(b) of independent replicates (a_i, b_i) and its delta-method standard error
+    sd(a_i - R b_i) / (sqrt(M) mean(b_i))."""
+    r = float(a.sum() / b.sum())
+    return r, float((a - r * b).std(ddof=1) / (np.sqrt(a.size) * b.mean()))
+
+
+def _lag_correlation(x: np.ndarray, lag: int) -> tuple[float, float]:
+    """Correlation at ``lag`` samples of replicates ``x`` (M, n), pooled over the replicates:
+    sum x_k x_k+lag / sum x_k^2, with its standard error."""
+    return _ratio_and_se((x[:, :-lag] * x[:, lag:]).sum(axis=1), (x[:, :-lag] ** 2).sum(axis=1))
+
+
 @pytest.fixture(scope="module")
 def drop3() -> Scenario:
     return Scenario.load(PROBLEMS / "ees-drop-3")
@@ -77,19 +90,17 @@ def test_profile_error_has_its_sigma(profiles):
 
 
 def test_profile_error_has_its_correlation_length(profiles):
-    """The correlation at lags of 10 m and of one correlation length is exp(-|dh| / L), and the
-    length recovered from the correlation at lag L is L (standard error by the delta method)."""
+    """The correlation at lags of one grid step (10 m) and of one correlation length is
+    exp(-|dh| / L), and the length recovered from each is L (standard errors by the delta method)."""
     grid, x = profiles
     step = grid[1] - grid[0]
-    for lag_m in (step, PROFILE.profile_length_m):
-        lag = int(round(lag_m / step))
+    for lag in (1, int(round(PROFILE.profile_length_m / step))):
         for col in range(3):
-            corr, se = _mean_and_se((x[:, :-lag, col] * x[:, lag:, col]).mean(axis=1))
+            corr, se = _lag_correlation(x[:, :, col], lag)
             assert abs(corr - np.exp(-lag * step / PROFILE.profile_length_m)) < N_SE * se, (lag, col, corr, se)
-            if lag_m == PROFILE.profile_length_m:
-                length = -lag * step / np.log(corr)
-                se_length = lag * step / (corr * np.log(corr) ** 2) * se
-                assert abs(length - PROFILE.profile_length_m) < N_SE * se_length, (col, length, se_length)
+            length = -lag * step / np.log(corr)
+            se_length = lag * step / (corr * np.log(corr) ** 2) * se
+            assert abs(length - PROFILE.profile_length_m) < N_SE * se_length, (lag, col, length, se_length)
 
 
 def test_profile_errors_are_independent(profiles):
@@ -170,30 +181,33 @@ def test_gps_error_factors_white_by_default():
     assert np.array_equal(velocity_only[:, :3], white[:, :3]) and not np.allclose(velocity_only[:, 3:], white[:, 3:])
 
 
-def _batch_stats(z: np.ndarray, batches: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Variance and lag-1 autocovariance of each column of ``z`` (n, m) with their batch-means SEs."""
+def _batch_stats(z: np.ndarray, batches: int) -> tuple[np.ndarray, ...]:
+    """Mean square and lag-1 autocorrelation of each column of ``z`` (n, m) with their standard errors
+    from ``batches`` consecutive batches (treated as independent replicates)."""
     n = z.shape[0] // batches * batches
     zb = z[:n].reshape(batches, -1, z.shape[1])
-    var = (zb**2).mean(axis=1)
-    cov = (zb[:, :-1] * zb[:, 1:]).mean(axis=1)
-    root = np.sqrt(batches)
-    return var.mean(0), var.std(0, ddof=1) / root, cov.mean(0), cov.std(0, ddof=1) / root
+    square = (zb**2).mean(axis=1)
+    corr = [_lag_correlation(zb[:, :, c], 1) for c in range(z.shape[1])]
+    return (square.mean(0), square.std(0, ddof=1) / np.sqrt(batches), np.array([c[0] for c in corr]),
+            np.array([c[1] for c in corr]))
 
 
 @pytest.mark.parametrize("white_fraction", [0.0, 0.3])
 def test_gps_error_factors_lag1_autocorrelation(white_fraction):
     """200 000 fixes at 5 Hz, position tau 20 s, velocity tau 2 s: unit variance and lag-1
-    autocovariance (1 - f) phi, phi = exp(-0.2 s / tau); batch-means standard errors (100 batches of
-    400 s, 20 position correlation times each); the white part is the noise passed in."""
+    autocorrelation (1 - f) phi, phi = exp(-0.2 s / tau); batch standard errors (100 batches of 400 s,
+    20 position correlation times each); the white part is the noise passed in, the rest the
+    Gauss-Markov process of the stream (seed, 4)."""
     n, dt = 200_000, 0.2
     t = 1.7e9 + dt * np.arange(n)
     errors = TruthErrors(gps_position_time_s=20.0, gps_velocity_time_s=2.0, gps_white_fraction=white_fraction)
     white = np.random.default_rng(5).normal(size=(n, 6))
     z = gps_error_factors(t, errors, white, 12)
-    var, se_var, cov, se_cov = _batch_stats(z, 100)
+    var, se_var, corr, se_corr = _batch_stats(z, 100)
     phi = np.exp(-dt / np.array([20.0] * 3 + [2.0] * 3))
     assert np.all(np.abs(var - 1.0) < N_SE * se_var), (var, se_var)
-    assert np.all(np.abs(cov - (1 - white_fraction) * phi) < N_SE * se_cov), (cov, (1 - white_fraction) * phi, se_cov)
+    expected = (1 - white_fraction) * phi
+    assert np.all(np.abs(corr - expected) < N_SE * se_corr), (corr, expected, se_corr)
     e = np.random.default_rng((12, 4)).normal(size=(n, 6))                 # the correlated part's stream
     coloured = np.column_stack([unit_gauss_markov(t, 20.0, e[:, :3]), unit_gauss_markov(t, 2.0, e[:, 3:])])
     assert np.abs(z - (np.sqrt(1 - white_fraction) * coloured + np.sqrt(white_fraction) * white)).max() < 1e-12
