@@ -204,12 +204,12 @@ def test_coloured_gps_leaves_the_imu_and_accuracies_alone():
 
 @pytest.fixture(scope="module")
 def long_track():
-    """ees-drop-3 with 2000 s of GPS fixes before release (10 000 fixes at 5 Hz with the helicopter at the
+    """ees-drop-3 with 20 000 s of GPS fixes before release (100 000 fixes at 5 Hz with the helicopter at the
     release velocity), position errors correlated over 20 s and velocity errors over 2 s."""
     sc = Scenario.load(MODEL_ERROR)
     cfg = sc.config
     sc = Scenario.from_config(dataclasses.replace(cfg, simulation=dataclasses.replace(cfg.simulation,
-                                                                                      pre_release_s=2000.0)))
+                                                                                      pre_release_s=20000.0)))
     return sc, make_synthetic(sc)
 
 
@@ -232,13 +232,13 @@ def _normalised_gps_errors(sc: Scenario, data) -> tuple[np.ndarray, float]:
 
 
 def test_gps_errors_have_the_stated_lag1_autocorrelation(long_track):
-    """Over 10 000 pre-release fixes the normalised errors of each group (position N, E, D pooled;
+    """Over 100 000 pre-release fixes the normalised errors of each group (position N, E, D pooled;
     velocity pooled) have lag-1 autocorrelation phi = exp(-0.2 s / tau) (least squares of z_k+1 on
     z_k, standard error sqrt((1 - phi^2) / sum z_k^2)) and unit mean square (AR(1) standard error
     sqrt(2 (1 + phi^2) / ((1 - phi^2) N)))."""
     sc, data = long_track
     z, dt_s = _normalised_gps_errors(sc, data)
-    assert z.shape[0] == 10_000 + COLD_START_FIXES and dt_s == pytest.approx(0.2, abs=1e-6)
+    assert z.shape[0] == 100_000 + COLD_START_FIXES and dt_s == pytest.approx(0.2, abs=1e-6)
     errors = sc.config.truth.errors
     for cols, tau in ((slice(0, 3), errors.gps_position_time_s), (slice(3, 6), errors.gps_velocity_time_s)):
         phi = np.exp(-dt_s / tau)
