@@ -50,9 +50,10 @@ def scenario_with_seed(scenario: Scenario, seed: int, folder: Path) -> Scenario:
     return Scenario.from_config(new)
 
 
-def truth_at_nodes(scenario: Scenario, node_time_s: np.ndarray) -> np.ndarray:
-    """Truth states (K, 13) at the fit's node times (IMU clock)."""
-    traj, t_zero = simulate_truth(scenario)
+def truth_at_nodes(scenario: Scenario, node_time_s: np.ndarray, seed: int) -> np.ndarray:
+    """Truth states (K, 13) at the fit's node times (IMU clock) of the data of ``seed`` (its gusts and
+    atmosphere-profile error, if the truth has them)."""
+    traj, t_zero = simulate_truth(scenario, seed)
     t = t_zero + traj.time_s
     idx = np.searchsorted(t, node_time_s - 1e-6)
     if not np.all(np.abs(t[idx] - node_time_s) < 1e-6):
@@ -65,7 +66,6 @@ def run_seeds(drop: str, seeds, workdir: Path, verbose: bool = True) -> dict:
     base = Scenario.load(PROBLEMS / drop)
     truth = truth_parameters_by_name(base)
     names, values, sigmas, chi2, band, times = None, [], [], [], [], []
-    x_truth = None
     for seed in seeds:
         sc = scenario_with_seed(base, seed, workdir / f"seed{seed}")
         t0 = time.perf_counter()
@@ -75,8 +75,7 @@ def run_seeds(drop: str, seeds, workdir: Path, verbose: bool = True) -> dict:
         values.append(r.values)
         sigmas.append(r.sigma)
         chi2.append(r.reduced_chi2)
-        if x_truth is None:
-            x_truth = truth_at_nodes(base, r.node_time_s)
+        x_truth = truth_at_nodes(base, r.node_time_s, seed)
         cols = [r.columns.index(c) for c in BAND_COLUMNS]
         band.append((r.table[:, cols] - x_truth[:, :6]) / r.table_sigma[:, cols])
         if verbose:

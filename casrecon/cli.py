@@ -64,7 +64,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from casrecon.io.flysight import write_flysight1
     from casrecon.io.imu import write_imu_csv
     from casrecon.output.results import atomic_folder, write_json
-    from casrecon.output.simulation_results import write_simulation_trajectory
+    from casrecon.output.simulation_results import write_atmosphere_error, write_simulation_trajectory
     from casrecon.scenario import Scenario
     from casrecon.simulation.simulate import Simulator
     from casrecon.simulation.synthetic import make_synthetic
@@ -92,6 +92,8 @@ def _simulate(args: argparse.Namespace) -> int:
             if data.baro_time_unix_s is not None:
                 write_baro_csv(out / "baro.csv", data.baro_time_unix_s, data.baro_pressure_pa)
             write_json(out / "truth.json", data.truth)
+            if data.profile_error is not None:
+                write_atmosphere_error(out / "truth_atmosphere_error.csv", data.profile_error)
             (out / "sounding.csv").write_bytes(Path(cfg.atmosphere.sounding).read_bytes())
     print(f"{cfg.name}: flight time {summary['flight_time_s']:.3f} s, impact speed "
           f"{summary['impact_speed_mps']:.2f} m/s, peak rates (x, y, z) "

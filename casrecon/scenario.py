@@ -37,9 +37,17 @@ class Scenario:
     def from_config(cls, config: ProblemConfig) -> Scenario:
         sounding = read_sounding(config.atmosphere.sounding, launch=config.atmosphere.launch)
         atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m)
-        release_msl = config.site.ground_alt_msl_m + config.release.h_agl_m
-        model = FlightModel(config.vehicle, config.aero, atmosphere, config.site, config.dynamics, release_msl)
-        return cls(config, atmosphere, model)
+        return cls(config, atmosphere, _flight_model(config, atmosphere))
+
+    def flying(self, atmosphere: Atmosphere) -> Scenario:
+        """The same drop through another atmosphere (a new Scenario whose model flies ``atmosphere``;
+        this one and its configuration, the sounding file included, are unchanged)."""
+        return Scenario(self.config, atmosphere, _flight_model(self.config, atmosphere))
+
+    @property
+    def release_alt_msl_m(self) -> float:
+        """Release altitude, m MSL."""
+        return self.config.site.ground_alt_msl_m + self.config.release.h_agl_m
 
     def release_state(self) -> np.ndarray:
         """State vector at release from ``[release]`` (SI, NED position of the centre of mass)."""
@@ -56,3 +64,8 @@ class Scenario:
         values.update(wind_bias_n=t.wind_bias_mps[0], wind_bias_e=t.wind_bias_mps[1],
                       density_factor=t.density_factor, downwash_mps=t.downwash_mps)
         return default_parameters(**values)
+
+
+def _flight_model(config: ProblemConfig, atmosphere: Atmosphere) -> FlightModel:
+    release_msl = config.site.ground_alt_msl_m + config.release.h_agl_m
+    return FlightModel(config.vehicle, config.aero, atmosphere, config.site, config.dynamics, release_msl)

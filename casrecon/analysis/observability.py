@@ -124,7 +124,7 @@ def predicted_covariance(scenario: Scenario) -> tuple[tuple[str, ...], np.ndarra
         data, mesh = prepare_drop(sc)
         params = parameter_set(sc.config)
         fit_nlp = build_nlp(sc.model, data, mesh, params, sc.config)
-        traj, t_zero = simulate_truth(sc)
+        traj, t_zero = simulate_truth(sc, 0)     # the truth of the data of with_synthetic_data's seed 0
         t = t_zero + traj.time_s
         idx = np.clip(np.searchsorted(t, mesh.t_nodes - 1e-6), 0, t.size - 1)
         truth = truth_parameters_by_name(sc)

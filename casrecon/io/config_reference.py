@@ -33,6 +33,7 @@ from casrecon.io.problem import (
     SimulationConfig,
     TruthConfig,
 )
+from casrecon.io.truth_errors import TruthErrors
 from casrecon.physics.aero import DISPERSION_NAMES, AnalyticCoefficients, DispersionSizes, SpinVanes
 from casrecon.physics.dynamics import DynamicsOptions
 from casrecon.physics.sensor_errors import GpsErrorModel
@@ -76,6 +77,13 @@ def _gps_error_keys(prefix: str) -> tuple[Key, ...]:
 def _disturbance_keys(where: str) -> tuple[Key, ...]:
     return tuple(_k(k, t, u, f"{m} ({where}; all sigmas zero: none)", d) for k, t, u, m, d in _DISTURBANCE)
 
+
+#: The [truth] keys of the atmosphere-profile and coloured GPS errors (meanings from TruthErrors).
+_TRUTH_ERRORS = tuple(
+    _k(k, t, u, source=TruthErrors, attr=f"truth.errors.{k}") for k, t, u in (
+        ("profile_wind_sigma_mps", "float", "m/s"), ("profile_density_sigma", "float", ""),
+        ("profile_length_m", "float", "m"), ("gps_position_time_s", "float", "s"),
+        ("gps_velocity_time_s", "float", "s"), ("gps_white_fraction", "float", "")))
 
 _SITE = Table("site", required=True, keys=(
     _k("lat_deg", "float", "deg", "Geodetic latitude of the NED origin (a ground point near the drop), within +-90",
@@ -230,7 +238,7 @@ SIX_DOF = FileKind(
                attr="truth.baro_bias_pa"),
             _k("baro_qbar_coef", "float", "", "True static-port position error of the barometer: it reads p + k qbar",
                source=TruthConfig, attr="truth.baro_qbar_coef"),
-        ) + _disturbance_keys("what the simulator flies"),
+        ) + _disturbance_keys("what the simulator flies") + _TRUTH_ERRORS,
             note="Optional: what `casrecon simulate` uses to make synthetic data, and what the tests "
                  "compare the fit with. A real drop has no [truth]."),
         Table("truth.dispersions", tuple(

@@ -32,6 +32,7 @@ from casrecon.io.errors import InputError
 from casrecon.io.gps_rules import GpsQuality, gps_error_model
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.toml_fields import Fields, load_toml
+from casrecon.io.truth_errors import TruthErrors, read_truth_errors
 from casrecon.io.vehicle_files import load_aero, load_vehicle
 from casrecon.physics.aero import DISPERSION_NAMES, AeroDatabase
 from casrecon.physics.disturbance import DisturbanceModel
@@ -103,6 +104,7 @@ class TruthConfig:
     disturbance: DisturbanceModel | None = None
     baro_bias_pa: float = 0.0
     baro_qbar_coef: float = 0.0
+    errors: TruthErrors = TruthErrors()   # atmosphere-profile and coloured GPS errors (issue 18)
 
 
 @dataclass(frozen=True)
@@ -395,7 +397,7 @@ def _truth(t: Fields | None) -> TruthConfig | None:
         gyro_bias_radps=tuple(np.radians(t.vector("gyro_bias_dps", 3, (0.0, 0.0, 0.0)))),
         clock_offset_s=t.number("clock_offset_s", 0.0), downwash_mps=t.number("downwash_mps", 0.0),
         disturbance=_disturbance(t), baro_bias_pa=t.number("baro_bias_pa", 0.0),
-        baro_qbar_coef=t.number("baro_qbar_coef", 0.0))
+        baro_qbar_coef=t.number("baro_qbar_coef", 0.0), errors=read_truth_errors(t))
     t.reject_unknown()
     return cfg
 

@@ -33,3 +33,15 @@ def write_simulation_trajectory(path: str | Path, traj, cfg: ProblemConfig, ever
     n = cols["time_s"].size
     rows = np.unique(np.r_[0:n:every, n - 1])
     write_table(path, {k: np.asarray(v)[rows] for k, v in cols.items()})
+
+
+#: Columns of ``truth_atmosphere_error.csv`` and the :class:`ProfileError` attribute each holds.
+ATMOSPHERE_ERROR_COLUMNS = {"altitude_msl_m": "altitude_msl_m", "wind_north_error_mps": "wind_north_mps",
+                            "wind_east_error_mps": "wind_east_mps", "density_error": "density"}
+
+
+def write_atmosphere_error(path: str | Path, error) -> None:
+    """Write a drawn :class:`~casrecon.simulation.model_errors.ProfileError` (flown minus sounding:
+    wind north and east, m/s, and the fractional density error, on its altitude grid, m MSL) as
+    ``truth_atmosphere_error.csv``."""
+    write_table(path, {col: getattr(error, attr) for col, attr in ATMOSPHERE_ERROR_COLUMNS.items()})

@@ -15,6 +15,12 @@ What is made, and the simplifications kept (documented for whoever fits it):
   values per axis (north and east from hAcc, down from vAcc, each velocity component from sAcc).
   The first fixes are a cold start (accuracies from tens of metres down to nominal), and fixes
   after impact are poor (a receiver on its side in the dirt: accuracies growing, numSV falling).
+  With ``[truth] gps_position_time_s`` / ``gps_velocity_time_s`` the errors are time-correlated
+  (:func:`~casrecon.simulation.model_errors.gps_error_factors`); by default white.
+- **Atmosphere-profile error** (``[truth] profile_wind_sigma_mps``, ``profile_density_sigma``): the
+  truth flies the sounding plus a drawn error profile
+  (:func:`~casrecon.simulation.model_errors.flown_atmosphere`), while the data the fit reads keep
+  the original sounding; the error is kept on :class:`SyntheticData` (``profile_error``).
 - **truth.json**: every parameter the estimator may estimate, by the names it uses, in the units
   of the results' ``parameters.json`` (gyro biases in deg/s, as ``[truth] gyro_bias_dps``), each
   named in ``units``.
@@ -39,6 +45,13 @@ from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.scenario import Scenario
+from casrecon.simulation.model_errors import (
+    ProfileError,
+    draw_profile_error,
+    flown_atmosphere,
+    gps_error_factors,
+    profile_grid,
+)
 from casrecon.simulation.simulate import Simulator, Trajectory
 
 COLD_START_FIXES = 12
@@ -59,6 +72,7 @@ class SyntheticData:
     truth: dict
     baro_time_unix_s: np.ndarray | None = None   # UTC of the barometer samples (with [sensors.baro])
     baro_pressure_pa: np.ndarray | None = None
+    profile_error: ProfileError | None = None   # flown-minus-sounding atmosphere (with a [truth] profile error)
 
 
 def _unix(t: dt.datetime) -> float:
@@ -81,13 +95,34 @@ def truth_disturbance(scenario: Scenario, seed: int | None = None):
     return disturbance
 
 
+def truth_profile_error(scenario: Scenario, seed: int | None = None) -> ProfileError | None:
+    """The flown-minus-sounding atmosphere error of ``seed`` (default ``[truth] seed``), or None
+    without a ``[truth]`` profile error (:func:`~casrecon.simulation.model_errors.draw_profile_error`
+    on :func:`~casrecon.simulation.model_errors.profile_grid`)."""
+    truth = scenario.config.truth
+    if truth is None or not truth.errors.profile:
+        return None
+    grid = profile_grid(scenario.atmosphere.altitude_range_m, scenario.config.site.ground_alt_msl_m,
+                        scenario.release_alt_msl_m)
+    return draw_profile_error(truth.errors, grid, truth.seed if seed is None else seed)
+
+
+def flown_scenario(scenario: Scenario, profile: ProfileError | None) -> Scenario:
+    """The scenario whose model flies the sounding plus ``profile`` (``scenario`` itself for None)."""
+    return scenario if profile is None else scenario.flying(flown_atmosphere(scenario.atmosphere, profile))
+
+
 def simulate_truth(scenario: Scenario, seed: int | None = None) -> tuple[Trajectory, float]:
     """Simulate the truth flight on the IMU's true clock grid (with the truth's disturbance
-    realisation for ``seed``, default ``[truth] seed``, if it has one).
+    realisation and atmosphere-profile error for ``seed``, default ``[truth] seed``, if it has them).
 
     Returns the trajectory and ``t_zero``: the release time on the IMU clock (s), so that a sample
     at IMU time ``t_imu`` happened at flight time ``t_imu - t_zero``.
     """
+    return _fly(flown_scenario(scenario, truth_profile_error(scenario, seed)), seed)
+
+
+def _fly(scenario: Scenario, seed: int | None) -> tuple[Trajectory, float]:
     cfg = scenario.config
     dt_s = 1.0 / cfg.imu.rate_hz
     clock = cfg.truth.clock_offset_s if cfg.truth else 0.0
@@ -156,7 +191,7 @@ def _noisy_imu(scenario: Scenario, traj: Trajectory, t_zero: float, rng: np.rand
     return time, accel, gyro
 
 
-def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator) -> GpsTrack:
+def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator, seed: int) -> GpsTrack:
     cfg = scenario.config
     period = 1.0 / cfg.gps.rate_hz
     t_rel = _unix(cfg.release.time_utc)
@@ -173,7 +208,7 @@ def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator) -
     pos[after, :3], pos[after, 3:] = ant[-1, :3], 0.0
     h_acc, v_acc, s_acc, num_sv = _accuracies(cfg.gps, t, traj.flight_time_s, rng)
     sigma = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
-    meas = pos + rng.normal(size=pos.shape) * sigma
+    meas = pos + gps_error_factors(utc, cfg.truth.errors, rng.normal(size=pos.shape), seed) * sigma
     site = cfg.site
     lat, lon, alt = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], site.lat_deg, site.lon_deg,
                                          site.ground_alt_msl_m)
@@ -184,7 +219,7 @@ def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator) -
 
 def _baro_samples(scenario: Scenario, traj: Trajectory, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Barometer samples on UTC at ``[sensors.baro] rate_hz`` from pre-release to post-impact: the
-    sounding's pressure at the true centre-of-mass altitude, plus the true bias, the true
+    flown atmosphere's pressure (the sounding's) at the true centre-of-mass altitude, plus the true bias, the true
     static-port error ``baro_qbar_coef`` times qbar, and white noise
     (own random stream (seed, 2), so the IMU and GPS data do not depend on whether there is one)."""
     cfg = scenario.config
@@ -255,15 +290,19 @@ def make_synthetic(scenario: Scenario, seed: int | None = None) -> SyntheticData
         raise ValueError(f"{cfg.path}: synthetic data need a [truth] table")
     seed = cfg.truth.seed if seed is None else seed
     rng = np.random.default_rng(seed)
-    traj, t_zero = simulate_truth(scenario, seed)
+    profile = truth_profile_error(scenario, seed)
+    flown = flown_scenario(scenario, profile)
+    traj, t_zero = _fly(flown, seed)
     imu_t, accel, gyro = _noisy_imu(scenario, traj, t_zero, rng)
-    gps = _gps_track(scenario, traj, rng)
+    gps = _gps_track(scenario, traj, rng, seed)
     parameters, units = truth_document_parameters(truth_parameters_by_name(scenario))
     truth = {"problem": cfg.name, "seed": seed, "parameters": parameters, "units": units,
              "release_imu_time_s": t_zero, "release_utc": cfg.release.time_utc.isoformat(),
              "summary": traj.summary()}
-    baro = _baro_samples(scenario, traj, seed) if cfg.baro is not None else (None, None)
-    return SyntheticData(traj, imu_t, accel, gyro, gps, truth, *baro)
+    if profile is not None or cfg.truth.errors.coloured_gps:
+        truth["model_errors"] = dataclasses.asdict(cfg.truth.errors)
+    baro = _baro_samples(flown, traj, seed) if cfg.baro is not None else (None, None)
+    return SyntheticData(traj, imu_t, accel, gyro, gps, truth, *baro, profile_error=profile)
 
 
 def with_synthetic_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scenario:
@@ -282,8 +321,15 @@ def with_synthetic_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scen
     Returns
     -------
     Scenario
-        A copy whose IMU and GPS files are the ones written to ``folder``.
+        A copy whose IMU and GPS files are the ones written to ``folder`` (its sounding is the
+        original one, also when the truth flew a profile error).
     """
+    return synthetic_scenario(scenario, folder, seed)[0]
+
+
+def synthetic_scenario(scenario: Scenario, folder: Path, seed: int = 0) -> tuple[Scenario, SyntheticData]:
+    """:func:`with_synthetic_data` that also returns the :class:`SyntheticData` written (the truth
+    trajectory and the drawn profile error)."""
     cfg = scenario.config
     data = make_synthetic(scenario, seed=seed)
     write_imu_csv(folder / "imu.csv", data.imu_time_s, data.imu_accel_mps2, data.imu_gyro_radps, cfg.imu.spec)
@@ -292,6 +338,6 @@ def with_synthetic_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scen
     if baro is not None:
         write_baro_csv(folder / "baro.csv", data.baro_time_unix_s, data.baro_pressure_pa)
         baro = dataclasses.replace(baro, file=folder / "baro.csv")
-    return Scenario.from_config(dataclasses.replace(cfg, imu=dataclasses.replace(cfg.imu, file=folder / "imu.csv"),
-                                                    gps=dataclasses.replace(cfg.gps, file=folder / "gps.csv"),
-                                                    baro=baro))
+    new = dataclasses.replace(cfg, imu=dataclasses.replace(cfg.imu, file=folder / "imu.csv"),
+                              gps=dataclasses.replace(cfg.gps, file=folder / "gps.csv"), baro=baro)
+    return Scenario.from_config(new), data
