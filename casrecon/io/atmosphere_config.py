@@ -30,7 +30,7 @@ class AtmosphereConfig:
     profile_wind_sigma_mps: float = 0.5
     profile_density_sigma: float = 0.005
     profile_length_m: float = 300.0
-    profile_step_m: float = 30.0
+    profile_step_m: float = 10.0
 
 
 
@@ -42,7 +42,7 @@ def parse_atmosphere(t: Fields) -> AtmosphereConfig:
                            profile_wind_sigma_mps=t.number("profile_wind_sigma_mps", 0.5, minimum=0.0),
                            profile_density_sigma=t.number("profile_density_sigma", 0.005, minimum=0.0),
                            profile_length_m=t.number("profile_length_m", 300.0, positive=True),
-                           profile_step_m=t.number("profile_step_m", 30.0, positive=True))
+                           profile_step_m=t.number("profile_step_m", 10.0, positive=True))
     if cfg.profile_step_m > cfg.profile_length_m:
         raise t.error("profile_step_m", f"expected a grid step at most the correlation length profile_length_m = "
                                         f"{cfg.profile_length_m:g} m, got {cfg.profile_step_m:g} m")
