@@ -57,8 +57,9 @@ def test_every_help_shows_defaults_and_verbosity(command, capsys):
 
 
 def test_numeric_defaults_shown_once():
-    text = build_parser()._subparsers._group_actions[0].choices["montecarlo"].format_help()
-    assert "(default: 1000)" in text and "(default: 0.02)" in text and text.count("(default") == text.count("default")
+    text = " ".join(build_parser()._subparsers._group_actions[0].choices["montecarlo"].format_help().split())
+    assert "(default: 2)" in text and "(default: 0.02)" in text and text.count("(default") == text.count("default")
+    assert "(default: the problem's [montecarlo] cases, 1000 without it" in text
 
 
 @pytest.mark.parametrize("command", COMMANDS)
