@@ -122,6 +122,7 @@ def ignore_interrupts(counts: Any = None) -> None:
     global _REPORTER
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if counts is not None:
+        counts.cancel_join_thread()  # a count not yet sent when the worker exits is not waited for
         _REPORTER = lambda key, n: counts.put((key, n))  # noqa: E731
 
 
