@@ -11,6 +11,8 @@ The public Python API (in the spirit of lmfit and rockit)::
     result.save("results/ees-drop-1")               # the folder `casrecon fit --out` writes
     again = casrecon.load_results("results/ees-drop-1")
     casrecon.plot_trajectory(result).savefig("trajectory.png")
+    mc = casrecon.montecarlo("problems/ees-drop-1", 200)       # dispersions of its [montecarlo] table
+    casrecon.plot_montecarlo_envelopes(mc).savefig("envelopes.pdf")
 
 Importing ``casrecon`` is cheap: CasADi, pandas and matplotlib are imported when first needed.
 """
@@ -25,13 +27,17 @@ from typing import TYPE_CHECKING, Any
 from casrecon.io.errors import InputError
 
 if TYPE_CHECKING:
+    from casrecon.analysis.montecarlo import MonteCarloResult
     from casrecon.estimation.engine.checks import FitError
+    from casrecon.io.montecarlo_config import Dispersions
     from casrecon.io.pointmass_problem import PointMassConfig
     from casrecon.output.drop_fit import DropFit
     from casrecon.output.joint_fit import JointFit
     from casrecon.output.parameter_records import Parameter, Parameters
     from casrecon.output.pointmass_result import PointMassFit
     from casrecon.report.result_figures import (
+        plot_aero_coefficients,
+        plot_aero_sigma,
         plot_correlation,
         plot_joint_altitude_speed,
         plot_joint_flow_angles,
@@ -45,6 +51,14 @@ if TYPE_CHECKING:
         plot_shared_correlation,
         plot_trajectory,
     )
+    from casrecon.report.study_figures import (
+        plot_design_study,
+        plot_fisher_directions,
+        plot_montecarlo_envelopes,
+        plot_montecarlo_histograms,
+        plot_montecarlo_impact,
+        plot_profile_likelihood,
+    )
     from casrecon.scenario import Scenario
 
 __all__ = [
@@ -53,6 +67,8 @@ __all__ = [
     "fit",
     "fit_joint",
     "load_results",
+    "montecarlo",
+    "Dispersions",
     "DropFit",
     "JointFit",
     "PointMassFit",
@@ -70,6 +86,14 @@ __all__ = [
     "plot_joint_rates",
     "plot_joint_pitching_moment",
     "plot_shared_correlation",
+    "plot_aero_coefficients",
+    "plot_aero_sigma",
+    "plot_montecarlo_histograms",
+    "plot_montecarlo_impact",
+    "plot_montecarlo_envelopes",
+    "plot_fisher_directions",
+    "plot_profile_likelihood",
+    "plot_design_study",
     "InputError",
     "FitError",
 ]
@@ -82,10 +106,15 @@ _LAZY = {
     "PointMassFit": ("casrecon.output.pointmass_result", "PointMassFit"),
     "Parameter": ("casrecon.output.parameter_records", "Parameter"),
     "Parameters": ("casrecon.output.parameter_records", "Parameters"),
+    "Dispersions": ("casrecon.io.montecarlo_config", "Dispersions"),
     **{name: ("casrecon.report.result_figures", name) for name in (
         "plot_trajectory", "plot_qbar_alpha_t", "plot_pitching_moment", "plot_reconciled", "plot_residuals",
         "plot_correlation", "plot_joint_altitude_speed", "plot_joint_qbar_alpha_t", "plot_joint_flow_angles",
-        "plot_joint_rates", "plot_joint_pitching_moment", "plot_shared_correlation")},
+        "plot_joint_rates", "plot_joint_pitching_moment", "plot_shared_correlation", "plot_aero_coefficients",
+        "plot_aero_sigma")},
+    **{name: ("casrecon.report.study_figures", name) for name in (
+        "plot_montecarlo_histograms", "plot_montecarlo_impact", "plot_montecarlo_envelopes", "plot_fisher_directions",
+        "plot_profile_likelihood", "plot_design_study")},
 }
 
 
@@ -243,6 +272,43 @@ def fit_joint(problems: str | Path | Sequence[str | Path], *, name: str = "joint
     sigmas = single_drop_sigmas(list(cfg.drops)) if single else {}
     result.timings["total_s"] = time.perf_counter() - t0
     return JointFit.from_fit(result, {d.scenario.config.name: fit_products(d) for d in result.drops}, sigmas)
+
+
+def montecarlo(problem: str | Path, cases: int | None = None, *, seed: int | None = None,
+               dispersions: Dispersions | None = None, workers: int = 1, scheduler: str | None = None,
+               progress: bool = False) -> MonteCarloResult:
+    """Dispersed Monte Carlo of a 6-DOF problem (``casrecon montecarlo``, without writing a folder).
+
+    Parameters
+    ----------
+    problem : path
+        Problem folder or its ``problem.toml``.
+    cases, seed : int, optional
+        Number of cases and the seed (case i draws from the stream (seed, i)); default the
+        problem's ``[montecarlo]`` table (1000 and 0 without one).
+    dispersions : Dispersions, optional
+        1-sigma dispersions; default the ``[montecarlo]`` table's.
+    workers, scheduler
+        Local processes, or a Dask scheduler address (``"tcp://host:8786"``).
+    progress : bool
+        Draw a progress bar on stderr (one step per case).
+
+    Returns
+    -------
+    casrecon.analysis.montecarlo.MonteCarloResult
+        Every case's drawn inputs and outcomes (``result["impact_speed_mps"]``), ``statistics()``,
+        and the first cases' histories; plot it with the ``plot_montecarlo_*`` functions.
+
+    Raises
+    ------
+    InputError
+        A malformed problem (a bad ``[montecarlo]`` value included), located.
+    ValueError
+        ``cases`` below 1 or ``seed`` below 0.
+    """
+    from casrecon.analysis.montecarlo import run_montecarlo
+
+    return run_montecarlo(problem, cases, seed, dispersions, workers=workers, scheduler=scheduler, progress=progress)
 
 
 def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit:

@@ -22,7 +22,6 @@ results kept). See :mod:`casrecon.cli_guard`.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from collections.abc import Sequence
@@ -36,8 +35,8 @@ from casrecon.cli_guard import (
     out_folder_arguments,
     run_command,
 )
+from casrecon.cli_montecarlo import montecarlo_command
 from casrecon.cli_options import HelpFormatter, add_verbosity_arguments, configure_logging, log_level, version_text
-from casrecon.io.errors import InputError
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -199,130 +198,6 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
     return 0
 
 
-def _montecarlo(args: argparse.Namespace) -> int:
-    if args.estimator:
-        return _estimator_montecarlo(args)
-    return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
-                                  args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures,
-                                  formats=args.formats, force=args.force, progress=not args.quiet)
-
-
-def run_montecarlo_command(problem: Path, out: Path, cases: int, seed: int, workers: int, scheduler: str | None,
-                           *, dt_s: float = 0.02, chunk_size: int | None = None, center: str = "truth",
-                           figures: bool = True, progress: bool = True, backend: str = "auto",
-                           formats: Sequence[str] = ("png",), force: bool = False) -> int:
-    """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``envelopes.csv``,
-    ``statistics.json``, ``figures/*`` in each of ``formats``); ``dt_s`` is the RK4 step, s (the Monte
-    Carlo default, :data:`casrecon.simulation.batch.DEFAULT_DT_S`); ``force`` as ``--force``.
-    Returns 0, or 2 after printing one located line on bad input, an ``--out`` that may not be
-    written, a scheduler that is malformed or unreachable, or more cases than the memory holds."""
-    from casrecon.analysis.montecarlo import Dispersions, memory_estimate_bytes, run_montecarlo
-    from casrecon.cli_guard import available_memory_bytes, scheduler_problem
-    from casrecon.output.montecarlo_results import write_cases_csv, write_envelopes_csv
-    from casrecon.output.out_folder import check_out_folder, input_paths
-    from casrecon.output.results import atomic_folder, write_json
-    from casrecon.report.montecarlo_plots import plot_montecarlo
-    from casrecon.scenario import Scenario
-
-    def bad(msg: str) -> int:
-        print(f"casrecon montecarlo: {msg}", file=sys.stderr)
-        return 2
-
-    if not isinstance(cases, int) or cases < 1:
-        return bad(f"--cases: must be a positive integer, got {cases!r}")
-    if not isinstance(seed, int) or seed < 0:
-        return bad(f"--seed: must be an integer >= 0, got {seed!r}")
-    if not isinstance(workers, int) or workers < 1:
-        return bad(f"--workers: must be a positive integer, got {workers!r}")
-    if not (math.isfinite(dt_s) and 0 < dt_s <= 0.05):
-        return bad(f"--dt: must lie in (0, 0.05] s, got {dt_s!r}")
-    if chunk_size is not None and chunk_size < 1:
-        return bad(f"--chunk-size: must be a positive integer, got {chunk_size!r}")
-    try:
-        disp = Dispersions(center=center)
-    except ValueError as err:
-        return bad(str(err))
-    need, have = memory_estimate_bytes(cases), available_memory_bytes()
-    if have is not None and need > 0.8 * have:
-        return bad(f"--cases {cases}: needs about {need / 1e9:.3g} GB of memory, more than 80 % of the "
-                   f"{have / 1e9:.3g} GB available; run at most {int(cases * 0.8 * have / need)} cases at a "
-                   "time (several runs with different --seed)")
-    if scheduler is not None and (why := scheduler_problem(scheduler)) is not None:
-        return bad(f"--scheduler {scheduler}: {why}")
-    try:
-        sc = Scenario.load(problem)
-    except InputError as err:
-        print(f"casrecon: {err}", file=sys.stderr)
-        return 2
-    except FileNotFoundError as err:
-        return bad(f"{problem}: {err.strerror or err}")
-    if sc.config.release.h_agl_m <= 0:
-        return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
-    inputs = input_paths([problem])
-    try:
-        check_out_folder(out, inputs=inputs, force=force)
-    except InputError as err:
-        print(f"casrecon: {err}", file=sys.stderr)
-        return 2
-    try:
-        result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
-                                chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
-    except OSError as err:
-        if scheduler is not None:
-            return bad(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({err})")
-        raise
-    stats = result.statistics()
-    stats.update(workers=workers, scheduler=scheduler, wall_s=result.wall_s,
-                 cases_per_s=result.n_cases / result.wall_s if result.wall_s > 0 else None)
-    with atomic_folder(out, kind="montecarlo", force=force, inputs=inputs) as tmp:
-        write_cases_csv(tmp / "cases.csv", result)
-        if result.histories is not None:
-            write_envelopes_csv(tmp / "envelopes.csv", result.histories.envelopes())
-        write_json(tmp / "statistics.json", stats)
-        if figures:
-            plot_montecarlo(result, tmp / "figures", formats)
-    ft, sp = stats["flight_time_s"], stats["impact_speed_mps"]
-    print(f"{result.n_cases} cases ({stats['n_impacted']} impacted) in {result.wall_s:.1f} s -> {out}")
-    if ft is not None:
-        print(f"flight time   {ft['mean']:.3f} s    sd {ft['sd']:.3f}   p1 {ft['p1']:.3f}   p99 {ft['p99']:.3f}")
-        print(f"impact speed  {sp['mean']:.3f} m/s  sd {sp['sd']:.3f}   p1 {sp['p1']:.3f}   p99 {sp['p99']:.3f}")
-    return 0
-
-
-def _estimator_montecarlo(args: argparse.Namespace) -> int:
-    from casrecon.analysis.estimator_mc import estimator_montecarlo
-    from casrecon.cli_guard import scheduler_problem
-    from casrecon.output.consistency import write_consistency
-    from casrecon.output.results import atomic_folder
-    from casrecon.scenario import Scenario
-
-    if args.cases < 2 or args.workers < 1 or args.seed < 0:
-        print("casrecon montecarlo --estimator: --cases must be >= 2, --workers >= 1, --seed >= 0", file=sys.stderr)
-        return 2
-    if args.scheduler is not None and (why := scheduler_problem(args.scheduler)) is not None:
-        print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: {why}", file=sys.stderr)
-        return 2
-    Scenario.load(Path(args.problem))  # a bad problem fails here, located, before any worker starts
-    t0 = time.perf_counter()
-    try:
-        res = estimator_montecarlo(Path(args.problem), args.cases, args.seed, args.workers, args.scheduler,
-                                   progress=not args.quiet)
-    except OSError as err:
-        if args.scheduler is None:
-            raise
-        print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: cannot reach the Dask scheduler "
-              f"({err})", file=sys.stderr)
-        return 2
-    wall = time.perf_counter() - t0
-    with atomic_folder(Path(args.out), **args.where) as tmp:
-        write_consistency(tmp, res, wall)
-    n_ok = args.cases - len(res.failed)
-    print(f"{n_ok} of {args.cases} fits converged in {wall:.0f} s; NEES sum {res.nees_sum:.1f}, chi2 95 % interval "
-          f"[{res.interval[0]:.1f}, {res.interval[1]:.1f}] over {n_ok * res.n_params} dof: "
-          f"{'consistent' if res.consistent else 'NOT consistent'} -> {args.out}")
-    return 0 if res.consistent and not res.failed else 4
-
-
 def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
     from casrecon.estimation.drop import parameter_set
@@ -450,20 +325,24 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("montecarlo", help="dispersed forward simulations: touchdown time and impact speed")
     p.add_argument("problem", help="problem folder or problem.toml")
     p.add_argument("--out", required=True, help=OUT_HELP)
-    p.add_argument("--cases", type=int, default=1000, help="number of dispersed cases")
-    p.add_argument("--seed", type=int, default=0, help="case i uses the random stream (seed, i)")
+    p.add_argument("--cases", type=int, default=None,
+                   help="number of cases (default: the problem's [montecarlo] cases, 1000 without it; --estimator: "
+                        "1000)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="case i uses the random stream (seed, i) (default: [montecarlo] seed, 0 without it)")
     p.add_argument("--workers", type=int, default=2, help="local processes (ignored with --scheduler)")
     p.add_argument("--scheduler", default=None, help="Dask distributed scheduler address, e.g. tcp://host:8786")
     p.add_argument("--dt", type=float, default=0.02, help="RK4 step, s")
-    p.add_argument("--center", choices=("truth", "nominal"), default="truth",
-                   help="disperse around the problem's [truth] or the nominal database")
+    p.add_argument("--center", choices=("truth", "nominal"), default=None,
+                   help="disperse around the problem's [truth] or the nominal database (default: [montecarlo] "
+                        "center, truth without it); the 1-sigma dispersions are the [montecarlo] table's")
     p.add_argument("--no-figures", action="store_true", help="do not draw the histograms")
     p.add_argument("--estimator", action="store_true",
                    help="estimator Monte Carlo instead: draw a truth from the fit's priors, simulate, fit, and test "
                         "the normalised estimation errors (NEES) against chi-square at 95 %%; exit 4 if not consistent")
     add_format_argument(p)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
-    p.set_defaults(func=_montecarlo)
+    p.set_defaults(func=montecarlo_command)
     p = sub.add_parser("sensitivity", help="observability: Fisher directions, profile likelihood, drop design")
     p.add_argument("study", choices=("fisher", "profile", "design"))
     p.add_argument("problem", help="problem folder or problem.toml")

@@ -8,14 +8,20 @@ default, so a worker never inherits CasADi or thread state); a ``scheduler`` add
 same file system. ``fn`` and the items must be picklable for the last two.
 
 Progress is a one-line bar on stderr (:class:`Progress`): a dozen lines of our own rather than a
-new dependency, and the same line the Monte Carlo has always printed.
+new dependency. An item may count its own units as they finish (:func:`report_progress`, e.g. each
+case of a chunk of Monte Carlo cases as it lands) so the bar moves before the whole item returns:
+in this process directly, from local processes through a queue a thread of the parent reads (on a
+Dask cluster only whole items count). ``on_done`` is called in the parent with each item and its
+result as the item finishes (e.g. to log one line per finished case).
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import queue
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -86,15 +92,74 @@ def import_distributed() -> tuple[type, Callable]:
     return Client, as_completed
 
 
-def apply_to_chunk(fn: Callable, chunk: Sequence) -> list:
-    """``[fn(item) for item in chunk]``: the unit of work of :func:`parallel_map` (top level, so picklable)."""
+#: Where :func:`report_progress` sends its counts in this process: ``(chunk key, units) -> None``;
+#: None outside :func:`parallel_map` (and on Dask workers).
+_REPORTER: Callable[[int, int], None] | None = None
+#: The key of the chunk this process is working on (for :data:`_REPORTER`).
+_CURRENT_CHUNK = -1
+
+
+def report_progress(n: int = 1) -> None:
+    """Count ``n`` units of the item being worked on as done before it returns (its ``weight`` is
+    what counts in all: what it reported is subtracted when it finishes). Called by the ``fn`` of
+    :func:`parallel_map`; a no-op anywhere else and on a Dask cluster."""
+    if _REPORTER is not None and n > 0:
+        _REPORTER(_CURRENT_CHUNK, int(n))
+
+
+def apply_to_chunk(fn: Callable, chunk: Sequence, key: int = -1) -> list:
+    """``[fn(item) for item in chunk]``: the unit of work of :func:`parallel_map` (top level, so
+    picklable); ``key`` names the chunk in what :func:`report_progress` sends."""
+    global _CURRENT_CHUNK
+    _CURRENT_CHUNK = key
     return [fn(item) for item in chunk]
 
 
-def ignore_interrupts() -> None:
+def ignore_interrupts(counts: Any = None) -> None:
     """Worker initializer: Ctrl-C reaches the whole process group, but only the parent acts on it
-    (it stops the workers; no worker prints a KeyboardInterrupt traceback)."""
+    (it stops the workers; no worker prints a KeyboardInterrupt traceback). ``counts``: the
+    multiprocessing queue :func:`report_progress` puts ``(chunk key, units)`` on."""
+    global _REPORTER
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if counts is not None:
+        counts.cancel_join_thread()  # a count not yet sent when the worker exits is not waited for
+        _REPORTER = lambda key, n: counts.put((key, n))  # noqa: E731
+
+
+class ProgressCounter:
+    """The parent's count of finished units: whole chunks (:meth:`finished`) and the units their
+    items reported before (:meth:`partial`, from any thread); a chunk's late reports are ignored,
+    so the bar ends at exactly the total."""
+
+    def __init__(self, bar: Progress, weights: Sequence[int]) -> None:
+        self.bar, self.weights = bar, list(weights)
+        self.reported = [0] * len(self.weights)
+        self.closed: set[int] = set()
+        self.lock = threading.Lock()
+
+    def partial(self, key: int, n: int) -> None:
+        with self.lock:
+            if 0 <= key < len(self.weights) and key not in self.closed:
+                n = min(n, self.weights[key] - self.reported[key])
+                self.reported[key] += n
+                self.bar.update(n)
+
+    def finished(self, key: int) -> None:
+        with self.lock:
+            self.closed.add(key)
+            self.bar.update(self.weights[key] - self.reported[key])
+
+
+def drain(counts: Any, counter: ProgressCounter, stop: threading.Event) -> None:
+    """Thread of the parent: pass the workers' ``(chunk key, units)`` to ``counter`` until ``stop``."""
+    while not stop.is_set():
+        try:
+            key, n = counts.get(timeout=0.05)
+        except queue.Empty:
+            continue
+        except (OSError, EOFError, ValueError):  # the queue was closed under us (the pool was stopped)
+            return
+        counter.partial(key, n)
 
 
 def stop_pool(pool: ProcessPoolExecutor) -> None:
@@ -111,13 +176,14 @@ def stop_pool(pool: ProcessPoolExecutor) -> None:
 
 def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1, scheduler: str | None = None,
                  progress: str | None = None, weight: Callable[[Any], int] | None = None, chunksize: int = 1,
-                 start_method: str = "spawn") -> list:
+                 start_method: str = "spawn", on_done: Callable[[Any, Any], None] | None = None) -> list:
     """``[fn(item) for item in items]`` in this process, on local processes or on a Dask cluster.
 
     Parameters
     ----------
     fn : callable
         Applied to each item; importable (picklable) when ``workers > 1`` or ``scheduler`` is given.
+        It may call :func:`report_progress` to move the bar before it returns.
     items : iterable
         The inputs; the results come back in their order.
     workers : int
@@ -134,6 +200,8 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
         Items sent together to a worker as one unit of work (fewer round trips for cheap items).
     start_method : {"spawn", "fork", "forkserver"}
         Multiprocessing context of the local pool.
+    on_done : callable or None
+        ``on_done(item, result)``, called in this process for each item as its chunk finishes.
 
     Returns
     -------
@@ -147,17 +215,22 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
     ValueError
         ``chunksize`` below 1.
     """
+    global _REPORTER
     items = list(items)
     if chunksize < 1:
         raise ValueError(f"chunksize must be >= 1, got {chunksize}")
     weigh = weight if weight is not None else (lambda item: 1)
     chunks = [items[s:s + chunksize] for s in range(0, len(items), chunksize)]
-    bar = Progress(sum(weigh(item) for item in items), progress is not None, progress or "")
+    weights = [sum(weigh(item) for item in chunk) for chunk in chunks]
+    counter = ProgressCounter(Progress(sum(weights), progress is not None, progress or ""), weights)
     results: dict[int, list] = {}
 
     def done(k: int, values: list) -> None:
         results[k] = values
-        bar.update(sum(weigh(item) for item in chunks[k]))
+        counter.finished(k)
+        if on_done is not None:
+            for item, value in zip(chunks[k], values):
+                on_done(item, value)
 
     if scheduler is not None:
         Client, dask_as_completed = import_distributed()
@@ -167,17 +240,32 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
             for fut in dask_as_completed(futures):
                 done(where[fut.key], fut.result())
     elif workers <= 1 or len(chunks) <= 1:
-        for k, chunk in enumerate(chunks):
-            done(k, apply_to_chunk(fn, chunk))
+        previous, _REPORTER = _REPORTER, counter.partial
+        try:
+            for k, chunk in enumerate(chunks):
+                done(k, apply_to_chunk(fn, chunk, k))
+        finally:
+            _REPORTER = previous
     else:
         ctx = multiprocessing.get_context(start_method)
+        counts = ctx.Queue() if progress is not None else None
+        stop = threading.Event()
+        reader = threading.Thread(target=drain, args=(counts, counter, stop), daemon=True) if counts else None
         with ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx,
-                                 initializer=ignore_interrupts) as pool:
+                                 initializer=ignore_interrupts, initargs=(counts,)) as pool:
+            if reader is not None:
+                reader.start()
             try:
-                futs = {pool.submit(apply_to_chunk, fn, chunk): k for k, chunk in enumerate(chunks)}
+                futs = {pool.submit(apply_to_chunk, fn, chunk, k): k for k, chunk in enumerate(chunks)}
                 for fut in as_completed(futs):
                     done(futs[fut], fut.result())
             except BaseException:
                 stop_pool(pool)
                 raise
+            finally:
+                stop.set()
+                if reader is not None:
+                    reader.join()
+        if counts is not None:
+            counts.close()
     return [value for k in range(len(chunks)) for value in results[k]]

@@ -10,13 +10,17 @@ Drawing the truth from the prior is what makes the Bayesian (MAP) estimator's co
 testable: with a fixed truth the prior's pull would show as a bias.
 
 Cases run on local processes (spawn) or, given a Dask scheduler address, on that cluster; every
-case is reproducible from (seed, case index).
+case is reproducible from (seed, case index). Each finished case is logged (INFO, logger
+``casrecon.analysis.estimator_mc``): its index, how many are done, converged or not, chi-square and
+seconds; the fits inside a case log their Ipopt iterations at DEBUG only.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import logging
 import tempfile
+import time
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -25,8 +29,11 @@ import numpy as np
 from scipy.stats import chi2
 
 from casrecon.estimation.drop import parameter_set
+from casrecon.estimation.engine.convergence import iteration_logging
 from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
+
+LOG = logging.getLogger(__name__)
 
 
 def draw_truth(scenario: Scenario, rng: np.random.Generator) -> Scenario:
@@ -67,23 +74,42 @@ def parameter_errors(result, truth: dict[str, float]) -> tuple[np.ndarray, float
 
 
 def run_case(problem: str, seed: int, index: int) -> dict:
-    """Draw a truth, simulate, fit; returns the errors, sigmas and NEES of case ``index``."""
+    """Draw a truth, simulate, fit; returns the errors, sigmas and NEES of case ``index``, its
+    chi-square and its wall time ``case_s`` (s). The fit's iteration lines are logged at DEBUG."""
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.simulation.synthetic import truth_parameters_by_name, with_synthetic_data
 
+    t0 = time.perf_counter()
     rng = np.random.default_rng([seed, index])
     scenario = draw_truth(Scenario.load(problem), rng)
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, iteration_logging(logging.DEBUG, f"case {index}"):
         sc = with_synthetic_data(scenario, Path(tmp), seed=int(rng.integers(2**31)))
         try:
             r = fit_drop(sc)
         except FitError as err:
-            return {"index": index, "failed": str(err)}
+            return {"index": index, "failed": str(err), "case_s": time.perf_counter() - t0}
         truth = truth_parameters_by_name(sc)
     e, nees = parameter_errors(r, truth)
     return {"index": index, "names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(),
-            "nees": nees, "reduced_chi2": r.reduced_chi2, "status": r.solver.status,
-            "iterations": r.solver.iterations, "solve_s": r.solver.solve_s}
+            "nees": nees, "chi2": float(sum(r.chi2.values())), "reduced_chi2": r.reduced_chi2,
+            "status": r.solver.status, "iterations": r.solver.iterations, "solve_s": r.solver.solve_s,
+            "case_s": time.perf_counter() - t0}
+
+
+class CaseLog:
+    """``on_done`` of the estimator Monte Carlo: one line per finished case, at ``level``."""
+
+    def __init__(self, n_cases: int, level: int = logging.INFO) -> None:
+        self.n_cases, self.level, self.done = n_cases, level, 0
+
+    def __call__(self, index: int, case: dict) -> None:
+        self.done += 1
+        head = f"estimator montecarlo: case {index} ({self.done} of {self.n_cases} done):"
+        if "failed" in case:
+            LOG.log(self.level, "%s fit failed (%s), %.1f s", head, case["failed"], case["case_s"])
+        else:
+            LOG.log(self.level, "%s converged, chi-square %.6g (reduced %.4f), NEES %.2f, %d iterations, %.1f s",
+                    head, case["chi2"], case["reduced_chi2"], case["nees"], case["iterations"], case["case_s"])
 
 
 @dataclass(frozen=True)
@@ -109,10 +135,11 @@ def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: in
     """Run ``n_cases`` simulate-and-fit cases and test the NEES sum against chi2 at 95 %.
 
     Local spawn processes (``workers``) or, given a Dask scheduler address, that cluster; case i
-    is reproducible from (seed, i) alone.
+    is reproducible from (seed, i) alone. Each finished case is logged, at INFO with ``progress``
+    (else at DEBUG).
     """
     cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed), range(n_cases), workers=workers,
-                         scheduler=scheduler, progress="estimator montecarlo" if progress else None)
+                         scheduler=scheduler, on_done=CaseLog(n_cases, logging.INFO if progress else logging.DEBUG))
     ok = [c for c in cases if "nees" in c]
     n_params = len(ok[0]["names"]) if ok else 0
     dof = n_params * len(ok)

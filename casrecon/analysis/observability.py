@@ -16,6 +16,7 @@ import numpy as np
 
 from casrecon.estimation.continuation import clock_bounds
 from casrecon.estimation.drop import build_nlp, parameter_set
+from casrecon.estimation.engine.convergence import iteration_logging
 from casrecon.estimation.engine.covariance import compute_covariance
 from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.fit import FitResult, prepare_drop
@@ -85,7 +86,8 @@ def _crossing(x: np.ndarray, y: np.ndarray, level: float) -> float:
 
 def refit_with_held(result: FitResult, name: str, value: float, max_iter: int = 100) -> SolveResult:
     """Re-solve ``result``'s NLP with parameter ``name`` held at ``value`` (SI), warm-started from
-    the fit, clock-offset bounds as in the fit."""
+    the fit, clock-offset bounds as in the fit; its Ipopt iteration lines are logged at DEBUG
+    (labelled ``profile NAME = VALUE``)."""
     nlp, z_best, part = result.nlp, result.z, result.part
     i = result.params.index(name)
     col, scale = part.theta_cols[i], result.params.scales[i]
@@ -93,13 +95,14 @@ def refit_with_held(result: FitResult, name: str, value: float, max_iter: int = 
     lbx[col] = ubx[col] = value / scale
     z0 = z_best.copy()
     z0[col] = value / scale
-    return solve(nlp, z0, max_iter=max_iter, bounds=(lbx, ubx))
+    with iteration_logging(logging.DEBUG, f"profile {name} = {value:.6g}"):
+        return solve(nlp, z0, max_iter=max_iter, bounds=(lbx, ubx))
 
 
 def profile_likelihood(result: FitResult, name: str, n_points: int = 9, span_sigma: float = 4.0) -> Profile:
     """Refit with ``name`` held at each of ``n_points`` values across +-``span_sigma`` Fisher
     sigmas (warm-started from the fit); delta chi-square = 2 (objective - best objective). Logs one
-    line per grid point (INFO)."""
+    line per grid point (INFO); the refits' Ipopt iterations at DEBUG."""
     value, sigma = result.parameter(name)
     grid = value + sigma * np.linspace(-span_sigma, span_sigma, n_points)
     best = result.solver.objective

@@ -29,6 +29,7 @@ from casrecon.estimation.engine.checks import (
     check_determined,
     covariance_or_fail,
 )
+from casrecon.estimation.engine.convergence import iteration_logging
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.engine.solve import SolveResult, solve
@@ -174,7 +175,8 @@ def _initial_cda(data: PointMassData, cfg: PointMassConfig, atm: Atmosphere) -> 
 
 
 def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_level: int = 0) -> PointMassResult:
-    """Fit the track of a point-mass problem with the constant or the spline drag model."""
+    """Fit the track of a point-mass problem with the constant or the spline drag model; its Ipopt
+    iteration lines are labelled ``constant-CdA fit`` or ``spline-CdA fit``."""
     model_name = model_name or cfg.drag.model
     t0 = time.perf_counter()
     data = prepare_data(cfg)
@@ -222,7 +224,8 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     check_determined(nlp, z0)
     lbx = np.full(z0.size, -np.inf)
     lbx[part.theta_cols[:n_coef]] = 0.0  # B-spline coefficients >= 0 keep CdA(t) >= 0 everywhere
-    sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
+    with iteration_logging(label=f"{model_name}-CdA fit"):  # casrecon fit runs two: spline and constant CdA
+        sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
     check_converged(sol, nlp)
     t2 = time.perf_counter()
     r = nlp.residual_vector(sol.z)

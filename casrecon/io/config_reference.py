@@ -25,6 +25,7 @@ from casrecon.io.atmosphere_config import AtmosphereConfig
 from casrecon.io.baro import BaroConfig
 from casrecon.io.config_records import FROM_FIELD, REQUIRED, FileKind, Key, Table
 from casrecon.io.imu import ImuCsvSpec
+from casrecon.io.montecarlo_config import DISPERSION_KEYS, Dispersions, MonteCarloConfig
 from casrecon.io.pointmass_problem import DragConfig, GpsQuality, PointMassConfig, SegmentConfig
 from casrecon.io.problem import (
     EstimationConfig,
@@ -261,6 +262,23 @@ SIX_DOF = FileKind(
             + _disturbance_keys("the prior of the disturbance estimated at every node: the weak-constraint "
                                 "option"),
             note="Every key optional; the defaults fit a 500 Hz drop."),
+        Table("montecarlo", (
+            _k("cases", "int", "", source=MonteCarloConfig, attr="montecarlo.cases"),
+            _k("seed", "int", "", source=MonteCarloConfig, attr="montecarlo.seed"),
+            _k("center", "string", "", source=Dispersions, attr="montecarlo.dispersions.center"),
+        ) + tuple(
+            _k(key, "float", unit, default=default, source=Dispersions, field=DISPERSION_KEYS[key],
+               attr=None if default is not FROM_FIELD else f"montecarlo.dispersions.{DISPERSION_KEYS[key]}")
+            for key, unit, default in (
+                ("h_agl_sigma_m", "m", FROM_FIELD), ("velocity_sigma_mps", "m/s", FROM_FIELD),
+                ("euler_sigma_deg", "deg", FROM_FIELD), ("rate_sigma_dps", "deg/s", FROM_FIELD),
+                ("aero_factor_sigma", "", FROM_FIELD),
+                ("wind_bias_sigma_mps", "m/s", "<[atmosphere] wind_3sigma_mps / 3>"),
+                ("density_factor_sigma", "", "<[atmosphere] density_3sigma / 3>"))
+        ) + (_k("aero_factors", "[string]", "", source=Dispersions, attr="montecarlo.dispersions.aero_factors"),),
+            note="Optional: the dispersed Monte Carlo of `casrecon montecarlo` (not `--estimator`), each "
+                 "dispersion a zero-mean Gaussian of this 1-sigma about the centre; `--cases`, `--seed` and "
+                 "`--center` override the table."),
     ),
 )
 

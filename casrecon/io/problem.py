@@ -16,6 +16,7 @@ Layout of a problem folder (see ``problems/ees-drop-1/problem.toml`` for a comme
     [truth]       what the simulator uses to make synthetic data (dispersions, biases, seed)
     [simulation]  dt_s, substeps, t_max_s, pre_release_s, post_impact_s
     [estimation]  fit window, mesh, Hessian, linear solver, priors, GPS quality rules
+    [montecarlo]  optional: dispersions, cases and seed of ``casrecon montecarlo``
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from casrecon.io.baro import BaroConfig, parse_baro
 from casrecon.io.errors import InputError
 from casrecon.io.gps_rules import GpsQuality, gps_error_model
 from casrecon.io.imu import ImuCsvSpec
+from casrecon.io.montecarlo_config import MonteCarloConfig, parse_montecarlo
 from casrecon.io.toml_fields import Fields, load_toml
 from casrecon.io.truth_errors import TruthErrors, read_truth_errors
 from casrecon.io.vehicle_files import load_aero, load_vehicle
@@ -244,6 +246,7 @@ class ProblemConfig:
     estimation: EstimationConfig = EstimationConfig()
     sources: dict[str, str] = field(default_factory=dict)
     baro: BaroConfig | None = None
+    montecarlo: MonteCarloConfig = field(default_factory=MonteCarloConfig)
 
     @property
     def folder(self) -> Path:
@@ -276,6 +279,7 @@ def load_problem(path: str | Path) -> ProblemConfig:
         estimation=_estimation(f.table("estimation") or Fields({}, path, "estimation.")),
         sources={"problem": str(path.resolve()), "vehicle": str(vehicle_path), "aero": str(aero_path)},
         baro=parse_baro(sensors.table("baro")),
+        montecarlo=parse_montecarlo(f.table("montecarlo") or Fields({}, path, "montecarlo.")),
     )
     for t in (head, sensors, f):
         t.reject_unknown()

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from casrecon.report import joint_correlation, joint_figures, residual_figures, trajectory_figures
+from casrecon.report import aero_figures, joint_correlation, joint_figures, residual_figures, trajectory_figures
 from casrecon.report.results_folder import DropFolder, DropTables, drop_folders, read_json
 
 
@@ -54,6 +54,29 @@ def plot_pitching_moment(result: Any) -> Figure:
 def plot_reconciled(result: Any) -> Figure:
     """Reconstruction against the forward simulation with the fitted dispersions (and the nominal one)."""
     return trajectory_figures.reconciled_figure(_source(result))
+
+
+def plot_aero_coefficients(result: Any, against: str = "time") -> Figure:
+    """C_A, C_Y, C_N (body axes) and C_l, C_m, C_n (about the MRP) along the reconstructed flight:
+    reconstructed from the IMU (black) and of the best-fit database (red), each with its 3-sigma
+    band, and of the nominal database (blue) (the DAVINCI paper's Figs. 12-15).
+
+    Parameters
+    ----------
+    result : DropFit, path or DropFolder
+    against : {"time", "alpha_t"}
+        Flight time, s (six panels), or total angle of attack, deg (C_A and the crossflow-plane
+        resultants C_N(alpha_T), C_m(alpha_T)).
+    """
+    draw = {"time": aero_figures.aero_coefficients_figure, "alpha_t": aero_figures.aero_alpha_t_figure}
+    if against not in draw:
+        raise ValueError(f"no aero coefficient figure against {against!r}; available: {', '.join(draw)}")
+    return draw[against](_source(result))
+
+
+def plot_aero_sigma(result: Any) -> Figure:
+    """The size of the 3-sigma bands of :func:`plot_aero_coefficients` against flight time (s), log scale."""
+    return aero_figures.aero_sigma_figure(_source(result))
 
 
 def plot_residuals(result: Any, kind: str = "imu") -> Figure:

@@ -25,6 +25,7 @@ import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -189,18 +190,19 @@ class BatchSimulator:
         """Integrate cases ``x0`` (13, n) with parameters ``params`` (np, n) from release (t = 0)."""
         return self.run_with_history(x0, params, t_max_s)[0]
 
-    def run_with_history(self, x0: np.ndarray, params: np.ndarray, t_max_s: float = 300.0,
-                         every: int = 0) -> tuple[BatchResult, np.ndarray | None]:
+    def run_with_history(self, x0: np.ndarray, params: np.ndarray, t_max_s: float = 300.0, every: int = 0,
+                         on_landed: Callable[[int], None] | None = None) -> tuple[BatchResult, np.ndarray | None]:
         """:meth:`run`, and, if ``every`` > 0, each case's :data:`HISTORY_CHANNELS` at release and
         every ``every`` steps (``every * dt_s`` s apart) while it flies: a float32 (n, k, 4) array,
-        NaN once the case has landed (k samples up to the last landing, or ``t_max_s``)."""
+        NaN once the case has landed (k samples up to the last landing, or ``t_max_s``).
+        ``on_landed(k)`` is called after each RK4 step in which k > 0 cases reached the ground."""
         x0 = np.asarray(x0, float)
         params = np.asarray(params, float)
         n = x0.shape[1]
         if params.shape != (self.model.n_params, n) or x0.shape[0] != self.model.n_states:
             raise ValueError(f"x0 must be (13, n) and params ({self.model.n_params}, n), got {x0.shape}, "
                              f"{params.shape}")
-        parts = [self._run_block(x0[:, s:s + self.batch], params[:, s:s + self.batch], t_max_s, every)
+        parts = [self._run_block(x0[:, s:s + self.batch], params[:, s:s + self.batch], t_max_s, every, on_landed)
                  for s in range(0, n, self.batch)]
         result = BatchResult(*[np.concatenate([getattr(r, f) for r, _ in parts], axis=-1)
                                for f in BatchResult.__dataclass_fields__])
@@ -210,7 +212,7 @@ class BatchSimulator:
         xn, at = self._step(x, p, h)
         return xn.full(), at.full().ravel()
 
-    def _run_block(self, x0, p, t_max_s, every: int = 0) -> tuple[BatchResult, np.ndarray | None]:
+    def _run_block(self, x0, p, t_max_s, every: int = 0, on_landed=None) -> tuple[BatchResult, np.ndarray | None]:
         m, b, dt = x0.shape[1], self.batch, self.dt_s
         pad = b - m
         x = np.hstack([x0, np.repeat(x0[:, -1:], pad, axis=1)]).copy()
@@ -229,6 +231,8 @@ class BatchSimulator:
             xn, at = self._call(x, p, h)
             landed = flying & (xn[2] > 0.0)
             x_above[:, landed], k_above[landed] = x[:, landed], k
+            if on_landed is not None and landed.any():
+                on_landed(int(landed.sum()))
             still = flying & ~landed
             amax[still] = np.maximum(amax[still], at[still])
             flying = still

@@ -19,7 +19,7 @@ from casrecon.analysis.montecarlo import (
     run_cases,
     run_montecarlo,
 )
-from casrecon.cli import run_montecarlo_command
+from casrecon.cli_montecarlo import run_montecarlo_command
 from casrecon.scenario import Scenario
 from casrecon.simulation.batch import HISTORY_CHANNELS, BatchSimulator
 from casrecon.simulation.simulate import Simulator

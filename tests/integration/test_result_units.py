@@ -22,7 +22,8 @@ from scipy.spatial.transform import Rotation
 
 import casrecon
 from casrecon.analysis.fit_products import fit_products
-from casrecon.cli import main, run_montecarlo_command
+from casrecon.cli import main
+from casrecon.cli_montecarlo import run_montecarlo_command
 from casrecon.estimation.joint import JointConfig, fit_joint
 from casrecon.io.flysight import read_flysight
 from casrecon.io.units import unit_of, unnamed_columns, unnamed_json_numbers

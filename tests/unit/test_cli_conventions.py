@@ -57,8 +57,9 @@ def test_every_help_shows_defaults_and_verbosity(command, capsys):
 
 
 def test_numeric_defaults_shown_once():
-    text = build_parser()._subparsers._group_actions[0].choices["montecarlo"].format_help()
-    assert "(default: 1000)" in text and "(default: 0.02)" in text and text.count("(default") == text.count("default")
+    text = " ".join(build_parser()._subparsers._group_actions[0].choices["montecarlo"].format_help().split())
+    assert "(default: 2)" in text and "(default: 0.02)" in text and text.count("(default") == text.count("default")
+    assert "(default: the problem's [montecarlo] cases, 1000 without it" in text
 
 
 @pytest.mark.parametrize("command", COMMANDS)
@@ -105,11 +106,16 @@ def test_quiet_logging_hides_the_progress():
 
 def test_cli_fit_progress_on_stderr_unless_quiet(tmp_path):
     """The cheapest real fit (a GPS-only point-mass problem, seconds): progress lines on stderr by
-    default, none with --quiet; the results line stays on stdout."""
+    default, each run of the two (spline and constant drag area) labelled, none with --quiet; the
+    results line stays on stdout."""
     problem = str(ROOT / "problems" / "realdata-skyderby-411")
     loud = run_module("fit", problem, "--out", str(tmp_path / "a"), "--no-figures")
     assert loud.returncode == 0, loud.stderr
-    assert sum(line.startswith("iteration ") and "chi-square" in line for line in loud.stderr.splitlines()) >= 3
+    lines = loud.stderr.splitlines()
+    for label in ("spline-CdA fit", "constant-CdA fit"):
+        assert sum(line.startswith(f"{label}: iteration ") and "chi-square" in line for line in lines) >= 3, label
+    first_constant = next(i for i, line in enumerate(lines) if line.startswith("constant-CdA fit: "))
+    assert all(line.startswith("spline-CdA fit: ") for line in lines[:first_constant])  # one run, then the other
     quiet = run_module("fit", problem, "--out", str(tmp_path / "b"), "--no-figures", "--quiet")
     assert quiet.returncode == 0, quiet.stderr
     assert "iteration" not in quiet.stderr and "results ->" in quiet.stdout
@@ -128,3 +134,45 @@ def test_profile_logs_one_line_per_grid_point(monkeypatch, caplog):
     lines = [r.getMessage() for r in caplog.records if r.name == obs.LOG.name]
     assert len(lines) == 5
     assert lines[0] == "profile Cmq_mult: point 1 of 5, Cmq_mult = 0.6: delta chi-square 16"
+
+
+def _line_result():
+    """A converged straight-line fit, shaped like the FitResult ``refit_with_held`` reads."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(2)
+    t = np.linspace(0.0, 1.0, 40)
+    y = 0.3 + 1.7 * t + 0.05 * rng.normal(size=t.size)
+    nlp = assemble_nlp(line_terms(t, y, 0.05), 2, dependent=np.zeros(0, int), parameter_names={0: "a", 1: "b"})
+    params = SimpleNamespace(names=("a", "b"), index=("a", "b").index, scales=np.ones(2))
+    return SimpleNamespace(nlp=nlp, z=solve(nlp, np.zeros(2)).z, params=params,
+                           part=SimpleNamespace(theta_cols=np.array([0, 1]), params=params))
+
+
+def test_profile_refits_log_their_iterations_at_debug_with_a_label(caplog):
+    from casrecon.analysis.observability import refit_with_held
+    from casrecon.estimation.engine import convergence
+
+    result = _line_result()
+    with caplog.at_level(logging.DEBUG, logger=LOGGER):
+        sol = refit_with_held(result, "a", 0.5)
+        after = solve(result.nlp, np.zeros(2))     # outside the refit: INFO and no label again
+    assert sol.converged and sol.z[0] == 0.5
+    records = [r for r in caplog.records if r.name == convergence.LOG.name]
+    refit, plain = records[:sol.iterations + 1], records[sol.iterations + 1:]
+    assert all(r.levelno == logging.DEBUG and r.getMessage().startswith("profile a = 0.5: iteration ") for r in refit)
+    assert len(plain) == after.iterations + 1
+    assert all(r.levelno == logging.INFO and r.getMessage().startswith("iteration ") for r in plain)
+
+
+def test_estimator_montecarlo_logs_each_finished_case(caplog):
+    from casrecon.analysis.estimator_mc import LOG, CaseLog
+
+    log = CaseLog(3)
+    with caplog.at_level(logging.INFO, logger=LOG.name):
+        log(2, {"chi2": 12345.6, "reduced_chi2": 1.0123, "nees": 17.5, "iterations": 8, "case_s": 31.25})
+        log(0, {"failed": "no convergence", "case_s": 12.0})
+    assert [r.getMessage() for r in caplog.records] == [
+        "estimator montecarlo: case 2 (1 of 3 done): converged, chi-square 12345.6 (reduced 1.0123), NEES 17.50, "
+        "8 iterations, 31.2 s",
+        "estimator montecarlo: case 0 (2 of 3 done): fit failed (no convergence), 12.0 s"]

@@ -1,13 +1,15 @@
-"""casrecon.parallel: input order, chunking, in-process and spawned runners, the progress bar."""
+"""casrecon.parallel: input order, chunking, in-process and spawned runners, the progress bar (moved by
+the items themselves before they return), the per-item callback."""
 
 from __future__ import annotations
 
 import math
 import os
+import time
 
 import pytest
 
-from casrecon.parallel import Progress, parallel_map
+from casrecon.parallel import Progress, ProgressCounter, parallel_map, report_progress
 
 
 def test_in_process_keeps_order_and_chunking_changes_nothing():
@@ -38,3 +40,39 @@ def test_progress_counts_weighted_units(capsys):
 def test_bad_chunksize_is_rejected():
     with pytest.raises(ValueError, match="chunksize"):
         parallel_map(abs, [1], chunksize=0)
+
+
+def units_slowly(n: int) -> int:
+    """Report ``n`` units one by one, 30 ms apart (top level: spawned workers import it)."""
+    for _ in range(n):
+        time.sleep(0.03)
+        report_progress(1)
+    return n
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_items_move_the_bar_before_they_return(capsys, workers):
+    assert parallel_map(units_slowly, [6, 6], workers=workers, progress="demo", weight=lambda n: n) == [6, 6]
+    err = capsys.readouterr().err
+    counts = [int(part.split("/")[0].split()[-1]) for part in err.split("\r")[1:]]
+    assert counts[-1] == 12 and err.endswith("\n")
+    assert counts == sorted(counts) and len(set(counts)) > 4  # two chunks, but more than two steps
+
+
+def test_counter_ends_at_the_total_whatever_the_reports():
+    bar = Progress(10, enabled=False)
+    counter = ProgressCounter(bar, [4, 6])
+    counter.partial(0, 3)
+    counter.partial(0, 5)          # more than the item weighs: clipped
+    counter.finished(0)
+    counter.partial(0, 2)          # after the item finished: ignored
+    counter.partial(1, 2)
+    counter.finished(1)
+    assert bar.done == 10 and counter.reported == [4, 2]
+    report_progress(3)             # outside parallel_map: nothing happens
+
+
+def test_on_done_sees_every_item_and_result():
+    seen = []
+    parallel_map(math.sqrt, [4, 9, 16], chunksize=2, on_done=lambda item, value: seen.append((item, value)))
+    assert sorted(seen) == [(4, 2.0), (9, 3.0), (16, 4.0)]

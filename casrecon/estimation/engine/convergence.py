@@ -24,6 +24,9 @@ and the test is not made (Ipopt's own test stands).
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import casadi as ca
 import numpy as np
@@ -42,6 +45,24 @@ FEASIBILITY_TOL = 1e-8
 #: The test is made only once the objective has stopped moving: relative change between
 #: successive iterates below this (it costs about one Ipopt iteration on a 45 s drop).
 OBJECTIVE_CHANGE = 1e-6
+
+
+#: (level, label) of the iteration lines of the solves started now (see :func:`iteration_logging`).
+_ITERATION_LOG: ContextVar[tuple[int, str]] = ContextVar("casrecon_iteration_log", default=(logging.INFO, ""))
+
+
+@contextmanager
+def iteration_logging(level: int | None = None, label: str | None = None) -> Iterator[None]:
+    """Within the ``with`` block, fits log their Ipopt iteration lines at ``level`` (a
+    :mod:`logging` level; INFO outside any block), each prefixed with ``label + ": "`` (none
+    outside any block); None keeps the enclosing block's. E.g. a profile likelihood's refits log
+    theirs at DEBUG and one INFO line per grid point; a fit solved twice labels its two runs."""
+    outer_level, outer_label = _ITERATION_LOG.get()
+    token = _ITERATION_LOG.set((outer_level if level is None else level, outer_label if label is None else label))
+    try:
+        yield
+    finally:
+        _ITERATION_LOG.reset(token)
 
 
 def applies(nlp: Nlp) -> bool:
@@ -150,7 +171,8 @@ class DecrementStop(ca.Callback):
 
     At every iterate it logs (INFO, logger ``casrecon.estimation.engine.convergence``) one line
     ``iteration K: chi-square X, constraint violation Y`` (chi-square = 2 f plus the NLP's constant
-    chi-square; violation = max |g|, scaled units). ``test`` False (NLPs the test does not
+    chi-square; violation = max |g|, scaled units); the level and a label before the line are those
+    of the :func:`iteration_logging` block it is made in. ``test`` False (NLPs the test does not
     :func:`apply <applies>` to): progress only, never a stop. ``stopped_at`` holds the decrement that
     stopped Ipopt (None if it never did); Ipopt then reports User_Requested_Stop and the last
     iterate is the estimate.
@@ -163,6 +185,7 @@ class DecrementStop(ca.Callback):
         self.nlp, self.n_z, self.n_g, self.bounds, self.test = nlp, nlp.n_z, nlp.n_g, bounds, test
         self.const_chi2 = float(sum(nlp.const_chi2.values()))
         self.iteration = 0
+        self.log_level, self.label = _ITERATION_LOG.get()
         self.previous_f: float | None = None
         self.stopped_at: float | None = None
         self.construct("decrement_stop", {})
@@ -210,10 +233,10 @@ class DecrementStop(ca.Callback):
         return [0]
 
     def log_progress(self, f: float, g) -> None:
-        """Log this iterate's chi-square and constraint violation (INFO), and count it."""
-        if LOG.isEnabledFor(logging.INFO):
+        """Log this iterate's chi-square and constraint violation (at :attr:`log_level`), and count it."""
+        if LOG.isEnabledFor(self.log_level):
             g = np.asarray(g).ravel()
             violation = float(np.abs(g).max()) if g.size else 0.0
-            LOG.info("iteration %d: chi-square %.6g, constraint violation %.2g",
-                     self.iteration, 2.0 * f + self.const_chi2, violation)
+            LOG.log(self.log_level, "%siteration %d: chi-square %.6g, constraint violation %.2g",
+                    f"{self.label}: " if self.label else "", self.iteration, 2.0 * f + self.const_chi2, violation)
         self.iteration += 1
