@@ -82,11 +82,33 @@ def at_bounds(z: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None) -> np
     return np.flatnonzero(np.minimum(z - lo, hi - z) < 1e-4 * scale)
 
 
-def gauss_newton_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = ()) -> float:
+class ReducedCache:
+    """The reduced system (null-space basis and reduced Hessian) of the last iterate tested, reused
+    for a later iterate within REUSE_DISTANCE of it (scaled units, max norm): near convergence
+    successive iterates differ in the last digits, and forming Z costs more than an Ipopt
+    iteration once an atmosphere profile puts hundreds of columns in it. The gradient is always
+    that of the iterate tested."""
+
+    #: Largest change of any scaled variable for which the cached system is reused.
+    REUSE_DISTANCE = 1e-4
+
+    def __init__(self) -> None:
+        self.z: np.ndarray | None = None
+        self.system = None
+
+    def get(self, nlp: Nlp, z: np.ndarray):
+        if self.z is None or np.max(np.abs(z - self.z)) > self.REUSE_DISTANCE:
+            h, a = fisher_and_jacobian(nlp, z)
+            self.z, self.system = z.copy(), reduced_hessian(nlp, h, a)
+        return self.system
+
+
+def gauss_newton_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = (),
+                           cache: ReducedCache | None = None) -> float:
     """Predicted chi-square decrease of a full constrained Gauss-Newton step from ``z`` (scaled),
-    holding the variables ``fixed`` (e.g. those on a bound, as Ipopt's active set does)."""
-    h, a = fisher_and_jacobian(nlp, z)
-    system = reduced_hessian(nlp, h, a)
+    holding the variables ``fixed`` (e.g. those on a bound, as Ipopt's active set does); with a
+    ``cache``, the reduced system of a nearby earlier iterate is reused (see :class:`ReducedCache`)."""
+    system = (cache or ReducedCache()).get(nlp, z)
     basis, hr, grad = system.basis, system.hessian, nlp.derivatives.gradient(z)
     elim = system.elimination
     if elim is None:
@@ -108,12 +130,13 @@ def gauss_newton_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = ()) -> f
 
 
 def decrement_if_feasible(nlp: Nlp, z: np.ndarray, g: np.ndarray,
-                          bounds: tuple[np.ndarray, np.ndarray] | None) -> float | None:
+                          bounds: tuple[np.ndarray, np.ndarray] | None,
+                          cache: ReducedCache | None = None) -> float | None:
     """The Gauss-Newton decrement at ``z`` with the variables on a bound held, or None when the
     constraint values ``g`` violate FEASIBILITY_TOL (the test is not made)."""
     if g.size and np.abs(g).max() > FEASIBILITY_TOL:
         return None
-    return gauss_newton_decrement(nlp, z, at_bounds(z, bounds))
+    return gauss_newton_decrement(nlp, z, at_bounds(z, bounds), cache)
 
 
 class Interruption:
@@ -188,6 +211,7 @@ class DecrementStop(ca.Callback):
         self.log_level, self.label = _ITERATION_LOG.get()
         self.previous_f: float | None = None
         self.stopped_at: float | None = None
+        self.cache = ReducedCache()
         self.construct("decrement_stop", {})
 
     def get_n_in(self):
@@ -226,7 +250,8 @@ class DecrementStop(ca.Callback):
         previous, self.previous_f = self.previous_f, f
         if previous is None or abs(f - previous) > OBJECTIVE_CHANGE * max(abs(f), 1.0):
             return [0]
-        delta = decrement_if_feasible(self.nlp, np.asarray(args[0]).ravel(), np.asarray(args[2]).ravel(), self.bounds)
+        delta = decrement_if_feasible(self.nlp, np.asarray(args[0]).ravel(), np.asarray(args[2]).ravel(), self.bounds,
+                                      self.cache)
         if delta is not None and delta <= DECREMENT_TOL:
             self.stopped_at = delta
             return [1]

@@ -243,9 +243,9 @@ def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     n_def = n_determining
     indep = np.setdiff1d(np.arange(n_z), np.union1d(dep, excluded))
     a_def = a[:n_def]
-    a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].toarray()
+    a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].tocsr()
     n_basis = null_space(a[n_def:, indep].toarray()) if a.shape[0] > n_def else np.eye(indep.size)
-    z_dep = -splu(a_d).solve(a_i @ n_basis)
+    z_dep = -splu(a_d).solve(np.asarray(a_i @ n_basis))
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
     basis[dep] = z_dep

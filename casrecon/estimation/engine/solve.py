@@ -186,7 +186,7 @@ def _judge(nlp: Nlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) ->
         return True, f"Converged (Gauss-Newton decrement {stop.stopped_at:.2g} chi2)", stop.stopped_at
     if stats["success"] or stop is None:
         return bool(stats["success"]), status, None
-    delta = convergence.decrement_if_feasible(nlp, z, g, bounds)
+    delta = convergence.decrement_if_feasible(nlp, z, g, bounds, stop.cache)
     if delta is None:
         return False, status, None
     if delta <= convergence.DECREMENT_TOL:
