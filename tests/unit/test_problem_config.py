@@ -68,6 +68,16 @@ CASES = {
                             "release.rates_dps", "list of 3"),
     "negative noise": ("accel_noise_mps2 = 0.05", "accel_noise_mps2 = -0.05",
                        "sensors.imu.accel_noise_mps2", "positive"),
+    "GPS error fully correlated": ("velocity_error_time_s = 0.0", "velocity_error_time_s = 2.0\n"
+                                   "velocity_correlated_fraction = 1.0", "sensors.gps.velocity_correlated_fraction",
+                                   "some white"),
+    "negative GPS correlation time": ("position_error_time_s = 0.0", "position_error_time_s = -1.0",
+                                      "sensors.gps.position_error_time_s", ">="),
+    "profile grid coarser than its correlation": ("profile_density_sigma = 0.0", "profile_density_sigma = 0.0\n"
+                                                  "profile_step_m = 400.0", "atmosphere.profile_step_m",
+                                                  "correlation length"),
+    "negative profile sigma": ("profile_wind_sigma_mps = 0.0", "profile_wind_sigma_mps = -0.5",
+                               "atmosphere.profile_wind_sigma_mps", ">="),
 }
 
 

@@ -1,0 +1,65 @@
+"""A drop whose air differs from its sounding (0.5 m/s, 0.5 %, 300 m) and whose GPS errors are
+time-correlated (problems/ees-drop-3-model-error): the fit with the error models converges, and the
+wind and density it reconstructs (sounding + bias + profile correction) hold the flown truth within
+3 sigma at the grid levels."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import PROBLEMS
+
+from casrecon.estimation.fit import fit_drop
+from casrecon.scenario import Scenario
+
+FOLDER = PROBLEMS / "ees-drop-3-model-error"
+
+
+@pytest.fixture(scope="module")
+def fit():
+    return fit_drop(Scenario.load(FOLDER))
+
+
+def test_converges_with_the_error_models(fit):
+    assert fit.converged and fit.part.profile is not None and fit.part.extra("gps") is not None
+    assert 0.98 < fit.reduced_chi2 < 1.06
+    assert any("atmosphere-profile corrections" in n for n in fit.notes)
+    assert any("GPS errors Gauss-Markov" in n for n in fit.notes)
+
+
+def reconstructed_air(fit):
+    """Per corrected quantity (wind N, wind E, density): the fitted bias + correction at the grid
+    levels, its 1-sigma (the covariance of the two included) and the flown truth there."""
+    truth = json.loads((FOLDER / "data" / "truth.json").read_text())["parameters"]
+    error = pd.read_csv(FOLDER / "data" / "truth_atmosphere_error.csv")
+    grid, cols = fit.part.profile, fit.part.extra("profile").cols
+    out = []
+    for c, (name, bias) in enumerate(zip(("wind_north_error_mps", "wind_east_error_mps", "density_error"),
+                                         ("wind_bias_n", "wind_bias_e", "density_factor"))):
+        i = fit.params.index(bias)
+        values, sigmas = [], []
+        for col in cols.reshape(grid.n_levels, grid.n_components)[:, c]:
+            cov = fit.covariance.covariance_of(np.r_[fit.part.theta_cols[i], col],
+                                               np.r_[fit.params.scales[i], grid.sigma[c]])
+            values.append(fit.values[i] + fit.z[col] * grid.sigma[c])
+            sigmas.append(np.sqrt(cov.sum()))
+        flown = np.interp(grid.altitudes_msl_m, error["altitude_msl_m"], error[name]) + truth[bias]
+        out.append((name, np.array(values), np.array(sigmas), flown))
+    return out
+
+
+def test_reconstructed_air_is_closer_to_the_flown_truth_than_the_sounding(fit):
+    for name, values, _, flown in reconstructed_air(fit):
+        rms_fit = np.sqrt(np.mean((values - flown) ** 2))
+        assert rms_fit < 0.8 * np.sqrt(np.mean(flown**2)), name
+
+
+@pytest.mark.xfail(strict=True, reason="known problem (README, issue 18): the absolute wind (bias + correction) "
+                   "is 3 to 5 sigma off at the lowest levels on this drop, where the aero factors are biased too")
+def test_reconstructed_air_holds_the_flown_truth_within_3_sigma(fit):
+    for name, values, sigmas, flown in reconstructed_air(fit):
+        z = (values - flown) / sigmas
+        assert np.mean(np.abs(z) <= 3) >= 0.95, (name, np.abs(z).max())
