@@ -292,9 +292,9 @@ class Adequacy:
 HINTS = {
     "gps_correlated": "real GPS errors are time-correlated (FlySight: lag-1 0.8 to 1.0) and the fit assumes white "
                       "noise, so its sigmas and bands are too narrow",
-    "gps_model": "the GPS residuals stay correlated under the fit's GPS error model: its correlation times or "
-                 "fractions do not describe this receiver (set [sensors.gps] / [gps] *_error_time_s and "
-                 "*_correlated_fraction)",
+    "gps_model": "the GPS residuals stay correlated under the fit's GPS error model: the motion model misses "
+                 "something the GPS saw (on a skydiving track, the body's own manoeuvres), or the error model "
+                 "does not describe this receiver ([sensors.gps] / [gps] *_error_time_s, *_correlated_fraction)",
     "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
              "moved parameters far to make up for it",
     "ground": "the site's ground altitude or the GPS height is wrong",

@@ -134,14 +134,16 @@ def test_constant_drag_model_leaves_structure(fitted):
 
 
 def test_verdict_flags_the_correlated_gps_errors(fitted):
-    """Real FlySight errors are correlated over seconds (lag-1 0.8 to 1.0): the verdict says the white-noise
-    bands are not to be trusted, and why, consistently with its own residual tests."""
+    """Real FlySight errors are correlated (lag-1 0.8 to 1.0 under a white model). The default GPS error
+    model (measured on these tracks) whitens the receiver's part, but the point-mass model misses the
+    skydiver's own manoeuvres (velocity residuals 1.5 to 4.9 sAcc, 3 to 5 times what the GPS errors
+    leave): the verdict says the bands are not to be trusted, and why, consistently with its own tests."""
     name, out, _, stdout = fitted
     a = _summary(out)["adequacy"]
     correlated = [c for c in a["channels"] if c["ljung_box_p"] < a["per_test_alpha"]]
     assert a["trusted"] is False and len(correlated) >= 4
-    assert all(c["lag1"] > 0.6 for c in correlated)
+    assert all(c["lag1"] > 0.2 for c in correlated)
     assert a["line"].startswith("bands NOT to be trusted: ") and "residuals correlated" in a["line"]
-    assert "real GPS errors are time-correlated" in a["line"]
+    assert "stay correlated under the fit's GPS error model" in a["line"]
     assert f"VERDICT: {a['line']}" in stdout
 
