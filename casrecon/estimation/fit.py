@@ -202,7 +202,7 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: cfg.estimation.clock_offset_guess_s}, settings)
     t3 = time.perf_counter()
     r = fit_nlp.nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(fit_nlp.nlp, sol.z, r)
+    cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced)
     timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
                "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s}
     result = drop_result(scenario, data, fit_nlp, 0, sol, cov, r, timings)

@@ -48,10 +48,11 @@ def check_converged(sol: SolveResult, nlp: Nlp | None = None) -> None:
                    f"(objective {sol.objective:.6g}){why}; no result written")
 
 
-def covariance_or_fail(nlp: Nlp, z: np.ndarray, r: np.ndarray) -> Covariance | KktCovariance:
-    """KKT covariance at ``z`` with the chi-square (group constants included) and dof of ``nlp``;
+def covariance_or_fail(nlp: Nlp, z: np.ndarray, r: np.ndarray, reduced=None) -> Covariance | KktCovariance:
+    """KKT covariance at ``z`` with the chi-square (group constants included) and dof of ``nlp``
+    (``reduced``: the reduced system already formed at ``z``, e.g. ``SolveResult.reduced``);
     FitError when singular."""
     try:
-        return compute_covariance(nlp, z, nlp.chi2(r), nlp.dof())
+        return compute_covariance(nlp, z, nlp.chi2(r), nlp.dof(), reduced)
     except SingularCovariance as err:
         raise FitError(str(err)) from None

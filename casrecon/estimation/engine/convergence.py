@@ -96,6 +96,10 @@ class ReducedCache:
         self.z: np.ndarray | None = None
         self.system = None
 
+    def at(self, z: np.ndarray) -> bool:
+        """Whether the cached system was formed at ``z`` exactly."""
+        return self.z is not None and np.array_equal(self.z, z)
+
     def get(self, nlp: Nlp, z: np.ndarray):
         if self.z is None or np.max(np.abs(z - self.z)) > self.REUSE_DISTANCE:
             h, a = fisher_and_jacobian(nlp, z)

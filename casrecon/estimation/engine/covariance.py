@@ -283,12 +283,14 @@ def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> ReducedSy
     return ReducedSystem(basis, 0.5 * (hr + hr.T), Elimination(elim, lu), m)
 
 
-def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int) -> Covariance | KktCovariance:
-    """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J."""
-    h, a = fisher_and_jacobian(nlp, z)
+def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,
+                       reduced: ReducedSystem | None = None) -> Covariance | KktCovariance:
+    """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J; ``reduced``
+    is the reduced system already formed at ``z`` (the convergence test's), if any."""
     if nlp.latent:
+        h, a = fisher_and_jacobian(nlp, z)
         return _kkt_covariance(nlp, h, a, chi2, dof)
-    system = reduced_hessian(nlp, h, a)
+    system = reduced if reduced is not None else reduced_hessian(nlp, *fisher_and_jacobian(nlp, z))
     eig, vec = np.linalg.eigh(system.hessian)
     cond = float(eig[-1] / max(eig[0], 1e-300))
     if eig[0] <= 0 or cond > MAX_CONDITION:

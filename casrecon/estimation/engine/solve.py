@@ -53,6 +53,7 @@ class SolveResult:
     decrement: float | None = None
     evaluation_s: float = 0.0
     stop_test_s: float = 0.0
+    reduced: object | None = None   # the convergence test's ReducedSystem when it was formed at ``z`` itself
 
 
 #: Ipopt stops "at an acceptable level" after ACCEPTABLE_ITER successive iterates whose scaled
@@ -175,7 +176,8 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
     return SolveResult(z=z, lam_g=np.asarray(sol["lam_g"]).ravel(), objective=float(sol["f"]), converged=converged,
                        status=status, iterations=int(solver.stats()["iter_count"]), build_s=t1 - t0, solve_s=t2 - t1,
                        hessian=nlp.derivatives.hessian, linear_solver=linear_solver, decrement=decrement,
-                       evaluation_s=evaluation_s, stop_test_s=float(stats.get("t_wall_callback_fun", 0.0)))
+                       evaluation_s=evaluation_s, stop_test_s=float(stats.get("t_wall_callback_fun", 0.0)),
+                       reduced=stop.cache.system if stop is not None and stop.cache.at(z) else None)
 
 
 def _judge(nlp: Nlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) -> tuple[bool, str, float | None]:
