@@ -220,9 +220,7 @@ def aero_coefficients(result) -> dict[str, np.ndarray]:
     nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))
     index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i],
                         cell_cols[i]] for i in nodes]
-    var_z = np.zeros((nodes.size, 2 * N_COEF))
-    for j, (i, c) in enumerate(zip(nodes, result.covariance.blocks(index_sets))):
-        var_z[j] = np.einsum("ij,jk,ik->i", jac[i, :, :n_v], c, jac[i, :, :n_v])
+    var_z = result.covariance.output_variances(index_sets, np.ascontiguousarray(jac[nodes, :, :n_v]))
     if nodes.size < k:
         t = part.mesh.t_nodes
         var_z = np.column_stack([np.interp(t, t[nodes], var_z[:, c]) for c in range(2 * N_COEF)])

@@ -101,9 +101,7 @@ def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, c
     nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))
     index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i],
                         cell_cols[i]] for i in nodes]
-    sigma = np.zeros((nodes.size, ny))
-    for j, (i, c) in enumerate(zip(nodes, cov.blocks(index_sets))):
-        sigma[j] = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", jac[i], c, jac[i]), 0.0))
+    sigma = np.sqrt(np.maximum(cov.output_variances(index_sets, jac[nodes]), 0.0))
     if nodes.size < k:
         t = part.mesh.t_nodes
         sigma = np.column_stack([np.interp(t, t[nodes], sigma[:, c]) for c in range(ny)])

@@ -83,3 +83,14 @@ def test_decrement_equals_the_dense_constrained_newton_step(gm_fit, dense):
     gr = basis.T @ g
     want = gr @ np.linalg.solve(hr, gr)
     assert want > 1.0 and got == pytest.approx(want, rel=1e-5)
+
+
+def test_batched_output_variances_equal_the_block_products(gm_fit):
+    """Covariance.output_variances (one product per batch, the trajectory bands' path) equals
+    diag(J C J^T) from each set's covariance block, eliminated columns included."""
+    part, cov = gm_fit.part, gm_fit.covariance
+    e = part.extra("gps").cols
+    sets = [np.r_[part.node_offset + NS * k + np.arange(NS), part.theta_cols, e[6 * k:6 * k + 3]] for k in range(5)]
+    jac = np.random.default_rng(3).normal(size=(len(sets), 4, sets[0].size))
+    want = np.array([np.diag(j @ cov.covariance_of(s) @ j.T) for j, s in zip(jac, sets)])
+    np.testing.assert_allclose(cov.output_variances(sets, jac), want, rtol=1e-9)

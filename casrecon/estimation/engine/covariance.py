@@ -125,6 +125,29 @@ class Covariance:
             c = c * np.outer(scale, scale)
         return c
 
+    #: Index sets per batch of :meth:`output_variances` (bounds its work array).
+    BATCH = 128
+
+    def output_variances(self, index_sets: list[np.ndarray], jacobians: np.ndarray) -> np.ndarray:
+        """Variances (len(index_sets), n_out) of outputs y_i = J_i z[index_sets[i]], J_i =
+        ``jacobians[i]`` (n_out, len(set)), scaled units: diag(J_i C_i J_i^T), batched into one
+        product with cov_w per BATCH sets (with eliminated columns the H_EE^-1 term is added)."""
+        out = np.zeros((len(index_sets), jacobians.shape[1]))
+        for start in range(0, len(index_sets), self.BATCH):
+            sets = index_sets[start:start + self.BATCH]
+            rows = np.stack([self.basis[s] for s in sets])                      # (b, n_v, n_w)
+            m = np.einsum("byv,bvw->byw", jacobians[start:start + len(sets)], rows)
+            b, n_y, n_w = m.shape
+            v = (m.reshape(b * n_y, n_w) @ self.cov_w).reshape(b, n_y, n_w)
+            out[start:start + b] = np.einsum("byw,byw->by", v, m)
+            if self.elimination is not None:
+                for k, s in enumerate(sets):
+                    extra = self.elimination.inverse_block(s)
+                    if extra.any():
+                        jk = jacobians[start + k]
+                        out[start + k] += np.einsum("yi,ij,yj->y", jk, extra, jk)
+        return out
+
     def variance_of_combination(self, idx, weights) -> float:
         """Variance of sum_j weights[j] z[idx[j]] (scaled z units, not chi-square-scaled), e.g. of a
         time mean of a node history."""
@@ -201,6 +224,10 @@ class KktCovariance:
             for s, block in zip(missing, self._solve_blocks(missing)):
                 self._blocks[s.tobytes()] = block
         return [self._blocks[s.tobytes()] for s in sets]
+
+    def output_variances(self, index_sets: list[np.ndarray], jacobians: np.ndarray) -> np.ndarray:
+        """See :meth:`Covariance.output_variances` (here from the kept LU blocks)."""
+        return np.array([np.einsum("ij,jk,ik->i", j, c, j) for j, c in zip(jacobians, self.blocks(index_sets))])
 
     def _solve_blocks(self, sets: list[np.ndarray]) -> list[np.ndarray]:
         """The covariance blocks of ``sets`` from LU solves (see :meth:`blocks`)."""
