@@ -83,14 +83,17 @@ def at_bounds(z: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None) -> np
 
 
 class ReducedCache:
-    """The reduced system (null-space basis and reduced Hessian) of the last iterate tested, reused
-    for a later iterate within REUSE_DISTANCE of it (scaled units, max norm): near convergence
-    successive iterates differ in the last digits, and forming Z costs more than an Ipopt
-    iteration once an atmosphere profile puts hundreds of columns in it. The gradient is always
-    that of the iterate tested."""
+    """The reduced system (null-space basis and reduced Hessian) of the last iterate at which it was
+    formed. Forming it costs more than an Ipopt iteration once an atmosphere profile puts hundreds
+    of columns in Z, so the stopping test first evaluates the decrement with the system of an
+    earlier iterate within STALE_DISTANCE (scaled units, max norm) and forms a fresh one only when
+    that estimate is within STALE_MARGIN of the tolerance: every stop is decided on a fresh system,
+    a stale one only ever says "not yet". The gradient is always that of the iterate tested."""
 
-    #: Largest change of any scaled variable for which the cached system is reused.
-    REUSE_DISTANCE = 1e-4
+    #: Largest change of any scaled variable for which an earlier system gives the first estimate.
+    STALE_DISTANCE = 1e-2
+    #: A stale estimate below STALE_MARGIN x DECREMENT_TOL is checked with a fresh system.
+    STALE_MARGIN = 100.0
 
     def __init__(self) -> None:
         self.z: np.ndarray | None = None
@@ -100,8 +103,9 @@ class ReducedCache:
         """Whether the cached system was formed at ``z`` exactly."""
         return self.z is not None and np.array_equal(self.z, z)
 
-    def get(self, nlp: Nlp, z: np.ndarray):
-        if self.z is None or np.max(np.abs(z - self.z)) > self.REUSE_DISTANCE:
+    def get(self, nlp: Nlp, z: np.ndarray, max_distance: float = 0.0):
+        """The system formed at ``z``, or the cached one if formed within ``max_distance`` of it."""
+        if self.z is None or np.max(np.abs(z - self.z)) > max_distance:
             h, a = fisher_and_jacobian(nlp, z)
             self.z, self.system = z.copy(), reduced_hessian(nlp, h, a)
         return self.system
@@ -111,9 +115,19 @@ def gauss_newton_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = (),
                            cache: ReducedCache | None = None) -> float:
     """Predicted chi-square decrease of a full constrained Gauss-Newton step from ``z`` (scaled),
     holding the variables ``fixed`` (e.g. those on a bound, as Ipopt's active set does); with a
-    ``cache``, the reduced system of a nearby earlier iterate is reused (see :class:`ReducedCache`)."""
-    system = (cache or ReducedCache()).get(nlp, z)
-    basis, hr, grad = system.basis, system.hessian, nlp.derivatives.gradient(z)
+    ``cache``, a nearby earlier iterate's system may give a large value (see :class:`ReducedCache`),
+    a small one is always from a system formed at ``z``."""
+    cache = cache or ReducedCache()
+    stale = not cache.at(z)
+    delta = _decrement(cache.get(nlp, z, ReducedCache.STALE_DISTANCE), nlp.derivatives.gradient(z), fixed)
+    if stale and not cache.at(z) and delta <= ReducedCache.STALE_MARGIN * DECREMENT_TOL:
+        delta = _decrement(cache.get(nlp, z), nlp.derivatives.gradient(z), fixed)
+    return delta
+
+
+def _decrement(system, grad: np.ndarray, fixed) -> float:
+    """g^T Z (Z^T H Z)^-1 Z^T g for a reduced system and gradient, ``fixed`` variables held."""
+    basis, hr = system.basis, system.hessian
     elim = system.elimination
     if elim is None:
         gr, extra = basis.T @ grad, 0.0

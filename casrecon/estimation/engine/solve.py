@@ -188,6 +188,8 @@ def _judge(nlp: Nlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) ->
         return True, f"Converged (Gauss-Newton decrement {stop.stopped_at:.2g} chi2)", stop.stopped_at
     if stats["success"] or stop is None:
         return bool(stats["success"]), status, None
+    if g.size == 0 or np.abs(g).max() <= convergence.FEASIBILITY_TOL:
+        stop.cache.get(nlp, z)  # the verdict on a fresh system, never a stale one
     delta = convergence.decrement_if_feasible(nlp, z, g, bounds, stop.cache)
     if delta is None:
         return False, status, None
