@@ -46,7 +46,6 @@ from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.pointmass import PointMassModel
-from casrecon.physics.sensor_errors import innovations
 
 
 @dataclass
@@ -254,10 +253,7 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     with np.errstate(divide="ignore", invalid="ignore"):
         norm = np.where(data.inv_sigma > 0, (data.y - states) * data.inv_sigma, np.nan)
     errors = cfg.gps_errors
-    whitened = np.full_like(norm, np.nan)
-    for c in range(6):
-        ok = np.isfinite(norm[:, c])
-        whitened[ok, c] = innovations(norm[ok, c], data.t_unix[ok], errors.time_s[c], errors.fraction[c])
+    whitened = errors.whiten(norm, data.t_unix)
     chi2 = nlp.group_chi2(r)
     counts = dict(nlp.n_measurements)
     counts["gps"] = int((data.inv_sigma > 0).sum())

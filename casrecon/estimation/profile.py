@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from casrecon.estimation.transcription import selection_matrix
 from casrecon.physics.dynamics import PARAMETER_NAMES
 
 #: The corrected quantities, and the FlightModel parameter each is added to.
@@ -113,6 +114,4 @@ class ProfileGrid:
         """The FlightModel parameter vector ``p`` with the corrections added to its wind-bias and
         density-factor entries."""
         rows = [PARAMETER_NAMES.index(PROFILE_PARAMETERS[c]) for c in self.components]
-        select = np.zeros((len(PARAMETER_NAMES), self.n_components))
-        select[rows, np.arange(self.n_components)] = 1.0
-        return p + ca.DM(select) @ correction
+        return p + selection_matrix(len(PARAMETER_NAMES), rows) @ correction

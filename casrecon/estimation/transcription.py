@@ -103,11 +103,16 @@ def lagrange_matrix(tau_samples: np.ndarray, nodes=ACCEL_TAU) -> np.ndarray:
     return out
 
 
+def selection_matrix(n_rows: int, rows) -> ca.DM:
+    """(n_rows, len(rows)) matrix putting a short vector into the entries ``rows`` of a longer one."""
+    s = np.zeros((n_rows, len(rows)))
+    s[np.asarray(rows, int), np.arange(len(rows))] = 1.0
+    return ca.DM(s)
+
+
 def disturbance_selection(active) -> ca.DM:
     """(9, n_u) matrix putting the estimated disturbance entries ``active`` into d."""
-    s = np.zeros((N_DISTURBANCES, len(active)))
-    s[np.asarray(active, int), np.arange(len(active))] = 1.0
-    return ca.DM(s)
+    return selection_matrix(N_DISTURBANCES, active)
 
 
 def imu_model_function(model: FlightModel, active=()) -> ca.Function:

@@ -85,6 +85,17 @@ class GpsErrorModel:
         tau = self.time_s[self.active]
         return np.exp(-np.asarray(dt_s, float)[:, None] / tau[None, :])
 
+    def whiten(self, normalised: np.ndarray, time_s: np.ndarray) -> np.ndarray:
+        """:func:`innovations` of each of the six components of ``normalised`` (n, 6: residuals over
+        the fixes' reported sigmas) at fix times ``time_s`` (n,); NaN entries (no fix) are skipped
+        and stay NaN."""
+        normalised = np.asarray(normalised, float)
+        out = np.full_like(normalised, np.nan)
+        for c in range(6):
+            ok = np.isfinite(normalised[:, c])
+            out[ok, c] = innovations(normalised[ok, c], np.asarray(time_s)[ok], self.time_s[c], self.fraction[c])
+        return out
+
     def describe(self) -> str:
         """One line for reports."""
         if not self.enabled:

@@ -118,10 +118,10 @@ def gauss_newton_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = (),
     ``cache``, a nearby earlier iterate's system may give a large value (see :class:`ReducedCache`),
     a small one is always from a system formed at ``z``."""
     cache = cache or ReducedCache()
-    stale = not cache.at(z)
-    delta = _decrement(cache.get(nlp, z, ReducedCache.STALE_DISTANCE), nlp.derivatives.gradient(z), fixed)
-    if stale and not cache.at(z) and delta <= ReducedCache.STALE_MARGIN * DECREMENT_TOL:
-        delta = _decrement(cache.get(nlp, z), nlp.derivatives.gradient(z), fixed)
+    grad = nlp.derivatives.gradient(z)
+    delta = _decrement(cache.get(nlp, z, ReducedCache.STALE_DISTANCE), grad, fixed)
+    if not cache.at(z) and delta <= ReducedCache.STALE_MARGIN * DECREMENT_TOL:
+        delta = _decrement(cache.get(nlp, z), grad, fixed)
     return delta
 
 

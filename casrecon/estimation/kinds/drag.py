@@ -11,6 +11,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
+from casrecon.estimation.transcription import selection_matrix
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.physics.pointmass import PointMassModel
 
@@ -46,9 +47,8 @@ def drag_interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: in
     if n_e:
         ak, ak1 = ca.SX.sym("ak", n_e), ca.SX.sym("ak1", n_e)
         ek, ek1 = v[14 + n_c:14 + n_c + n_e], v[14 + n_c + n_e:]
-        select = np.zeros((6, n_e))
-        select[np.asarray(active), np.arange(n_e)] = 1.0
-        yk, yk1 = yk - ca.DM(select) @ (ak * ek), yk1 - ca.DM(select) @ (ak1 * ek1)
+        select = selection_matrix(6, active)
+        yk, yk1 = yk - select @ (ak * ek), yk1 - select @ (ak1 * ek1)
         data += [ak, ak1]
     residual = ca.vertcat((yk - xk) * wk, (yk1 - xk1) * wk1)
     return BlockKind("pm_interval", v, data, residual, defect)

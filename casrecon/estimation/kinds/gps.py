@@ -21,9 +21,8 @@ from casrecon.estimation.kinds.base import DropContext
 from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.layout import BlockLocals
 from casrecon.estimation.parameters import ParameterSpec
-from casrecon.estimation.transcription import gps_function
+from casrecon.estimation.transcription import gps_function, selection_matrix
 from casrecon.io.problem import ProblemConfig
-from casrecon.physics.sensor_errors import innovations
 
 #: Name of the IMU-to-GPS clock-offset parameter (s): a fix stamped t happened at IMU time t - offset.
 CLOCK = "clock_offset_s"
@@ -59,9 +58,7 @@ class GpsKind:
         xk, xk1, theta, uk, uk1 = loc.split()
         clock = loc.theta_of(theta, CLOCK, layout.guess_clock_s)
         tau = tau0 - clock / layout.mesh.h
-        select = np.zeros((6, active.size))
-        select[active, np.arange(active.size)] = 1.0
-        y_white = y - ca.DM(select) @ (amp * e) if active.size else y
+        y_white = y - selection_matrix(6, active) @ (amp * e) if active.size else y
         r = gps_function(model, layout.mesh.h, layout.active)(
             xk, xk1, loc.point_params(theta, xk), loc.point_params(theta, xk1), tau, y_white, w, uk, uk1)
         k, tau_fix = layout.interval_of(data.gps_time_s)
@@ -83,7 +80,7 @@ class GpsKind:
         """GPS antenna position/velocity residuals y - h(x) (NED, SI) at every fix used, with the fix
         sigmas; with a GPS error model also the estimated correlated error (``correlated``, SI) and
         the residuals whitened under the model (``normalised``: Kalman innovations over sigma, see
-        :func:`~casrecon.physics.sensor_errors.innovations`)."""
+        GpsErrorModel.whiten)."""
         data = result.data
         errors = result.scenario.config.gps.error_model
         white_sigma = data.gps_sigma * np.sqrt(1.0 - errors.fraction)
@@ -96,8 +93,7 @@ class GpsKind:
             correlated[:, act] = e * data.gps_sigma[:, act] * np.sqrt(errors.fraction[act])
         residual = whitened * white_sigma + correlated
         time = data.gps_time_s - clock_offset(result)
-        normalised = np.column_stack([innovations(residual[:, c] / data.gps_sigma[:, c], time, errors.time_s[c],
-                                                  errors.fraction[c]) for c in range(6)])
+        normalised = errors.whiten(residual / data.gps_sigma, time)
         return {"time_imu_s": time, "residual": residual, "sigma": data.gps_sigma, "correlated": correlated,
                 "normalised": normalised}
 
