@@ -9,7 +9,7 @@ bias, and with a GPS error model the correlated part of each fix's error. Nodes 
 (plus the window's ends, and more where fixes are further apart than ``max_node_spacing_s``).
 A unit-norm constraint per node fixes each quaternion's scale; everything else is least squares,
 solved by Ipopt with the Gauss-Newton Hessian. The covariance is the z-block of the inverse KKT
-matrix (sparse LU), as for fits with disturbance states.
+matrix, computed without it (:mod:`.kinematic_covariance`).
 """
 
 from __future__ import annotations
@@ -22,11 +22,13 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from casrecon.estimation.engine.blocks import BlockSet, Term, unit_norm_term
-from casrecon.estimation.engine.checks import FitError, check_converged, covariance_or_fail
+from casrecon.estimation.engine.checks import FitError, check_converged
+from casrecon.estimation.engine.covariance import SingularCovariance
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.kinds.priors import prior_terms
+from casrecon.estimation.kinematic_covariance import GaugeCovariance
 from casrecon.estimation.kinematic_data import KinematicData, KinematicOptions
 from casrecon.estimation.kinematic_terms import (
     KINEMATIC_SCALE,
@@ -234,7 +236,11 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     check_converged(sol, nlp)
     t_solved = time.perf_counter()
     r = nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(nlp, sol.z, r)
+    try:
+        cov = GaugeCovariance(nlp, sol.z, state_cols[:, 6:10], nlp.chi2(r), nlp.dof())
+        cov.check_parameters(theta_cols)
+    except SingularCovariance as err:
+        raise FitError(str(err)) from None
     result = _result(data, options, nodes, pre, params, estimated, nlp, sol, cov, r, state_cols, theta_cols)
     result.timings.update(build_s=t_built - t_start + sol.build_s, solve_s=sol.solve_s,
                           covariance_s=time.perf_counter() - t_solved, total_s=time.perf_counter() - t_start)

@@ -16,12 +16,15 @@ f_c corrected as below)::
     phi(s) = a s + b s^2 / 2 + (a x b) s^3 / 12     rotation vector after s (Bortz, rate a + b s)
     dq'    = dq (x) Exp(phi(tau) + nu_g)
     dv'    = dv + tau / 6 (g_0 + 4 g_m + g_1) + C_m nu_a          (Simpson; g = C(q(s)) f_c(s))
-    dp'    = dp + dv tau + tau^2 / 6 (g_0 + 2 g_m) + C_m nu_a tau / 2
+    dp'    = dp + dv tau + tau^2 / 6 (g_0 + 2 g_m) + C_m (nu_a tau / 2 + nu_p)
 
 starting from dq = 1, dv = dp = 0 at the first node; gravity, Earth rotation and the states enter
 in the estimator's residual, not here. The IMU noise is white in continuous time, its density from
 the per-sample 1-sigma: the integrated noises nu_g, nu_a of a piece have variance
-sigma^2 dt_sample tau on each axis, so pieces of different intervals are independent.
+sigma^2 dt_sample tau on each axis, and the position gets, besides nu_a tau / 2, the independent
+part nu_p of the doubly integrated noise (variance sigma_a^2 dt_sample tau^3 / 12), so the 9 x 9
+covariance is regular however few pieces an interval holds, and pieces of different intervals are
+independent.
 
 Exp is the quaternion exponential by its Taylor series to the sixth power (error below 1e-7 for
 rotations up to 1 rad per piece; :data:`MAX_PIECE_ROTATION_RAD` is checked by the caller).
@@ -40,6 +43,9 @@ from casrecon.physics.rotations import dcm_body_to_ned, quat_multiply
 IMU_PARAMETERS = ("gyro_bias_x", "gyro_bias_y", "gyro_bias_z", "accel_bias_x", "accel_bias_y", "accel_bias_z",
                   "gyro_scale_x", "gyro_scale_y", "gyro_scale_z", "accel_scale_x", "accel_scale_y", "accel_scale_z")
 N_IMU_PARAMETERS = len(IMU_PARAMETERS)
+#: Integrated noises of a piece: rotation (rad), velocity (m/s) and the part of the position noise
+#: (m) independent of the velocity noise.
+N_NOISE = 9
 #: Rotation of one piece beyond which the series exponential loses accuracy, rad.
 MAX_PIECE_ROTATION_RAD = 1.0
 
@@ -70,7 +76,7 @@ def _rotation_vector(a, b, s):
 
 def _step() -> ca.Function:
     d, piece = ca.SX.sym("d", 10), ca.SX.sym("piece", PIECE_COLUMNS)
-    theta, nu = ca.SX.sym("theta", N_IMU_PARAMETERS), ca.SX.sym("nu", 6)
+    theta, nu = ca.SX.sym("theta", N_IMU_PARAMETERS), ca.SX.sym("nu", N_NOISE)
     tau = piece[0]
     gyro_gain, accel_gain = 1 + theta[6:9], 1 + theta[9:12]
     w_m, slope = piece[1:4] * gyro_gain - theta[0:3], piece[4:7] * gyro_gain
@@ -82,24 +88,24 @@ def _step() -> ca.Function:
     g0, g_mid, g1 = dcm_body_to_ned(dq) @ f[0], dcm_body_to_ned(q_mid) @ f[1], dcm_body_to_ned(q_end) @ f[2]
     noise = dcm_body_to_ned(q_mid) @ nu[3:6]
     dv_inc = tau / 6 * (g0 + 4 * g_mid + g1) + noise  # Simpson
-    dp_inc = dv * tau + tau * tau / 6 * (g0 + 2 * g_mid) + noise * (tau / 2)
+    dp_inc = dv * tau + tau * tau / 6 * (g0 + 2 * g_mid) + noise * (tau / 2) + dcm_body_to_ned(q_mid) @ nu[6:9]
     out = ca.vertcat(q_end / ca.norm_2(q_end), dv + dv_inc, dp + dp_inc)
     return ca.Function("preintegration_step", [d, piece, theta, nu], [out])
 
 
 def preintegration_function(n_pieces: int) -> ca.Function:
     """``(pieces (16, n_pieces), theta (12)) -> (delta (10), d delta / d theta (10, 12),
-    d delta / d nu (10, 6 n_pieces))``: the preintegrated (dq, dv, dp) of one interval whose pieces
+    d delta / d nu (10, 9 n_pieces))``: the preintegrated (dq, dv, dp) of one interval whose pieces
     are the columns of :data:`PIECE_COLUMNS` (padding pieces have tau = 0), and its Jacobians at
-    zero noise; nu stacks each piece's (nu_g, nu_a)."""
+    zero noise; nu stacks each piece's (nu_g, nu_a, nu_p)."""
     pieces, theta = ca.MX.sym("pieces", PIECE_COLUMNS, n_pieces), ca.MX.sym("theta", N_IMU_PARAMETERS)
-    nu = ca.MX.sym("nu", 6, n_pieces)
+    nu = ca.MX.sym("nu", N_NOISE, n_pieces)
     run = _step().mapaccum("preintegration", n_pieces)
     d0 = ca.DM([1, 0, 0, 0, 0, 0, 0, 0, 0, 0])
     delta = run(d0, pieces, ca.repmat(theta, 1, n_pieces), nu)[:, -1]
     jac_theta = ca.jacobian(delta, theta)
     jac_nu = ca.jacobian(delta, ca.vec(nu))
-    zero = ca.DM.zeros(6, n_pieces)
+    zero = ca.DM.zeros(N_NOISE, n_pieces)
     outs = [ca.substitute(e, nu, zero) for e in (delta, jac_theta, jac_nu)]
     return ca.Function("preintegrate", [pieces, theta], outs)
 
@@ -232,14 +238,15 @@ def preintegrate(sample_time_s: np.ndarray, gyro_radps: np.ndarray, accel_mps2: 
     pieces = np.zeros((n_int, n_max, PIECE_COLUMNS))
     pieces[interval, slot] = table
     dt = np.gradient(sample_time_s)[sample]
-    var = np.zeros((n_int, n_max, 6))
-    var[interval, slot] = np.column_stack([gyro_sigma_radps[sample] ** 2, accel_sigma_mps2[sample] ** 2]) \
-        * (dt * tau)[:, None]
+    var = np.zeros((n_int, n_max, N_NOISE))
+    accel_var = accel_sigma_mps2[sample] ** 2 * (dt * tau)[:, None]
+    var[interval, slot] = np.column_stack([gyro_sigma_radps[sample] ** 2 * (dt * tau)[:, None], accel_var,
+                                           accel_var * (tau * tau / 12)[:, None]])
     fn = preintegration_function(n_max).map(n_int, "thread", 2)
     delta, j_theta, j_nu = fn(pieces.transpose(2, 0, 1).reshape(PIECE_COLUMNS, n_int * n_max), theta_lin)
     delta = np.asarray(delta).T
     j_theta = np.asarray(j_theta).reshape(10, n_int, N_IMU_PARAMETERS).transpose(1, 0, 2)
-    j_nu = np.asarray(j_nu).reshape(10, n_int, 6 * n_max).transpose(1, 0, 2)
+    j_nu = np.asarray(j_nu).reshape(10, n_int, N_NOISE * n_max).transpose(1, 0, 2)
     tangent = np.zeros((n_int, 9, 10))
     tangent[:, :3, :4] = np.array([tangent_rows(q) for q in delta[:, :4]])
     tangent[:, 3:, 4:] = np.eye(6)
