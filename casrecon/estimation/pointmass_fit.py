@@ -182,11 +182,23 @@ def _initial_cda(data: PointMassData, cfg: PointMassConfig, atm: Atmosphere) -> 
     return float(np.clip(np.median(cda[speed2 > 400]) if np.any(speed2 > 400) else np.median(cda), 0.01, 5.0))
 
 
-def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_level: int = 0) -> PointMassResult:
-    """Fit the track of a point-mass problem with the constant or the spline drag model; its Ipopt
-    iteration lines are labelled ``constant-CdA fit`` or ``spline-CdA fit``."""
+@dataclass
+class PointMassNlp:
+    """A point-mass problem ready for Ipopt: its data, layout, NLP, starting point (scaled) and
+    lower bounds (the drag-area coefficients >= 0), and the drag basis at the nodes."""
+
+    data: PointMassData
+    layout: DropLayout
+    nlp: Nlp
+    z0: np.ndarray
+    lower: np.ndarray
+    basis: np.ndarray
+
+
+def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> PointMassNlp:
+    """Read the data and build the NLP of the constant or spline drag model, checked at the start
+    point (:func:`~casrecon.estimation.engine.checks.check_determined` evaluates its derivatives)."""
     model_name = model_name or cfg.drag.model
-    t0 = time.perf_counter()
     data = prepare_data(cfg)
     atm = atmosphere_of(cfg)
     model = PointMassModel(atm, cfg.site, cfg.mass_kg, cfg.dynamics)
@@ -227,10 +239,20 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
                                for i in range(6)])
     z0 = np.concatenate([(pos_vel / SCALE).ravel(), np.full(n_coef, cda0 / CDA_SCALE),
                          np.zeros(n_coef * (n_areas - 1) + 2 + e_cols.size)])
-    t1 = time.perf_counter()
     check_determined(nlp, z0)
     lbx = np.full(z0.size, -np.inf)
     lbx[part.theta_cols[:n_coef]] = 0.0  # B-spline coefficients >= 0 keep CdA(t) >= 0 everywhere
+    return PointMassNlp(data, part, nlp, z0, lbx, basis)
+
+
+def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_level: int = 0) -> PointMassResult:
+    """Fit the track of a point-mass problem with the constant or the spline drag model; its Ipopt
+    iteration lines are labelled ``constant-CdA fit`` or ``spline-CdA fit``."""
+    model_name = model_name or cfg.drag.model
+    t0 = time.perf_counter()
+    built = build_point_mass(cfg, model_name)
+    data, part, nlp, z0, lbx, basis = built.data, built.layout, built.nlp, built.z0, built.lower, built.basis
+    t1 = time.perf_counter()
     with iteration_logging(label=f"{model_name}-CdA fit"):  # casrecon fit runs two: spline and constant CdA
         sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
     check_converged(sol, nlp)
