@@ -26,7 +26,6 @@ from casrecon.io.flysight import GpsTrack
 from casrecon.io.gps_rules import GpsQuality, good_fixes, no_fix_note
 from casrecon.io.pointmass_problem import SegmentConfig
 
-
 #: Window of the running maximum that finds the final drop, s.
 DROP_WINDOW_S = 2.0
 

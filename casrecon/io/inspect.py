@@ -210,6 +210,8 @@ def _report_sensor(s: SensorLog) -> str:
            f"clock fit ($TIME rows, time base {base}): {c.n_rows} rows, drift "
            f"{c.drift_ppm:+.3f} ppm, residual RMS {c.residual_rms_s * 1e3:.3f} ms (max "
            f"{c.max_residual_s * 1e3:.3f} ms)"]
+    if c.dropped:
+        out.append("NOTE: " + c.dropped_note())
     for name, t in (("IMU", s.imu_time_unix_s), ("BARO", s.baro_time_unix_s)):
         if t.size:
             out.append(f"{name} time: {iso_utc(t[0])} to {iso_utc(t[-1])} UTC ({_span(t)})")
