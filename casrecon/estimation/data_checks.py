@@ -11,7 +11,8 @@ Checks and thresholds (module constants):
 - **IMU** (6-DOF), the rules of :mod:`casrecon.io.imu_checks`: the accelerometer unit on the whole log
   (median specific force 0.25 to 4 g), then over the fit window: gaps (a step over 1.5 sample periods),
   the gyro unit (rates over 2000 deg/s for 5 % of the samples), saturation (over 25 % of an axis at
-  its declared limit), a stuck channel (one reading for 1 s).
+  its declared limit), a stuck channel (one reading for 1 s); a gyro sample over 50 rad/s or an
+  accelerometer sample over 2000 m/s^2 in the window is only logged as a warning (one glitch can do it).
 - **GPS fixes**: a row with a fix whose hAcc, vAcc or sAcc is not > 0 is refused by the reader
   (:func:`casrecon.io.flysight.read_flysight`); rows without a 3D fix (``gpsFix`` other than 3 or 4,
   or latitude, longitude and height all 0) are dropped, with a note in the fit's notes.
@@ -32,16 +33,20 @@ Checks and thresholds (module constants):
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc
 from casrecon.io.gps_rules import GpsQuality, good_fixes
 from casrecon.io.imu import ImuLog
-from casrecon.io.imu_checks import accel_unit_finding, imu_findings
+from casrecon.io.imu_checks import accel_unit_finding, imu_findings, unit_warnings
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.problem import ProblemConfig
 from casrecon.io.sounding import read_sounding
+
+logger = logging.getLogger(__name__)
 
 GPS_MAX_GAP_S = 3.0
 RELEASE_TIME_TOL_S = 60.0
@@ -75,6 +80,8 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
                  int(np.searchsorted(imu.time_s, window[1] + 1e-9, side="right")))
     for found in imu_findings(imu, cfg.imu.spec, span):
         raise found.error(imu.path)
+    for found in unit_warnings(imu, cfg.imu.spec, span):
+        logger.warning("%s", found.error(imu.path))
     zero = cfg.imu.clock_utc_at_zero.timestamp()
     _check_release_time(cfg, zero + release)
     good = good_fixes(track, cfg.estimation.gps_quality)

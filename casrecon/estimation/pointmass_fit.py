@@ -138,15 +138,24 @@ def prepare_data(cfg: PointMassConfig) -> PointMassData:
     return PointMassData(nodes, np.where(on_node[:, None], y, 0.0), inv, notes, track)
 
 
-def drag_basis(cfg: PointMassConfig, model: str, t: np.ndarray) -> np.ndarray:
-    """(len(t), n_coef) basis of CdA(t): a column of ones, or a clamped cubic B-spline basis."""
+def drag_basis(cfg: PointMassConfig, model: str, t: np.ndarray, span: tuple[float, float] | None = None) -> np.ndarray:
+    """(len(t), n_coef) basis of CdA(t): a column of ones, or a clamped cubic B-spline basis whose
+    knots (every ``knot_spacing_s`` or a little more) cover ``span`` = (first, last node time), s;
+    default (t[0], t[-1]). Times outside ``span`` are clamped to it."""
     if model == "constant":
         return np.ones((t.size, 1))
-    span = t[-1] - t[0]
-    n_inner = max(int(np.floor(span / cfg.drag.knot_spacing_s)), 1)
-    inner = np.linspace(t[0], t[-1], n_inner + 1)
-    knots = np.r_[[t[0]] * 3, inner, [t[-1]] * 3]
-    return BSpline.design_matrix(np.clip(t, t[0], t[-1]), knots, 3).toarray()
+    a, b = span if span is not None else (t[0], t[-1])
+    n_inner = max(int(np.floor((b - a) / cfg.drag.knot_spacing_s)), 1)
+    inner = np.linspace(a, b, n_inner + 1)
+    knots = np.r_[[a] * 3, inner, [b] * 3]
+    return BSpline.design_matrix(np.clip(t, a, b), knots, 3).toarray()
+
+
+def interval_bases(cfg: PointMassConfig, model: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bases of CdA(t) at the nodes ``t`` (K,) and at the K - 1 interval midpoints, s: one spline,
+    one knot vector over the nodes' span for both."""
+    span = (float(t[0]), float(t[-1]))
+    return drag_basis(cfg, model, t, span), drag_basis(cfg, model, 0.5 * (t[:-1] + t[1:]), span)
 
 
 AREA_NAMES = ("CdA", "AN", "AE")
@@ -173,17 +182,29 @@ def _initial_cda(data: PointMassData, cfg: PointMassConfig, atm: Atmosphere) -> 
     return float(np.clip(np.median(cda[speed2 > 400]) if np.any(speed2 > 400) else np.median(cda), 0.01, 5.0))
 
 
-def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_level: int = 0) -> PointMassResult:
-    """Fit the track of a point-mass problem with the constant or the spline drag model; its Ipopt
-    iteration lines are labelled ``constant-CdA fit`` or ``spline-CdA fit``."""
+@dataclass
+class PointMassNlp:
+    """A point-mass problem ready for Ipopt: its data, layout, NLP, starting point (scaled) and
+    lower bounds (the drag-area coefficients >= 0), and the drag basis at the nodes."""
+
+    data: PointMassData
+    layout: DropLayout
+    nlp: Nlp
+    z0: np.ndarray
+    lower: np.ndarray
+    basis: np.ndarray
+
+
+def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> PointMassNlp:
+    """Read the data and build the NLP of the constant or spline drag model, checked at the start
+    point (:func:`~casrecon.estimation.engine.checks.check_determined` evaluates its derivatives)."""
     model_name = model_name or cfg.drag.model
-    t0 = time.perf_counter()
     data = prepare_data(cfg)
     atm = atmosphere_of(cfg)
     model = PointMassModel(atm, cfg.site, cfg.mass_kg, cfg.dynamics)
     t_rel = data.t_unix - data.t_unix[0]
     h = float(t_rel[1] - t_rel[0])
-    basis = drag_basis(cfg, model_name, t_rel)
+    basis, b_mid = interval_bases(cfg, model_name, t_rel)
     n_coef, n_areas = basis.shape[1], 3 if (cfg.drag.lift and model_name == "spline") else 1
     params = _parameters(n_coef, n_areas, cfg)
     k = t_rel.size
@@ -195,7 +216,6 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     e_cols = 6 * k + params.n + np.arange(k * active.size).reshape(k, active.size)
     cols = np.column_stack([6 * np.arange(n_int)[:, None] + np.arange(12)[None, :],
                             np.tile(part.theta_cols, (n_int, 1)), e_cols[:-1], e_cols[1:]])
-    b_mid = drag_basis(cfg, model_name, t_rel[:-1] + h / 2)
     last = np.zeros((n_int, 6))
     last[-1] = 1.0
     white = data.inv_sigma / np.sqrt(1.0 - errors.fraction)
@@ -219,10 +239,20 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
                                for i in range(6)])
     z0 = np.concatenate([(pos_vel / SCALE).ravel(), np.full(n_coef, cda0 / CDA_SCALE),
                          np.zeros(n_coef * (n_areas - 1) + 2 + e_cols.size)])
-    t1 = time.perf_counter()
     check_determined(nlp, z0)
     lbx = np.full(z0.size, -np.inf)
     lbx[part.theta_cols[:n_coef]] = 0.0  # B-spline coefficients >= 0 keep CdA(t) >= 0 everywhere
+    return PointMassNlp(data, part, nlp, z0, lbx, basis)
+
+
+def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_level: int = 0) -> PointMassResult:
+    """Fit the track of a point-mass problem with the constant or the spline drag model; its Ipopt
+    iteration lines are labelled ``constant-CdA fit`` or ``spline-CdA fit``."""
+    model_name = model_name or cfg.drag.model
+    t0 = time.perf_counter()
+    built = build_point_mass(cfg, model_name)
+    data, part, nlp, z0, lbx, basis = built.data, built.layout, built.nlp, built.z0, built.lower, built.basis
+    t1 = time.perf_counter()
     with iteration_logging(label=f"{model_name}-CdA fit"):  # casrecon fit runs two: spline and constant CdA
         sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
     check_converged(sol, nlp)

@@ -6,8 +6,14 @@ Rules (also in the results' notes):
   own accuracies already weight the good ones);
 - without explicit times, the segment is the longest run of consecutive good fixes whose vertical
   speed exceeds ``min_speed_mps``, extended backwards over good fixes while the vertical speed is
-  above 2 m/s (exit or release: the descent starts from near zero), and cut ``end_margin_s``
-  before its last fix (the vertical speed then falls: canopy opening or impact).
+  above 2 m/s (exit or release: the descent starts from near zero). It ends ``end_margin_s``
+  before the final drop (canopy opening or impact) began: the final drop is the stretch of fixes
+  up to the run's last fix whose vertical speed is each more than ``deploy_drop_mps`` below its
+  running maximum over the preceding ``DROP_WINDOW_S``; it began at that maximum of its first fix
+  (no such stretch, as at an impact: at the run's last fix). A canopy decelerates the body from
+  the fall's speed to below ``min_speed_mps`` in about two seconds, and the fixes of the opening
+  are left out; a slow change of speed (the air's density, 0.2 m/s per second) never reaches the
+  margin. A deceleration that runs into the opening (a speed skydiver's flare) is left out with it.
 """
 
 from __future__ import annotations
@@ -19,6 +25,9 @@ import numpy as np
 from casrecon.io.flysight import GpsTrack
 from casrecon.io.gps_rules import GpsQuality, good_fixes, no_fix_note
 from casrecon.io.pointmass_problem import SegmentConfig
+
+#: Window of the running maximum that finds the final drop, s.
+DROP_WINDOW_S = 2.0
 
 
 class SegmentError(ValueError):
@@ -40,6 +49,21 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2], edges[1::2]))
 
 
+def drop_onset(t: np.ndarray, vel_d: np.ndarray, drop_mps: float) -> int:
+    """Index of the fix where the final drop of ``vel_d`` (m/s, down positive; times ``t``, s) began:
+    walking back from the last fix over those more than ``drop_mps`` below the maximum of the
+    preceding :data:`DROP_WINDOW_S`, the fix of that maximum (the last fix when there is none)."""
+    lo = np.searchsorted(t, t - DROP_WINDOW_S - 1e-6)
+    i, onset = t.size - 1, t.size - 1
+    while i >= 0:
+        window = vel_d[lo[i]:i + 1]
+        j = i - int(np.argmax(window[::-1]))          # the latest fix of the window's maximum
+        if vel_d[i] >= vel_d[j] - drop_mps:
+            break
+        onset, i = j, i - 1
+    return onset
+
+
 def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     """The descent segment of ``track`` per the module's rules (or the configured times)."""
     good = good_fixes(track, q)
@@ -59,10 +83,14 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     while i0 > 0 and good[i0 - 1] and track.vel_d_mps[i0 - 1] > 2.0:
         i0 -= 1
     start = cfg.start_unix_s if cfg.start_unix_s is not None else float(t[i0])
-    end = cfg.end_unix_s if cfg.end_unix_s is not None else float(t[i1 - 1]) - cfg.end_margin_s
+    run = np.arange(i0, i1)[good[i0:i1]]
+    onset = run[drop_onset(t[run], track.vel_d_mps[run], cfg.deploy_drop_mps)]
+    end = cfg.end_unix_s if cfg.end_unix_s is not None else float(t[onset]) - cfg.end_margin_s
     if end - start < 5.0:
         raise SegmentError(f"{track.path}: the descent segment found is only {end - start:.1f} s long")
     notes.append(f"segment found from the data: {end - start:.1f} s, vertical speed up to "
                  f"{track.vel_d_mps[i0:i1].max():.1f} m/s (rule: longest run faster than {cfg.min_speed_mps} m/s, "
-                 f"back to 2 m/s, minus {cfg.end_margin_s} s at the end)")
+                 f"back to 2 m/s, ending {cfg.end_margin_s} s before the final drop began at "
+                 f"{track.vel_d_mps[onset]:.1f} m/s, {t[i1 - 1] - t[onset]:.1f} s before the last fix faster than "
+                 f"{cfg.min_speed_mps} m/s)")
     return Segment(start, end, good, tuple(notes))

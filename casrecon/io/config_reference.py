@@ -328,8 +328,11 @@ POINT_MASS = FileKind(
             _k("end_utc", "datetime or string", "UTC", "End of the fitted segment", "<found from the data>"),
             _k("min_speed_mps", "float", "m/s", "Descent speed that defines the segment when start/end are not "
                "given", source=SegmentConfig, attr="segment.min_speed_mps"),
-            _k("end_margin_s", "float", "s", "The found segment ends this long before the descent slows",
+            _k("end_margin_s", "float", "s", "The found segment ends this long before the final drop began",
                source=SegmentConfig, attr="segment.end_margin_s"),
+            _k("deploy_drop_mps", "float", "m/s", "The final drop (canopy opening, impact): the last fixes each this "
+               "far below the running maximum of the vertical speed over the preceding 2 s",
+               source=SegmentConfig, attr="segment.deploy_drop_mps"),
         )),
         _DYNAMICS,
         Table("estimation", (

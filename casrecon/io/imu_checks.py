@@ -23,6 +23,15 @@ a :class:`Finding` (message, line of the IMU CSV, column) or None. The threshold
 - **stuck channel** (:data:`STUCK_RUN_S` = 1 s, at least :data:`STUCK_MIN_SAMPLES` = 20 samples):
   the same reading, not at a declared limit, repeated for 1 s. A working sensor's noise changes
   its reading from sample to sample.
+
+One more rule only warns (:func:`unit_warnings`: ``casrecon inspect`` prints it, the 6-DOF fit logs
+it), as a single sample can be a glitch:
+
+- **peak** (:data:`MAX_GYRO_PEAK_RADPS` = 50 rad/s, 2865 deg/s; :data:`MAX_ACCEL_PEAK_MPS2` =
+  2000 m/s^2, 204 g): any sample beyond it is implausible for the declared unit. It catches a log
+  in deg/s read as rad/s that spends most of its time at rest (the gyro-unit rule looks at the
+  95th percentile): a FlySight or a rocket resting for minutes, then tumbling at 200 deg/s, reads
+  as 11,000 deg/s.
 """
 
 from __future__ import annotations
@@ -42,6 +51,8 @@ ACCEL_MEDIAN_G = (0.25, 4.0)
 MAX_SATURATED_SHARE = 0.25
 STUCK_RUN_S = 1.0
 STUCK_MIN_SAMPLES = 20
+MAX_GYRO_PEAK_RADPS = 50.0
+MAX_ACCEL_PEAK_MPS2 = 2000.0
 
 
 @dataclass(frozen=True)
@@ -182,3 +193,46 @@ def imu_findings(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> list
     found = [gap_finding(m, spec, span), accel_unit_finding(m, spec), gyro_unit_finding(m, spec, span),
              saturation_finding(m, spec, span), stuck_finding(m, spec, span)]
     return [f for f in found if f is not None]
+
+
+def peak_findings(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> dict[str, Finding]:
+    """The largest gyro and accelerometer sample of ``span``, each when beyond its plausible peak
+    (MAX_GYRO_PEAK_RADPS, MAX_ACCEL_PEAK_MPS2), naming the column, the value and the likely unit;
+    keyed by "gyro" and "accelerometer"."""
+    out = {}
+    for kind, values, columns, unit, scale, limit, si in (
+            ("gyro", m.gyro_radps, spec.gyro_columns, spec.gyro_unit, GYRO_SCALE[spec.gyro_unit],
+             MAX_GYRO_PEAK_RADPS, "rad/s"),
+            ("accelerometer", m.accel_mps2, spec.accel_columns, spec.accel_unit, ACCEL_SCALE[spec.accel_unit],
+             MAX_ACCEL_PEAK_MPS2, "m/s^2")):
+        part = np.abs(values[span])
+        if part.size == 0 or part.max() <= limit:
+            continue
+        i, k = np.unravel_index(int(np.argmax(part)), part.shape)
+        idx = int(np.arange(m.n)[span][i])
+        raw = float(values[idx, k]) / scale
+        if kind == "gyro" and unit == "rad/s":
+            hint = (f'in deg/s it would be {raw:.4g} deg/s, a plausible rate: the file is probably in deg/s, '
+                    'declare gyro_unit = "deg/s"')
+        elif kind == "accelerometer" and unit == "g":
+            hint = (f'in m/s^2 it would be {raw:.4g} m/s^2 ({raw / STANDARD_GRAVITY:.3g} g): the file is probably '
+                    'in m/s^2, declare accel_unit = "m/s^2"')
+        else:
+            hint = f"check {'gyro' if kind == 'gyro' else 'accel'}_unit and the {kind} columns"
+        v = float(values[idx, k])
+        if kind == "gyro":
+            other = f"{np.degrees(v):.0f} deg/s" if unit == "rad/s" else f"{v:.1f} rad/s"
+        else:
+            other = f"{v / STANDARD_GRAVITY:.0f} g" if unit == "m/s^2" else f"{v:.0f} m/s^2"
+        out[kind] = Finding(f"{kind} reads {raw:.6g} {unit} ({other}) at t = {m.time_s[idx]:.6g} s "
+                            f"with the {kind}s read as {unit}; beyond {limit:g} {si}, implausible for a {kind}; {hint}",
+                            line=line_of(idx), field=_axis_names(spec, columns)[k])
+    return out
+
+
+def unit_warnings(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> list[Finding]:
+    """The peak findings of ``span`` of the kinds whose unit rule (gyro_unit_finding,
+    accel_unit_finding) does not already flag them."""
+    flagged = {"gyro": gyro_unit_finding(m, spec, span) is not None,
+               "accelerometer": accel_unit_finding(m, spec) is not None}
+    return [f for kind, f in peak_findings(m, spec, span).items() if not flagged[kind]]

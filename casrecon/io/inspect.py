@@ -9,7 +9,8 @@ Problems reported:
   (at least 3 samples), the signature of a clipped sensor;
 - IMU warnings (``WARNING:`` lines), by the rules the fits apply (:mod:`casrecon.io.imu_checks`):
   gaps over 1.5 sample periods, a unit that gives implausible values (gyros over 2000 deg/s,
-  a median specific force outside 0.25 to 4 g), a channel stuck at one reading for 1 s (a gyro
+  a median specific force outside 0.25 to 4 g; and, warned only, any gyro sample over 50 rad/s or
+  accelerometer sample over 2000 m/s^2, with the likely unit), a channel stuck at one reading for 1 s (a gyro
   saturated for the whole log is one);
 - GPS warnings: rows without a 3D fix (``gpsFix`` 0, 1, 2 or 5, or latitude, longitude and height
   all 0), which every fit drops;
@@ -30,7 +31,7 @@ from casrecon.io._csvtools import read_lines
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc, no_fix_mask, read_flysight
 from casrecon.io.imu import ImuCsvSpec, ImuLog, read_imu_csv
-from casrecon.io.imu_checks import imu_findings
+from casrecon.io.imu_checks import imu_findings, unit_warnings
 from casrecon.io.sensor import SensorLog, is_flysight2_sensor, read_flysight2_sensor
 from casrecon.io.sounding import Sounding, detect_sounding_format, igra2_launches, read_sounding
 
@@ -210,6 +211,8 @@ def _report_sensor(s: SensorLog) -> str:
            f"clock fit ($TIME rows, time base {base}): {c.n_rows} rows, drift "
            f"{c.drift_ppm:+.3f} ppm, residual RMS {c.residual_rms_s * 1e3:.3f} ms (max "
            f"{c.max_residual_s * 1e3:.3f} ms)"]
+    if c.dropped:
+        out.append("NOTE: " + c.dropped_note())
     for name, t in (("IMU", s.imu_time_unix_s), ("BARO", s.baro_time_unix_s)):
         if t.size:
             out.append(f"{name} time: {iso_utc(t[0])} to {iso_utc(t[-1])} UTC ({_span(t)})")
@@ -257,5 +260,5 @@ def _report_imu(m: ImuLog, spec: ImuCsvSpec) -> str:
         + _saturation("gyro", gyr, spec.gyro_columns)
     out.extend(sat or ["saturation: no axis sits repeatedly at its extreme value"])
     out.extend(f"WARNING: line {f.line}: {f.field}: {f.message}" if f.line else f"WARNING: {f.field}: {f.message}"
-               for f in imu_findings(m, spec))
+               for f in imu_findings(m, spec) + unit_warnings(m, spec))
     return "\n".join(out)

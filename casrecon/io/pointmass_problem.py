@@ -7,7 +7,8 @@ parsed once into frozen dataclasses and validated like the 6-DOF problems (same 
     [vehicle]     mass_kg
     [drag]        model = "constant" | "spline", knot_spacing_s, smoothness_sigma_m2, lift
     [gps]         file, max_h_acc_m, max_v_acc_m, max_s_acc_mps, min_num_sv
-    [segment]     start_utc, end_utc (optional: found from the data), min_speed_mps, end_margin_s
+    [segment]     start_utc, end_utc (optional: found from the data), min_speed_mps, end_margin_s,
+                  deploy_drop_mps
     [estimation]  linear_solver, max_iter, tol
 """
 
@@ -42,13 +43,16 @@ class DragConfig:
 class SegmentConfig:
     """The fitted segment. Without start/end (UTC, ISO), it is found from the data: the longest run
     of good fixes descending faster than ``min_speed_mps``, extended back to where the descent
-    began (vertical speed below 2 m/s), ending ``end_margin_s`` before the vertical speed drops
-    below ``min_speed_mps`` again (deployment or impact)."""
+    began (vertical speed below 2 m/s), ending ``end_margin_s`` before the final drop (canopy
+    opening or impact) began: the run's last fixes whose vertical speed is each more than
+    ``deploy_drop_mps`` (m/s) below its running maximum over the preceding 2 s
+    (:func:`casrecon.estimation.segment.drop_onset`)."""
 
     start_unix_s: float | None = None
     end_unix_s: float | None = None
     min_speed_mps: float = 20.0
     end_margin_s: float = 0.5
+    deploy_drop_mps: float = 5.0
 
 
 @dataclass(frozen=True)
@@ -88,7 +92,8 @@ def _segment(t: Fields) -> SegmentConfig:
     if start is not None and end is not None and end <= start:
         raise t.error("end_utc", "must be after start_utc")
     cfg = SegmentConfig(start, end, t.number("min_speed_mps", d.min_speed_mps, positive=True),
-                        t.number("end_margin_s", d.end_margin_s, minimum=0.0))
+                        t.number("end_margin_s", d.end_margin_s, minimum=0.0),
+                        t.number("deploy_drop_mps", d.deploy_drop_mps, positive=True))
     t.reject_unknown()
     return cfg
 

@@ -25,9 +25,14 @@ Rules kept by :func:`read_flysight2_sensor` (violations raise a located
 - the clock: GPS time ``week * 604800 + tow`` is fitted to the sensor time of the ``$TIME``
   rows by least squares, ``gps = offset + (1 + drift) * sensor`` (:class:`ClockFit`). At
   least 2 ``$TIME`` rows are needed; GPS time must be strictly increasing, ``tow`` in
-  ``[0, 604800)``, ``week`` a whole number; a row off the fit by more than
-  ``CLOCK_RESIDUAL_LIMIT_S`` (50 ms) or a drift beyond ``MAX_DRIFT_PPM`` (1000 ppm, a crystal
-  is tens of ppm) is an error. IMU and baro samples before the first or after the last
+  ``[0, 604800)``, ``week`` a whole number. With 4 rows or more, a robust line (median of
+  the slopes between rows half the record apart, median offset) is drawn first and rows off it
+  by more than ``CLOCK_RESIDUAL_LIMIT_S`` (50 ms) are dropped from the fit, named with their
+  offsets in :meth:`ClockFit.dropped_note` (logged; ``casrecon inspect`` prints it): on real
+  FlySight 2 files the first ``$TIME`` row after the fix is often about 0.9 s off while the
+  others fit within a millisecond. Half the rows or more off the line is an error, and so is
+  a kept row off the least-squares refit by more than the limit, or a drift beyond
+  ``MAX_DRIFT_PPM`` (1000 ppm, a crystal is tens of ppm). IMU and baro samples before the first or after the last
   ``$TIME`` row are mapped with the same line (extrapolation; the drift makes that good to
   microseconds over minutes);
 - the time base of ``tow``/``week``: ``time_base="utc"`` (the default) takes them as UTC
@@ -42,6 +47,7 @@ Rules kept by :func:`read_flysight2_sensor` (violations raise a located
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,6 +56,8 @@ import numpy as np
 from casrecon.io._csvtools import check_increasing, find_columns, parse_floats, read_lines, split_rows
 from casrecon.io.errors import InputError
 from casrecon.io.imu import STANDARD_GRAVITY
+
+logger = logging.getLogger(__name__)
 
 #: GPS epoch 1980-01-06T00:00:00Z as Unix seconds.
 GPS_EPOCH_UNIX_S = 315964800.0
@@ -111,6 +119,10 @@ class ClockFit:
     leap_seconds : int
         GPS - UTC leap seconds subtracted (0 when the ``$TIME`` rows count UTC); applied
         by the leap-second table per sample when not 0.
+    path : str
+        The file, for the note.
+    dropped : tuple of (int, float)
+        ``$TIME`` rows left out of the fit: (line of the file, offset from the fitted line, s).
     """
 
     offset_s: float
@@ -119,6 +131,18 @@ class ClockFit:
     max_residual_s: float
     n_rows: int
     leap_seconds: int
+    path: str = ""
+    dropped: tuple[tuple[int, float], ...] = ()
+
+    def dropped_note(self) -> str:
+        """One line naming the dropped ``$TIME`` rows and how far off they were ("" when none)."""
+        if not self.dropped:
+            return ""
+        rows = ", ".join(f"line {line} ({off:+.3f} s)" for line, off in self.dropped[:5])
+        more = f" and {len(self.dropped) - 5} more" if len(self.dropped) > 5 else ""
+        return (f"{self.path}: {len(self.dropped)} '$TIME' row(s) off the clock line by more than "
+                f"{CLOCK_RESIDUAL_LIMIT_S:g} s dropped from the clock fit: {rows}{more}; "
+                f"{self.n_rows} rows fitted")
 
     def gps_seconds(self, sensor_s: np.ndarray | float) -> np.ndarray:
         """GPS seconds since the GPS epoch at the given sensor times."""
@@ -316,20 +340,39 @@ def _fit_clock(path: str | Path, tv: dict[str, np.ndarray], numbers: list[int],
     gps = week * SECONDS_PER_WEEK + tow
     check_increasing(path, gps, numbers, "tow")
     x0, g0 = x[0], gps[0]
-    A = np.column_stack([np.ones_like(x), x - x0])
-    (a, b), *_ = np.linalg.lstsq(A, gps - g0, rcond=None)
-    res = (gps - g0) - (a + b * (x - x0))
+    dx, dg = x - x0, gps - g0
+    keep = np.ones(x.size, bool)
+    if x.size >= 4:
+        # a robust first line (median of slopes over half the record, median offset), then the rows
+        # within the limit of it are kept: one bad row cannot tilt the line the others are tested on
+        h = x.size // 2
+        b0 = float(np.median((dg[h:2 * h] - dg[:h]) / (dx[h:2 * h] - dx[:h])))
+        a0 = float(np.median(dg - b0 * dx))
+        keep = np.abs(dg - a0 - b0 * dx) <= CLOCK_RESIDUAL_LIMIT_S
+        if 2 * keep.sum() <= x.size:
+            k = int(np.argmax(~keep))
+            raise InputError(path, f"only {int(keep.sum())} of {x.size} '$TIME' rows lie within "
+                             f"{CLOCK_RESIDUAL_LIMIT_S:g} s of one clock line (more than half are needed); "
+                             f"this one is off it by {dg[k] - a0 - b0 * dx[k]:+.3f} s", line=numbers[k], field="$TIME")
+    A = np.column_stack([np.ones(int(keep.sum())), dx[keep]])
+    (a, b), *_ = np.linalg.lstsq(A, dg[keep], rcond=None)
+    res = dg[keep] - (a + b * dx[keep])
     drift_ppm = (b - 1.0) * 1e6
     if abs(drift_ppm) > MAX_DRIFT_PPM:
         raise InputError(path, f"sensor clock drift {drift_ppm:.1f} ppm against GPS time is "
                          f"beyond {MAX_DRIFT_PPM:g} ppm: the '$TIME' rows are inconsistent",
                          line=numbers[0], field="$TIME")
+    kept_lines = np.asarray(numbers)[keep]
     k = int(np.argmax(np.abs(res)))
     if abs(res[k]) > CLOCK_RESIDUAL_LIMIT_S:
         raise InputError(path, f"'$TIME' row off the clock fit by {res[k]:+.3f} s (limit "
-                         f"{CLOCK_RESIDUAL_LIMIT_S:g} s)", line=numbers[k], field="$TIME")
+                         f"{CLOCK_RESIDUAL_LIMIT_S:g} s)", line=int(kept_lines[k]), field="$TIME")
+    dropped = tuple((int(numbers[i]), float(dg[i] - a - b * dx[i])) for i in np.flatnonzero(~keep))
     offset = g0 + a - b * x0
     leap = int(round((g0 + GPS_EPOCH_UNIX_S) - float(gps_to_unix(g0)))) if time_base == "gps" \
         else 0
-    return ClockFit(float(offset), float(drift_ppm), float(np.sqrt(np.mean(res ** 2))),
-                    float(np.abs(res).max()), int(x.size), leap)
+    fit = ClockFit(float(offset), float(drift_ppm), float(np.sqrt(np.mean(res ** 2))),
+                   float(np.abs(res).max()), int(keep.sum()), leap, str(path), dropped)
+    if dropped:
+        logger.info("%s", fit.dropped_note())
+    return fit

@@ -4,6 +4,7 @@ checked against the same jump's TRACK.CSV, plus malformed copies written in tmp_
 
 from __future__ import annotations
 
+import re
 from datetime import UTC, datetime
 
 import numpy as np
@@ -161,3 +162,59 @@ def test_cut_mid_write(tmp_path):
     with pytest.raises(InputError) as exc:
         read_flysight2_sensor(f)
     assert exc.value.line == len(HEAD) + len(ROWS)
+
+
+def _shift_time_rows(tmp_path, shifts: dict[int, float]):
+    """A copy of the real SENSOR.CSV whose k-th $TIME rows (0-based) have tow shifted by the
+    given seconds; returns the file and the shifted rows' line numbers."""
+    lines = SENSOR.read_text().splitlines(keepends=True)
+    at = [i for i, ln in enumerate(lines) if ln.startswith("$TIME")]
+    for k, shift in shifts.items():
+        f = lines[at[k]].rstrip("\r\n").split(",")
+        f[2] = f"{float(f[2]) + shift:.3f}"
+        lines[at[k]] = ",".join(f) + "\r\n"
+    out = tmp_path / "SENSOR.CSV"
+    out.write_text("".join(lines), newline="")
+    return out, [at[k] + 1 for k in shifts]
+
+
+def test_first_time_row_off_by_0_9_s_is_dropped_with_a_note(tmp_path, log, caplog):
+    """As in 29 of 85 real FlySight 2 files: the first $TIME row about 0.9 s off the others."""
+    f, (line,) = _shift_time_rows(tmp_path, {0: 0.9})
+    with caplog.at_level("INFO", logger="casrecon.io.sensor"):
+        s = read_flysight2_sensor(f)
+    c = s.clock_fit
+    assert [d[0] for d in c.dropped] == [line] == [370]
+    assert c.dropped[0][1] == pytest.approx(0.9, abs=2e-3)
+    assert c.n_rows == log.clock_fit.n_rows - 1
+    assert c.max_residual_s < 1e-3
+    # the clock is the one of the other 1589 rows: within 0.1 ms of the untouched file's over the record
+    np.testing.assert_allclose(s.imu_time_unix_s, log.imu_time_unix_s, atol=1e-4, rtol=0)
+    note = c.dropped_note()
+    assert re.search(r"line 370 \(\+0\.90\d s\)", note) and "1589 rows fitted" in note and "\n" not in note
+    assert note in caplog.text
+    from casrecon.io.inspect import inspect_file
+    assert "NOTE: " + note in inspect_file(f)
+    assert log.clock_fit.dropped == () and log.clock_fit.dropped_note() == ""
+
+
+def test_a_few_time_rows_off_anywhere_are_dropped(tmp_path, log):
+    f, lines = _shift_time_rows(tmp_path, {0: -0.2, 700: 0.06, 1589: 3.0})
+    c = read_flysight2_sensor(f).clock_fit
+    assert [d[0] for d in c.dropped] == lines
+    np.testing.assert_allclose([d[1] for d in c.dropped], [-0.2, 0.06, 3.0], atol=2e-3)
+    assert c.drift_ppm == pytest.approx(log.clock_fit.drift_ppm, abs=0.01)
+
+
+def test_too_few_consistent_time_rows_is_refused(tmp_path):
+    """Half the $TIME rows off the line: no line to trust, the file is refused at the first."""
+    rows = [f"$TIME,{10.0 + k},{100.0 + k + (0.5 if k % 2 else 0.0)},2332" for k in range(8)]
+    f = write(tmp_path, HEAD, ["$IMU,10.1,1,2,3,0,0,1,25"] + rows)
+    with pytest.raises(InputError, match=r"only \d of 8 '\$TIME' rows") as exc:
+        read_flysight2_sensor(f)
+    assert exc.value.field == "$TIME" and "\n" not in str(exc.value)
+    # one of eight off is dropped
+    rows[3] = "$TIME,13.0,103.7,2332"
+    rows = [r if k in (3,) else f"$TIME,{10.0 + k},{100.0 + k},2332" for k, r in enumerate(rows)]
+    c = read_flysight2_sensor(write(tmp_path, HEAD, ["$IMU,10.1,1,2,3,0,0,1,25"] + rows)).clock_fit
+    assert c.dropped == ((len(HEAD) + 5, pytest.approx(0.7)),)

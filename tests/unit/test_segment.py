@@ -4,17 +4,20 @@ Every track below is a 5 Hz sequence of fixes built from a vertical-speed profil
 an exit (vertical speed growing ~9.5 m/s per second), a fast run, and a deployment (vertical speed
 falling to canopy speed). The expected start and end are computed from the rules by hand:
 start = the first fix of the descent whose vertical speed exceeds 2 m/s (the run of good fixes
-faster than min_speed_mps, extended back while above 2 m/s), end = the last fix faster than
-min_speed_mps minus end_margin_s.
+faster than min_speed_mps, extended back while above 2 m/s), end = end_margin_s before the final
+drop began: the deployment ramp's fixes are each more than deploy_drop_mps (5 m/s) below the
+fast run's 55 m/s, so the drop began at the last 55 m/s fix.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from casrecon.estimation.segment import SegmentError, find_segment
-from casrecon.io.flysight import GpsTrack
+from casrecon.io.flysight import GpsTrack, read_flysight
 from casrecon.io.gps_rules import good_fixes
 from casrecon.io.pointmass_problem import GpsQuality, SegmentConfig
 
@@ -59,7 +62,9 @@ def test_exit_and_deployment_found_from_the_data():
     assert seg.start_unix_s == pytest.approx(tr.time_unix_s[i_start])
     i_last_fast = int(np.flatnonzero(vd > CFG.min_speed_mps)[-1])
     assert vd[i_last_fast + 1] < CFG.min_speed_mps
-    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last_fast] - CFG.end_margin_s)
+    i_onset = int(np.flatnonzero(vd == 55.0)[-1])               # the deployment ramp starts after it
+    assert vd[i_onset + 1] < 55.0 - CFG.deploy_drop_mps
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_onset] - CFG.end_margin_s)
     assert seg.good.all() and seg.good.shape == (tr.n,)
     assert any("segment found from the data" in n for n in seg.notes)
     assert "0 of" in seg.notes[0]
@@ -71,7 +76,8 @@ def test_min_speed_and_end_margin_are_used():
     cfg = SegmentConfig(min_speed_mps=45.0, end_margin_s=1.0)
     seg = find_segment(tr, Q, cfg)
     i_last = int(np.flatnonzero(vd > 45.0)[-1])               # the deployment ramp's 47.9 m/s fix
-    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last] - 1.0)
+    assert vd[i_last] < 55.0 - cfg.deploy_drop_mps               # is in the final drop: the end is before it
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last - 1] - 1.0)
     # the start is still where the descent began (back over the ramp to 2 m/s), not at 45 m/s
     assert seg.start_unix_s == pytest.approx(tr.time_unix_s[np.flatnonzero(vd > 2.0)[0]])
 
@@ -177,3 +183,55 @@ def test_explicit_start_only_or_end_only():
     # an explicit start 2 s before the end found: too short
     with pytest.raises(SegmentError, match="only 2.0 s long"):
         find_segment(tr, Q, SegmentConfig(start_unix_s=auto.end_unix_s - 2.0))
+
+
+def test_slow_deceleration_is_not_a_drop():
+    """A fall whose speed decays 0.5 m/s per second (faster than the air's density makes it) and
+    then stops at once (impact): no final drop, the end is end_margin_s before the last fast fix."""
+    vd = np.r_[np.zeros(10), np.minimum(9.5 * DT * np.arange(1, 40), 55.0), 55.0 - 0.5 * DT * np.arange(200),
+               np.zeros(10)]
+    tr = track_from(vd)
+    seg = find_segment(tr, Q, CFG)
+    i_last_fast = int(np.flatnonzero(vd > CFG.min_speed_mps)[-1])
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last_fast] - CFG.end_margin_s)
+
+
+@pytest.mark.parametrize("drop_s", [1.0, 2.0, 4.0])
+def test_deployment_of_any_length_is_left_out(drop_s):
+    """A deployment decelerating from 55 to 5 m/s over drop_s seconds, after a plateau with 0.5 m/s
+    noise: the end is end_margin_s before the deceleration began, whatever its length."""
+    rng = np.random.default_rng(3)
+    plateau = 55.0 + rng.normal(0.0, 0.5, 150)
+    n_drop = int(drop_s / DT)
+    vd = np.r_[np.zeros(10), np.minimum(9.5 * DT * np.arange(1, 40), 55.0), plateau,
+               np.linspace(55.0, 5.0, n_drop + 1)[1:], np.full(20, 5.0)]
+    tr = track_from(vd)
+    seg = find_segment(tr, Q, CFG)
+    i_begin = 10 + 39 + 150 - 1                                  # the plateau's last fix
+    # the end lies within 2 s (the running maximum's window) before the deceleration began
+    assert tr.time_unix_s[i_begin] - 2.0 - CFG.end_margin_s <= seg.end_unix_s
+    assert seg.end_unix_s <= tr.time_unix_s[i_begin] - CFG.end_margin_s + 1e-9
+    assert np.all(vd[(tr.time_unix_s <= seg.end_unix_s) & (tr.time_unix_s > seg.start_unix_s + 10)] > 53.0)
+
+
+REALDATA = Path(__file__).parents[1] / "data" / "realdata"
+TRACKS = [REALDATA / "flysight-speed-ssscoring" / "fs1-byron-2019-05-25.CSV",
+          REALDATA / "flysight-speed-ssscoring" / "fs2-chicago-2024-09-17" / "TRACK.CSV",
+          REALDATA / "flysight-speed-skyderby" / "speed_skydiving_411.csv"]
+
+
+@pytest.mark.parametrize("path", TRACKS, ids=lambda p: p.parent.name + "/" + p.name)
+def test_real_tracks_end_before_the_canopy_opens(path):
+    """On the three real speed skydives the canopy opening decelerates the diver by 12 to 22 m/s^2
+    over the last second of the old segment (which ended 0.5 s before the speed fell below
+    20 m/s); the segment now ends before it: less than 3 m/s^2 over its last second."""
+    tr = read_flysight(path)
+    good = good_fixes(tr, Q)
+
+    def decel_last_second(cfg):
+        e = find_segment(tr, Q, cfg).end_unix_s
+        return float(np.interp(e - 1.0, tr.time_unix_s[good], tr.vel_d_mps[good])
+                     - np.interp(e, tr.time_unix_s[good], tr.vel_d_mps[good]))
+
+    assert decel_last_second(CFG) < 3.0
+    assert decel_last_second(SegmentConfig(deploy_drop_mps=1e9)) > 10.0    # the old rule: inside the opening
