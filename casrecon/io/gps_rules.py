@@ -15,6 +15,7 @@ Used by the 6-DOF fit (thresholds from ``[estimation]``) and the point-mass fit 
 
 from __future__ import annotations
 
+import datetime as dt
 from dataclasses import dataclass
 
 import numpy as np
@@ -150,3 +151,26 @@ def gps_error_model(t: Fields) -> GpsErrorModel:
                                f"noise must remain), got {f}")
         fractions.append(f)
     return GpsErrorModel(times[0], times[1], fractions[0], fractions[1])
+
+
+def gps_date(t: Fields) -> dt.date | None:
+    """``date`` of a GPS table: the UTC date (``"YYYY-MM-DD"`` or a TOML date) of the first fix of an
+    NMEA log whose sentences carry none (GGA only); None when absent."""
+    value = t.raw("date", None)
+    if value is None or (isinstance(value, dt.date) and not isinstance(value, dt.datetime)):
+        return value
+    if isinstance(value, str):
+        try:
+            return dt.date.fromisoformat(value)
+        except ValueError:
+            pass
+    raise t.error("date", f"expected a UTC date YYYY-MM-DD, got {value!r}")
+
+
+def velocity_sigma(t: Fields) -> tuple[float, float, float] | None:
+    """``velocity_sigma_mps`` of a GPS table: [north, east, down] 1-sigma (m/s, each > 0) replacing the
+    receiver's sAcc on each axis (:func:`fixes_ned`); None when absent."""
+    v = t.vector("velocity_sigma_mps", 3)
+    if v is not None and min(v) <= 0:
+        raise t.error("velocity_sigma_mps", f"expected three positive numbers [north, east, down] m/s, got {list(v)}")
+    return v
