@@ -266,10 +266,9 @@ def _build(path, epochs: list[_Epoch], date: dt.date | None, counts: dict) -> Gp
         elif previous is not None and e.tod_s < previous - 43200.0:
             day = day + dt.timedelta(days=1)
         t = dt.datetime(day.year, day.month, day.day, tzinfo=dt.UTC).timestamp() + e.tod_s
-        if times and t <= times[-1]:
-            how = "repeats the previous one" if t == times[-1] else "goes backwards"
-            raise InputError(path, f"epoch time {how} ({times[-1]:.3f} then {t:.3f} s since 1970); NMEA epochs "
-                                   "must strictly increase", line=e.line, field="time")
+        if times and t <= times[-1]:  # (sentences of one time of day are one epoch: a repeat comes back)
+            raise InputError(path, f"epoch time goes backwards ({times[-1]:.3f} then {t:.3f} s since 1970); NMEA "
+                                   "epochs must strictly increase", line=e.line, field="time")
         times.append(t)
         previous = e.tod_s
     n = len(epochs)
