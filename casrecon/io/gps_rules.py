@@ -127,6 +127,27 @@ def present(sigma: np.ndarray) -> np.ndarray:
     return np.isfinite(sigma)
 
 
+def interpolate_fixes(t_out: np.ndarray, t: np.ndarray, pos: np.ndarray, vel: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity (len(t_out), 3 each) at the times ``t_out`` from fixes at ``t`` with NaN where a
+    component is missing (:func:`fixes_ned`), for initial guesses: each component interpolated through its
+    finite values; a velocity component no fix gives is the derivative of its position; a position
+    component no fix gives (no height) is the integral of its velocity from 0, else 0."""
+    out = [np.full((t_out.size, 3), np.nan), np.full((t_out.size, 3), np.nan)]
+    for j, values in enumerate((pos, vel)):
+        for i in range(3):
+            ok = np.isfinite(values[:, i])
+            if ok.any():
+                out[j][:, i] = np.interp(t_out, t[ok], values[ok, i])
+    p, v = out
+    for i in range(3):
+        if np.isnan(v[:, i]).any():
+            v[:, i] = np.gradient(p[:, i], t_out) if np.isfinite(p[:, i]).all() and t_out.size > 1 else 0.0
+        if np.isnan(p[:, i]).any():
+            p[:, i] = np.r_[0.0, np.cumsum(np.diff(t_out) * 0.5 * (v[1:, i] + v[:-1, i]))]
+    return p, v
+
+
 def ned_to_geodetic(pos_ned: np.ndarray, site: Site) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Latitude and longitude (deg, WGS-84) and height above mean sea level (m) of NED positions
     (n, 3; m from the site's ground point): ``pymap3d.ned2geodetic``, the exact inverse of

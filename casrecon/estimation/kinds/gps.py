@@ -99,7 +99,7 @@ class GpsKind:
             act = errors.active
             correlated[:, act] = e * np.where(missing, 0.0, data.gps_sigma)[:, act] * np.sqrt(errors.fraction[act])
         correlated[missing] = np.nan
-        residual = np.where(missing, np.nan, whitened * white_sigma + correlated)
+        residual = np.where(missing, np.nan, whitened * np.where(missing, 0.0, white_sigma) + correlated)
         time = data.gps_time_s - clock_offset(result)
         normalised = errors.whiten(residual / data.gps_sigma, time)
         return {"time_imu_s": time, "residual": residual, "sigma": data.gps_sigma, "correlated": correlated,
