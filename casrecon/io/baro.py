@@ -116,7 +116,8 @@ def read_baro(path: str | Path) -> BaroLog:
     pressure_col = next((c for c in PRESSURE_COLUMNS if c in header), None)
     if time_col is None or pressure_col is None:
         raise InputError(path, "a barometer CSV needs a time column (time_unix_s for UTC, time_s or ts for the IMU "
-                         "clock) and a pressure column (pressure_pa, pressure_hpa or P in Pa) named in its header line; "
+                         "clock) and a pressure column (pressure_pa, pressure_hpa or P in Pa) named in its header "
+                         "line; "
                          f"{'no time column' if time_col is None else 'no pressure column'} found", line=1)
     cols = find_columns(path, header, (time_col, pressure_col), line=1, kind="a barometer CSV")
     body = [ln for ln in lines[1:] if ln.strip()]

@@ -8,8 +8,8 @@ from pathlib import Path
 
 from casrecon.io._csvtools import read_lines
 from casrecon.io.errors import InputError
-from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.gps_files import gps_file_kind
+from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.inspect import ROCKET_SPEC, SUPPORTED, is_baro_csv
 from casrecon.io.sensor import is_flysight2_sensor
 from casrecon.io.sounding import detect_sounding_format

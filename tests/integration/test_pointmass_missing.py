@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from test_pointmass_truth import SEEDS, SITE, T0_UNIX, make_track, simulate, write_problem
+from test_pointmass_truth import SEEDS, T0_UNIX, make_track, simulate, write_problem
 
 import casrecon.estimation.pointmass_fit as pmf
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
@@ -28,8 +28,8 @@ def tracks():
 
 
 def problem(tmp_path, full, segment: bool = True):
-    extra = (f'\n[segment]\nstart_utc = "{iso_utc(T0_UNIX + SEGMENT[0])}"\nend_utc = "{iso_utc(T0_UNIX + SEGMENT[1])}"\n'
-             if segment else "")
+    start, end = (iso_utc(T0_UNIX + s) for s in SEGMENT)
+    extra = f'\n[segment]\nstart_utc = "{start}"\nend_utc = "{end}"\n' if segment else ""
     return load_point_mass(write_problem(tmp_path, full, "constant", extra))
 
 
