@@ -359,7 +359,8 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     Parameters
     ----------
     channels : dict of str to ndarray
-        Channel name -> residuals divided by their sigma (NaN where there is no sample), in time order.
+        Channel name -> residuals divided by their sigma (NaN where there is no sample), in time order. A
+        channel without any sample (a component the GPS file does not give) is not tested or counted.
     prior_names : list of str
         Parameters with a (zero-mean) prior.
     values, prior_sigma : ndarray
@@ -382,6 +383,7 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     Adequacy
     """
     n_priors = len(prior_names)
+    channels = {name: r for name, r in channels.items() if np.isfinite(np.asarray(r, dtype=float)).any()}
     n_tests = 2 * len(channels) + (1 if n_priors else 0) + n_priors
     a = alpha / max(n_tests, 1)
     tests = [channel_test(name, r, a) for name, r in channels.items()]

@@ -44,7 +44,7 @@ class FitData:
     gps_time_s: np.ndarray       # (M,) UTC minus clock_utc_at_zero, s
     gps_pos_ned: np.ndarray      # (M, 3) antenna, m
     gps_vel_ned: np.ndarray      # (M, 3) m/s
-    gps_sigma: np.ndarray        # (M, 6) 1-sigma: hAcc, hAcc, vAcc, sAcc, sAcc, sAcc
+    gps_sigma: np.ndarray        # (M, 6) 1-sigma: hAcc, hAcc, vAcc, sAcc x 3 (inf: component not in the file)
     release_imu_s: float
     impact_imu_s: float
     window: tuple[float, float]  # fit window on the IMU clock
@@ -87,7 +87,7 @@ def _gps(track: GpsTrack, cfg: ProblemConfig, window: tuple[float, float], notes
     keep = in_window & good
     if keep.sum() < 3:
         raise FitDataError(f"{track.path}: only {keep.sum()} usable GPS fixes in the fit window")
-    return (t[keep], *fixes_ned(track, cfg.site, keep))
+    return (t[keep], *fixes_ned(track, cfg.site, keep, cfg.gps.velocity_sigma_mps))
 
 
 def patch_saturated(time: np.ndarray, values: np.ndarray, valid: np.ndarray, span: int = 25):

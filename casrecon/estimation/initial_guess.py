@@ -20,6 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from casrecon.estimation.fitdata import FitData
 from casrecon.estimation.transcription import Mesh
+from casrecon.io.gps_rules import interpolate_fixes
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.rotations import dcm_body_to_ned, quat_derivative
 from casrecon.physics.vehicle import Vehicle
@@ -64,8 +65,7 @@ def initial_guess(data: FitData, mesh: Mesh, vehicle: Vehicle, atmosphere: Atmos
     t = data.imu_time_s
     gyro = _bridge(t, data.gyro_body, data.gyro_valid)
     dq = _integrate_gyro(t, gyro)
-    vel = np.column_stack([np.interp(t, data.gps_time_s, data.gps_vel_ned[:, i]) for i in range(3)])
-    pos = np.column_stack([np.interp(t, data.gps_time_s, data.gps_pos_ned[:, i]) for i in range(3)])
+    pos, vel = interpolate_fixes(t, data.gps_time_s, data.gps_pos_ned, data.gps_vel_ned)  # fills missing components
     lv = atmosphere.levels
     alt = ground_alt_msl_m - pos[:, 2]
     wind = np.column_stack([np.interp(alt, lv["altitude_msl_m"], lv["wind_north_mps"]),

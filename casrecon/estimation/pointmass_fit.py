@@ -9,7 +9,8 @@ bias (north, east) against the atmosphere used. Mass is given
 
 Mesh: one node per GPS epoch (uniform, the receiver's period) through the segment; each good fix
 is compared with the node state at its own epoch, whitened by the receiver's reported accuracies
-(north and east by hAcc, down by vAcc, each velocity component by sAcc).
+(north and east by hAcc, down by vAcc, each velocity component by sAcc or ``[gps] velocity_sigma_mps``).
+A component the file does not give (NMEA: vertical velocity) has zero weight and is not counted.
 """
 
 from __future__ import annotations
@@ -40,7 +41,9 @@ from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet, ParameterSpec
 from casrecon.estimation.segment import SegmentError, find_segment
 from casrecon.estimation.transcription import Mesh
-from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
+from casrecon.io.errors import InputError
+from casrecon.io.flysight import GpsTrack, iso_utc
+from casrecon.io.gps_files import read_gps_track
 from casrecon.io.gps_rules import fixes_ned
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.sounding import read_sounding
@@ -99,6 +102,9 @@ class PointMassResult:
         for i, n in enumerate(names):
             r = self.normalized_residuals[:, i]
             r = r[np.isfinite(r)]
+            if r.size == 0:  # a component the GPS file does not give
+                out[n] = {"rms": float("nan"), "lag1_autocorrelation": float("nan")}
+                continue
             ac = float(np.corrcoef(r[:-1], r[1:])[0, 1]) if r.size > 3 else float("nan")
             out[n] = {"rms": float(np.sqrt(np.mean(r * r))), "lag1_autocorrelation": ac}
         return out
@@ -114,7 +120,10 @@ def atmosphere_of(cfg: PointMassConfig) -> Atmosphere:
 def prepare_data(cfg: PointMassConfig) -> PointMassData:
     """Read the track, find the segment, check the data (:mod:`casrecon.estimation.data_checks`: a failure is
     a located :class:`~casrecon.io.errors.InputError`) and put the good fixes on a uniform node grid."""
-    track = read_flysight(cfg.gps_file)
+    track = read_gps_track(cfg.gps_file, cfg.gps_date)
+    if not np.isfinite(track.vel_d_mps).any() and (cfg.segment.start_unix_s is None or cfg.segment.end_unix_s is None):
+        raise InputError(cfg.path, f"the GPS file {track.path} gives no vertical velocity, from which the segment "
+                         "is found; give [segment] start_utc and end_utc", field="segment.start_utc")
     try:
         seg = find_segment(track, cfg.quality, cfg.segment)
     except SegmentError as err:
@@ -128,13 +137,13 @@ def prepare_data(cfg: PointMassConfig) -> PointMassData:
     nodes = start + period * np.arange(max(int(np.floor((seg.end_unix_s - start) / period + 1e-3)), 0) + 1)
     idx = np.clip(np.searchsorted(t, nodes - period / 2), 0, t.size - 1)
     on_node = (np.abs(t[idx] - nodes) < period / 4) & seg.good[idx]
-    pos, vel, sig = fixes_ned(track, cfg.site, idx)
-    y = np.column_stack([pos, vel])
+    pos, vel, sig = fixes_ned(track, cfg.site, idx, cfg.velocity_sigma_mps)
+    y = np.nan_to_num(np.column_stack([pos, vel]))  # a missing component (NaN) has sigma inf: weight 0
     inv = np.where(on_node[:, None], 1.0 / sig, 0.0)
     if on_node.sum() < 3:
         raise FitError(f"{track.path}: only {int(on_node.sum())} good fixes in the segment "
                        f"{iso_utc(seg.start_unix_s)} to {iso_utc(seg.end_unix_s)}")
-    notes = seg.notes + (f"{int(on_node.sum())} fixes on {nodes.size} nodes every {period:.3f} s",)
+    notes = track.notes + seg.notes + (f"{int(on_node.sum())} fixes on {nodes.size} nodes every {period:.3f} s",)
     return PointMassData(nodes, np.where(on_node[:, None], y, 0.0), inv, notes, track)
 
 
@@ -170,14 +179,29 @@ def _parameters(n_coef: int, n_areas: int, cfg: PointMassConfig) -> ParameterSet
     return ParameterSet(tuple(specs))
 
 
-def _initial_cda(data: PointMassData, cfg: PointMassConfig, atm: Atmosphere) -> float:
-    """CdA from the drag needed to explain the vertical acceleration at each good fix (median)."""
+def _initial_states(data: PointMassData) -> np.ndarray:
+    """(K, 6) NED position and velocity on the nodes: each component interpolated through its fixes; a
+    velocity no fix gives from the derivative of its position; a position no fix gives 0."""
+    t = data.t_unix - data.t_unix[0]
+    out = np.zeros((t.size, 6))
+    for i in range(6):
+        ok = data.inv_sigma[:, i] > 0
+        if ok.any():
+            out[:, i] = np.interp(t, t[ok], data.y[ok, i])
+        elif i >= 3:
+            out[:, i] = np.gradient(out[:, i - 3], t)
+    return out
+
+
+def _initial_cda(data: PointMassData, cfg: PointMassConfig, atm: Atmosphere, states: np.ndarray) -> float:
+    """CdA from the drag needed to explain the vertical acceleration at each good fix (median), on the
+    initial states (:func:`_initial_states`: the fixes' values where they have them)."""
     ok = data.inv_sigma[:, 0] > 0
-    t, vd = data.t_unix[ok], data.y[ok, 5]
+    t, vd = data.t_unix[ok], states[ok, 5]
     accel = np.gradient(vd, t)
-    alt = cfg.site.ground_alt_msl_m - data.y[ok, 2]
+    alt = cfg.site.ground_alt_msl_m - states[ok, 2]
     rho = np.interp(alt, atm.levels["altitude_msl_m"], atm.levels["density_kgm3"])
-    speed2 = np.sum(data.y[ok, 3:6] ** 2, axis=1)
+    speed2 = np.sum(states[ok, 3:6] ** 2, axis=1)
     cda = 2 * cfg.mass_kg * (9.80665 - accel) / (rho * np.maximum(speed2, 25.0))
     return float(np.clip(np.median(cda[speed2 > 400]) if np.any(speed2 > 400) else np.median(cda), 0.01, 5.0))
 
@@ -234,9 +258,8 @@ def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> Poi
         terms += gauss_markov_terms(e_cols, phi, "gps_error_start", "gps_error")
     nlp = assemble_nlp(terms, 6 * k + params.n + e_cols.size, dependent=part.dependent_cols,
                        parameter_names=dict(zip(part.theta_cols.tolist(), params.names)), eliminated=e_cols.ravel())
-    cda0 = _initial_cda(data, cfg, atm)
-    pos_vel = np.column_stack([np.interp(t_rel, t_rel[data.inv_sigma[:, i] > 0], data.y[data.inv_sigma[:, i] > 0, i])
-                               for i in range(6)])
+    pos_vel = _initial_states(data)
+    cda0 = _initial_cda(data, cfg, atm, pos_vel)
     z0 = np.concatenate([(pos_vel / SCALE).ravel(), np.full(n_coef, cda0 / CDA_SCALE),
                          np.zeros(n_coef * (n_areas - 1) + 2 + e_cols.size)])
     check_determined(nlp, z0)

@@ -5,8 +5,13 @@ Plain CSV (``write_baro_csv`` writes it): a header line, then one sample per lin
 by name (others ignored):
 
 - time: ``time_unix_s`` (UTC, Unix seconds: the receiver's clock, like GPS fixes) or ``time_s``
-  (seconds on the IMU clock);
-- pressure: ``pressure_pa`` (Pa) or ``pressure_hpa`` (hPa = mbar).
+  (seconds on the IMU clock), or ``ts`` (a flight computer's clock, the clock of its IMU ``ts``: the IMU
+  clock);
+- pressure: ``pressure_pa`` (Pa) or ``pressure_hpa`` (hPa = mbar), or ``P`` (Pa).
+
+The CATS flight computer's ``baro.csv`` (``ts,id,T,P``: s, sensor id, temperature C, pressure Pa) is one
+of these (``ts`` and ``P``); a file whose ``id`` column names more than one sensor is refused (one file
+per sensor).
 
 Rules (violations raise a located :class:`~casrecon.io.errors.InputError`): every cell used is a
 finite number; times strictly increase; pressure lies in (0, 120000] Pa; at least two samples.
@@ -29,9 +34,9 @@ from casrecon.io.toml_fields import Fields
 #: Highest plausible static pressure, Pa (sea level is 101325 Pa; the Dead Sea about 107000 Pa).
 MAX_PRESSURE_PA = 120000.0
 #: Time columns of a plain CSV and the clock each one is on.
-TIME_COLUMNS = {"time_unix_s": "utc", "time_s": "imu"}
+TIME_COLUMNS = {"time_unix_s": "utc", "time_s": "imu", "ts": "imu"}
 #: Pressure columns of a plain CSV and their factor to Pa.
-PRESSURE_COLUMNS = {"pressure_pa": 1.0, "pressure_hpa": 100.0}
+PRESSURE_COLUMNS = {"pressure_pa": 1.0, "pressure_hpa": 100.0, "P": 1.0}
 
 
 @dataclass(frozen=True)
@@ -110,8 +115,9 @@ def read_baro(path: str | Path) -> BaroLog:
     time_col = next((c for c in TIME_COLUMNS if c in header), None)
     pressure_col = next((c for c in PRESSURE_COLUMNS if c in header), None)
     if time_col is None or pressure_col is None:
-        raise InputError(path, "a barometer CSV needs a time column (time_unix_s for UTC or time_s for the IMU "
-                         "clock) and a pressure column (pressure_pa or pressure_hpa) named in its header line; "
+        raise InputError(path, "a barometer CSV needs a time column (time_unix_s for UTC, time_s or ts for the IMU "
+                         "clock) and a pressure column (pressure_pa, pressure_hpa or P in Pa) named in its header "
+                         "line; "
                          f"{'no time column' if time_col is None else 'no pressure column'} found", line=1)
     cols = find_columns(path, header, (time_col, pressure_col), line=1, kind="a barometer CSV")
     body = [ln for ln in lines[1:] if ln.strip()]
@@ -123,6 +129,12 @@ def read_baro(path: str | Path) -> BaroLog:
     p = parse_floats(path, [r[cols[pressure_col]] for r in rows], numbers, pressure_col)
     p = p * PRESSURE_COLUMNS[pressure_col]
     check_increasing(path, t, numbers, time_col)
+    if "id" in header:
+        ids = [r[header.index("id")].strip() for r in rows]
+        other = next((k for k, i in enumerate(ids) if i != ids[0]), None)
+        if other is not None:
+            raise InputError(path, f"sensor id {ids[other]!r} after {ids[0]!r}: one barometer per file expected",
+                             line=numbers[other], field="id")
     bad = np.flatnonzero((p <= 0) | (p > MAX_PRESSURE_PA))
     if bad.size:
         k = int(bad[0])

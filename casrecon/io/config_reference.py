@@ -202,6 +202,8 @@ SIX_DOF = FileKind(
                source=GpsConfig, attr="gps.v_acc_m"),
             _k("s_acc_mps", "float", "m/s", "Speed accuracy (1-sigma) the synthetic receiver reports",
                source=GpsConfig, attr="gps.s_acc_mps"),
+            _k("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
+               "replacing the file's sAcc on every axis", None, attr="gps.velocity_sigma_mps"),
             *_gps_error_keys("gps.error_model"),
         ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc); the "
                 "error-model keys split that variance into a white and a time-correlated part.",
@@ -312,7 +314,13 @@ POINT_MASS = FileKind(
                attr="drag.lift_sigma_m2"),
         )),
         Table("gps", (
-            _k("file", "path", "", "FlySight 1 CSV or FlySight 2 TRACK.CSV", REQUIRED),
+            _k("file", "path", "", "FlySight 1 CSV, FlySight 2 TRACK.CSV, NMEA 0183 log (GGA, RMC, VTG, GSA: "
+               "accuracies from DOP, no vertical velocity) or GNSS CSV (ts,latitude,longitude,satellites: horizontal "
+               "position only); a component the file does not give has zero weight", REQUIRED),
+            _k("date", "date or string", "UTC", "UTC date (YYYY-MM-DD) of the first fix of an NMEA log without RMC "
+               "sentences (GGA carries no date)", None, attr="gps_date"),
+            _k("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
+               "replacing the file's sAcc on every axis", None, attr="velocity_sigma_mps"),
             _k("max_h_acc_m", "float", "m", "Fixes reporting a worse horizontal accuracy are dropped",
                source=GpsQuality, attr="quality.max_h_acc_m"),
             _k("max_v_acc_m", "float", "m", "Fixes reporting a worse vertical accuracy are dropped",

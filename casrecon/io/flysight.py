@@ -75,6 +75,14 @@ class GpsTrack:
         The receiver's fix type (int64; u-blox/FlySight ``gpsFix``: 0 none, 1 dead reckoning,
         2 2D, 3 3D, 4 GNSS + dead reckoning, 5 time only), ``-1`` where the file has no value
         (FlySight 2 tracks have none). Default: all ``-1``.
+    notes : tuple of str, optional
+        What the reader skipped or assumed (other readers than FlySight: NMEA, GNSS CSV). Default: none.
+
+    Notes
+    -----
+    Other readers (:mod:`casrecon.io.nmea`, :mod:`casrecon.io.gnss_csv`) give NaN for a value their file
+    does not hold (vertical velocity, altitude, accuracies of those): see
+    :func:`casrecon.io.gps_rules.fixes_ned`.
     """
 
     path: str
@@ -91,6 +99,7 @@ class GpsTrack:
     s_acc_mps: np.ndarray
     num_sv: np.ndarray
     gps_fix: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.gps_fix is None:

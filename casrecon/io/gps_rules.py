@@ -1,13 +1,21 @@
 """The GPS rules every fit applies, in one place: which fixes are good enough to use (a 3D fix, and
 the quality thresholds), and how a fix becomes an antenna position and velocity in the site's NED
 frame with its 1-sigma accuracies (north and east by hAcc, down by vAcc, each velocity component by
-sAcc), and back (:func:`ned_to_geodetic`, for the latitude, longitude and h_MSL columns of the results).
+sAcc, or per axis by ``velocity_sigma_mps``), and back (:func:`ned_to_geodetic`, for the latitude, longitude
+and h_MSL columns of the results).
+
+Missing components: a track may hold NaN for what its file does not give (no vertical velocity in NMEA,
+no altitude and no velocity in a latitude/longitude-only GNSS log). :func:`fixes_ned` returns such a
+component as NaN with an infinite sigma; a consumer whitening by 1/sigma gives it zero weight once the
+NaN is replaced by any finite number, and counts only finite-sigma components as measurements. The
+quality rules test an accuracy only where it is known (a NaN accuracy belongs to a missing component).
 
 Used by the 6-DOF fit (thresholds from ``[estimation]``) and the point-mass fit (``[quality]``).
 """
 
 from __future__ import annotations
 
+import datetime as dt
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,8 +56,9 @@ class GpsQuality:
 def good_fixes(track: GpsTrack, q: GpsQuality) -> np.ndarray:
     """Boolean mask of the fixes of ``track`` that hold a 3D fix and pass the quality rules ``q``."""
     sv_ok = (track.num_sv < 0) | (track.num_sv >= q.min_num_sv)
-    return (track.h_acc_m <= q.max_h_acc_m) & (track.v_acc_m <= q.max_v_acc_m) & (
-        track.s_acc_mps <= q.max_s_acc_mps) & sv_ok & ~no_fix_mask(track)
+    # "not worse than": a NaN accuracy (missing component) passes; a fix without position passes no rule
+    return ~(track.h_acc_m > q.max_h_acc_m) & ~(track.v_acc_m > q.max_v_acc_m) & ~(
+        track.s_acc_mps > q.max_s_acc_mps) & sv_ok & ~no_fix_mask(track) & np.isfinite(track.lat_deg + track.lon_deg)
 
 
 def no_fix_note(track: GpsTrack, mask: np.ndarray | None = None) -> str | None:
@@ -64,16 +73,79 @@ def no_fix_note(track: GpsTrack, mask: np.ndarray | None = None) -> str | None:
     return f"{n} GPS rows without a 3D fix ({how}) dropped"
 
 
-def fixes_ned(track: GpsTrack, site: Site, idx) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Antenna position (n, 3; m, NED from the site's ground point), velocity (n, 3; m/s, NED) and
-    the 1-sigma of the six (n, 6; hAcc, hAcc, vAcc, sAcc, sAcc, sAcc) of the fixes ``idx`` (an index
-    array or a boolean mask)."""
-    n, e, d = pymap3d.geodetic2ned(track.lat_deg[idx], track.lon_deg[idx], track.h_msl_m[idx],
+def fixes_ned(track: GpsTrack, site: Site, idx,
+              velocity_sigma_mps: tuple[float, float, float] | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Antenna position and velocity of the fixes ``idx`` in the site's NED frame, with their 1-sigma.
+
+    Parameters
+    ----------
+    track : GpsTrack
+        The fixes as read (NaN where the file gives no value).
+    site : Site
+        Origin of the NED frame (its ground point, height MSL).
+    idx : index array or boolean mask
+        The fixes wanted.
+    velocity_sigma_mps : (3,) floats, optional
+        1-sigma of the north, east and down velocity, m/s, replacing the receiver's sAcc on every axis
+        (``[gps] velocity_sigma_mps``). Default: sAcc on each axis.
+
+    Returns
+    -------
+    pos : (n, 3) array
+        Antenna position, m, NED from the site's ground point.
+    vel : (n, 3) array
+        Antenna velocity, m/s, NED.
+    sigma : (n, 6) array
+        1-sigma of the six: hAcc, hAcc, vAcc (m), then sAcc or ``velocity_sigma_mps`` (m/s).
+
+    Notes
+    -----
+    A component the track does not give (value or accuracy NaN) is NaN in ``pos``/``vel`` and has an
+    infinite sigma. Without a height (``h_msl_m`` NaN) the north and east positions are those of the
+    latitude and longitude at the site's ground altitude, and down is missing: the horizontal error of
+    that choice is d * dh / R_earth (d the horizontal distance from the site, dh the height above the
+    ground), 0.8 m at 1 km from the site and 5 km up, below a receiver's typical 2 to 5 m.
+    """
+    h = np.asarray(track.h_msl_m[idx], dtype=float)
+    no_h = ~np.isfinite(h)
+    n, e, d = pymap3d.geodetic2ned(track.lat_deg[idx], track.lon_deg[idx], np.where(no_h, site.ground_alt_msl_m, h),
                                    site.lat_deg, site.lon_deg, site.ground_alt_msl_m)
+    pos = np.column_stack([n, e, np.where(no_h, np.nan, d)])
     vel = np.column_stack([track.vel_n_mps[idx], track.vel_e_mps[idx], track.vel_d_mps[idx]])
-    sigma = np.column_stack([track.h_acc_m[idx], track.h_acc_m[idx], track.v_acc_m[idx],
-                             track.s_acc_mps[idx], track.s_acc_mps[idx], track.s_acc_mps[idx]])
-    return np.column_stack([n, e, d]), vel, sigma
+    s_acc = np.asarray(track.s_acc_mps[idx], dtype=float)
+    vel_sigma = ([s_acc] * 3 if velocity_sigma_mps is None
+                 else [np.full(s_acc.shape, float(v)) for v in velocity_sigma_mps])
+    sigma = np.column_stack([track.h_acc_m[idx], track.h_acc_m[idx], track.v_acc_m[idx], *vel_sigma]).astype(float)
+    values = np.column_stack([pos, vel])
+    sigma = np.where(np.isfinite(values) & np.isfinite(sigma), sigma, np.inf)
+    return pos, vel, sigma
+
+
+def present(sigma: np.ndarray) -> np.ndarray:
+    """Mask of the components :func:`fixes_ned` gives (finite sigma): the measurements a fit counts."""
+    return np.isfinite(sigma)
+
+
+def interpolate_fixes(t_out: np.ndarray, t: np.ndarray, pos: np.ndarray, vel: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Position and velocity (len(t_out), 3 each) at the times ``t_out`` from fixes at ``t`` with NaN where a
+    component is missing (:func:`fixes_ned`), for initial guesses: each component interpolated through its
+    finite values; a velocity component no fix gives is the derivative of its position; a position
+    component no fix gives (no height) is the integral of its velocity from 0, else 0."""
+    out = [np.full((t_out.size, 3), np.nan), np.full((t_out.size, 3), np.nan)]
+    for j, values in enumerate((pos, vel)):
+        for i in range(3):
+            ok = np.isfinite(values[:, i])
+            if ok.any():
+                out[j][:, i] = np.interp(t_out, t[ok], values[ok, i])
+    p, v = out
+    for i in range(3):
+        if np.isnan(v[:, i]).any():
+            v[:, i] = np.gradient(p[:, i], t_out) if np.isfinite(p[:, i]).all() and t_out.size > 1 else 0.0
+        if np.isnan(p[:, i]).any():
+            p[:, i] = np.r_[0.0, np.cumsum(np.diff(t_out) * 0.5 * (v[1:, i] + v[:-1, i]))]
+    return p, v
 
 
 def ned_to_geodetic(pos_ned: np.ndarray, site: Site) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -100,3 +172,26 @@ def gps_error_model(t: Fields) -> GpsErrorModel:
                                f"noise must remain), got {f}")
         fractions.append(f)
     return GpsErrorModel(times[0], times[1], fractions[0], fractions[1])
+
+
+def gps_date(t: Fields) -> dt.date | None:
+    """``date`` of a GPS table: the UTC date (``"YYYY-MM-DD"`` or a TOML date) of the first fix of an
+    NMEA log whose sentences carry none (GGA only); None when absent."""
+    value = t.raw("date", None)
+    if value is None or (isinstance(value, dt.date) and not isinstance(value, dt.datetime)):
+        return value
+    if isinstance(value, str):
+        try:
+            return dt.date.fromisoformat(value)
+        except ValueError:
+            pass
+    raise t.error("date", f"expected a UTC date YYYY-MM-DD, got {value!r}")
+
+
+def velocity_sigma(t: Fields) -> tuple[float, float, float] | None:
+    """``velocity_sigma_mps`` of a GPS table: [north, east, down] 1-sigma (m/s, each > 0) replacing the
+    receiver's sAcc on each axis (:func:`fixes_ned`); None when absent."""
+    v = t.vector("velocity_sigma_mps", 3)
+    if v is not None and min(v) <= 0:
+        raise t.error("velocity_sigma_mps", f"expected three positive numbers [north, east, down] m/s, got {list(v)}")
+    return v

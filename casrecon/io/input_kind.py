@@ -1,6 +1,6 @@
 """Which kind of input a data file is, told from its first lines (the same rules as
-``casrecon inspect``): FlySight 2 SENSOR.CSV, FlySight GPS track, sounding, or IMU CSV in one of the
-two layouts :mod:`casrecon.io.inspect` knows."""
+``casrecon inspect``): FlySight 2 SENSOR.CSV, FlySight GPS track, NMEA 0183 log, flight-computer GNSS
+CSV, sounding, IMU CSV in one of the two layouts :mod:`casrecon.io.inspect` knows, or barometer CSV."""
 
 from __future__ import annotations
 
@@ -8,13 +8,14 @@ from pathlib import Path
 
 from casrecon.io._csvtools import read_lines
 from casrecon.io.errors import InputError
+from casrecon.io.gps_files import gps_file_kind
 from casrecon.io.imu import ImuCsvSpec
-from casrecon.io.inspect import ROCKET_SPEC, SUPPORTED
+from casrecon.io.inspect import ROCKET_SPEC, SUPPORTED, is_baro_csv
 from casrecon.io.sensor import is_flysight2_sensor
 from casrecon.io.sounding import detect_sounding_format
 
 #: The kinds :func:`input_kind` tells apart.
-KINDS = ("flysight2-sensor", "gps", "sounding", "imu")
+KINDS = ("flysight2-sensor", "gps", "nmea", "gnss-csv", "sounding", "imu", "baro")
 
 
 def input_kind(path: str | Path) -> tuple[str, ImuCsvSpec | None]:
@@ -25,11 +26,14 @@ def input_kind(path: str | Path) -> tuple[str, ImuCsvSpec | None]:
     header = [h.strip() for h in first.split(",")]
     if is_flysight2_sensor(lines):
         return "flysight2-sensor", None
-    if first.startswith("$FLYS") or ("time" in header and "lat" in header):
-        return "gps", None
+    gps_kind = gps_file_kind(lines)
+    if gps_kind is not None:
+        return ("gps" if gps_kind == "flysight" else gps_kind), None
     if detect_sounding_format(lines) is not None:
         return "sounding", None
     for spec in (ImuCsvSpec(), ROCKET_SPEC):
         if all(c in header for c in spec.columns):
             return "imu", spec
+    if is_baro_csv(header):
+        return "baro", None
     raise InputError(path, f"unknown kind of file; supported: {SUPPORTED}", line=1)

@@ -12,6 +12,10 @@ Problems reported:
   a median specific force outside 0.25 to 4 g; and, warned only, any gyro sample over 50 rad/s or
   accelerometer sample over 2000 m/s^2, with the likely unit), a channel stuck at one reading for 1 s (a gyro
   saturated for the whole log is one);
+- NMEA logs and flight-computer GNSS CSVs: which components the file holds (a missing one, NaN, is
+  left out of every fit), the accuracies assumed, and the lines skipped (bad checksums, stale repeats);
+- barometer CSVs (``time_s``/``time_unix_s``/``ts`` with ``pressure_pa``/``pressure_hpa``/``P``): span,
+  rate, gaps and pressure range;
 - GPS warnings: rows without a 3D fix (``gpsFix`` 0, 1, 2 or 5, or latitude, longitude and height
   all 0), which every fit drops;
 - soundings: levels dropped for missing values, IGRA2 launches that are truncated, and a University
@@ -28,14 +32,18 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.io._csvtools import read_lines
+from casrecon.io.baro import PRESSURE_COLUMNS, TIME_COLUMNS, BaroLog, read_baro
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc, no_fix_mask, read_flysight
+from casrecon.io.gps_files import gps_file_kind, read_gps_track
 from casrecon.io.imu import ImuCsvSpec, ImuLog, read_imu_csv
 from casrecon.io.imu_checks import imu_findings, unit_warnings
 from casrecon.io.sensor import SensorLog, is_flysight2_sensor, read_flysight2_sensor
 from casrecon.io.sounding import Sounding, detect_sounding_format, igra2_launches, read_sounding
 
-SUPPORTED = ("FlySight 1 CSV, FlySight 2 TRACK.CSV and SENSOR.CSV, University of Wyoming TEXT:CSV or "
+SUPPORTED = ("FlySight 1 CSV, FlySight 2 TRACK.CSV and SENSOR.CSV, NMEA 0183 log, GNSS CSV "
+             "(ts,latitude,longitude,satellites), barometer CSV (time_s or ts, pressure_pa or P), "
+             "University of Wyoming TEXT:CSV or "
              "TEXT:LIST sounding, IGRA2 v2 sounding, plain sounding CSV "
              "(altitude_msl_m,pressure_pa,...), IMU CSV (time_s,ax,ay,az,wx,wy,wz or "
              "ts,...,Ax,Ay,Az,Gx,Gy,Gz)")
@@ -75,13 +83,18 @@ def inspect_file(path: str | Path) -> str:
     header = [h.strip() for h in first.split(",")]
     if is_flysight2_sensor(lines):
         return _report_sensor(read_flysight2_sensor(path))
-    if first.startswith("$FLYS") or ("time" in header and "lat" in header):
+    gps_kind = gps_file_kind(lines)
+    if gps_kind == "flysight":
         return _report_gps(read_flysight(path), lines)
+    if gps_kind is not None:
+        return _report_partial_gps(read_gps_track(path))
     if detect_sounding_format(lines) is not None:
         return _report_sounding(read_sounding(path), lines, Path(path).read_bytes().endswith(b"\n"))
     for spec in (ImuCsvSpec(), ROCKET_SPEC):
         if all(c in header for c in spec.columns):
             return _report_imu(read_imu_csv(path, spec), spec)
+    if is_baro_csv(header):
+        return _report_baro(read_baro(path))
     raise InputError(path, f"unknown kind of file; supported: {SUPPORTED}", line=1)
 
 
@@ -157,6 +170,50 @@ def _report_gps(g: GpsTrack, lines: list[str]) -> str:
         out.append(f"WARNING: {int(no_fix.sum())} rows without a 3D fix ({how}), the first at {iso_utc(t[k])}; "
                    "a fit drops them")
     return "\n".join(out)
+
+
+def is_baro_csv(header: list[str]) -> bool:
+    """Whether a CSV header (cells) names a barometer CSV's time and pressure columns."""
+    return any(c in header for c in TIME_COLUMNS) and any(c in header for c in PRESSURE_COLUMNS)
+
+
+def _range(name: str, v: np.ndarray, unit: str, fmt: str = ".2f") -> str:
+    ok = np.isfinite(v)
+    if not ok.any():
+        return f"{name}: not in the file (missing: a fit leaves it out)"
+    return f"{name}: {np.min(v[ok]):{fmt}} to {np.max(v[ok]):{fmt}} {unit}" + (
+        "" if ok.all() else f" ({int((~ok).sum())} rows without it)")
+
+
+def _report_partial_gps(g: GpsTrack) -> str:
+    """An NMEA log or GNSS CSV: what it holds, what it lacks, what the reader assumed."""
+    kind = {"nmea": "NMEA 0183 log", "gnss-csv": "GNSS CSV (flight computer clock)"}[g.format]
+    t = g.time_unix_s
+    when = (lambda x: f"at {iso_utc(x)}") if g.format == "nmea" else (lambda x: f"ts = {x:.3f} s")
+    span = (f"{iso_utc(t[0])} to {iso_utc(t[-1])} UTC" if g.format == "nmea"
+            else f"ts {t[0]:.3f} to {t[-1]:.3f} s")
+    out = [f"{g.path}: {kind} ({g.format})", f"rows: {g.n} fixes", f"time: {span} ({_span(t)})",
+           _range("latitude", g.lat_deg, "deg", ".6f"), _range("longitude", g.lon_deg, "deg", ".6f"),
+           _range("altitude hMSL", g.h_msl_m, "m", ".1f"), _range("velN", g.vel_n_mps, "m/s"),
+           _range("velE", g.vel_e_mps, "m/s"), _range("velD", g.vel_d_mps, "m/s"),
+           _range("accuracy hAcc (per axis)", g.h_acc_m, "m"), _range("accuracy vAcc", g.v_acc_m, "m"),
+           _range("accuracy sAcc", g.s_acc_mps, "m/s"), _gaps(t, when)]
+    sv = g.num_sv[g.num_sv >= 0]
+    out.append(f"satellites: {sv.min()} to {sv.max()}" if sv.size else "satellites: not given")
+    out.extend(f"note: {n}" for n in g.notes)
+    no_fix = no_fix_mask(g)
+    if no_fix.any():
+        out.append(f"WARNING: {int(no_fix.sum())} rows without a usable fix (first {when(t[int(np.argmax(no_fix))])}); "
+                   "a fit drops them")
+    return "\n".join(out)
+
+
+def _report_baro(b: BaroLog) -> str:
+    clock = "UTC" if b.clock == "utc" else "IMU clock"
+    t = b.time_s
+    span = f"{iso_utc(t[0])} to {iso_utc(t[-1])} UTC" if b.clock == "utc" else f"{t[0]:.6g} to {t[-1]:.6g} s IMU clock"
+    return "\n".join([f"{b.path}: barometer CSV ({clock})", f"rows: {t.size}", f"time: {span} ({_span(t)})",
+                      f"pressure: {b.pressure_pa.min():.0f} to {b.pressure_pa.max():.0f} Pa", _gaps(t)])
 
 
 def _report_sounding(s: Sounding, lines: list[str], final_newline: bool = True) -> str:

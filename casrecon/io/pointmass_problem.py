@@ -6,7 +6,8 @@ parsed once into frozen dataclasses and validated like the 6-DOF problems (same 
     [atmosphere]  sounding = "standard" (ICAO, no wind) or a sounding file; wind_3sigma_mps
     [vehicle]     mass_kg
     [drag]        model = "constant" | "spline", knot_spacing_s, smoothness_sigma_m2, lift
-    [gps]         file, max_h_acc_m, max_v_acc_m, max_s_acc_mps, min_num_sv
+    [gps]         file (FlySight, NMEA 0183 or GNSS CSV), date (NMEA without RMC), velocity_sigma_mps,
+                  max_h_acc_m, max_v_acc_m, max_s_acc_mps, min_num_sv
     [segment]     start_utc, end_utc (optional: found from the data), min_speed_mps, end_margin_s,
                   deploy_drop_mps
     [estimation]  linear_solver, max_iter, tol
@@ -14,10 +15,11 @@ parsed once into frozen dataclasses and validated like the 6-DOF problems (same 
 
 from __future__ import annotations
 
+import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
 
-from casrecon.io.gps_rules import GpsQuality, gps_error_model
+from casrecon.io.gps_rules import GpsQuality, gps_date, gps_error_model, velocity_sigma
 from casrecon.io.problem import parse_dynamics, parse_site, parse_utc
 from casrecon.io.toml_fields import Fields, load_toml
 from casrecon.physics.dynamics import DynamicsOptions, Site
@@ -75,6 +77,8 @@ class PointMassConfig:
     linear_solver: str = "mumps"
     max_iter: int = 200
     tol: float = 1e-8
+    gps_date: dt.date | None = None                               # UTC date of an NMEA log without RMC
+    velocity_sigma_mps: tuple[float, float, float] | None = None  # per-axis NED velocity 1-sigma (None: sAcc)
 
 
 def problem_kind(path: str | Path) -> str:
@@ -132,7 +136,7 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
         segment=_segment(seg), dynamics=parse_dynamics(f.table("dynamics") or empty["dynamics"]),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
         max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True),
-        gps_errors=gps_error_model(gps))
+        gps_errors=gps_error_model(gps), gps_date=gps_date(gps), velocity_sigma_mps=velocity_sigma(gps))
     for t in (head, atm, veh, gps, drag, est, f):
         t.reject_unknown()
     return cfg

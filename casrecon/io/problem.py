@@ -30,7 +30,7 @@ import numpy as np
 from casrecon.io.atmosphere_config import AtmosphereConfig, parse_atmosphere
 from casrecon.io.baro import BaroConfig, parse_baro
 from casrecon.io.errors import InputError
-from casrecon.io.gps_rules import GpsQuality, gps_error_model
+from casrecon.io.gps_rules import GpsQuality, gps_error_model, velocity_sigma
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.montecarlo_config import MonteCarloConfig, parse_montecarlo
 from casrecon.io.toml_fields import Fields, load_toml
@@ -81,7 +81,8 @@ class ImuConfig:
 @dataclass(frozen=True)
 class GpsConfig:
     """GPS (FlySight) file, the synthetic receiver's accuracy levels (1-sigma) and the fit's model of
-    time-correlated GPS errors (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`)."""
+    time-correlated GPS errors (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`).
+    ``velocity_sigma_mps``: [north, east, down] velocity 1-sigma (m/s) replacing the file's sAcc (None: sAcc)."""
 
     file: Path | None
     rate_hz: float = 5.0
@@ -89,6 +90,7 @@ class GpsConfig:
     v_acc_m: float = 2.5
     s_acc_mps: float = 0.25
     error_model: GpsErrorModel = GpsErrorModel()
+    velocity_sigma_mps: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -383,7 +385,8 @@ def _imu(t: Fields) -> ImuConfig:
 def _gps(t: Fields) -> GpsConfig:
     cfg = GpsConfig(file=t.path_of("file", must_exist=False), rate_hz=t.number("rate_hz", 5.0, positive=True),
                     h_acc_m=t.number("h_acc_m", 1.5, positive=True), v_acc_m=t.number("v_acc_m", 2.5, positive=True),
-                    s_acc_mps=t.number("s_acc_mps", 0.25, positive=True), error_model=gps_error_model(t))
+                    s_acc_mps=t.number("s_acc_mps", 0.25, positive=True), error_model=gps_error_model(t),
+                    velocity_sigma_mps=velocity_sigma(t))
     t.reject_unknown()
     return cfg
 

@@ -1,7 +1,9 @@
 """The GPS kind: each fix compared with the antenna position and velocity on the collocation
 polynomial at its own time, t_fix - clock_offset on the IMU clock (so the clock offset, which this
 kind adds as a parameter, is estimable). Fixes are whitened by the receiver's reported accuracies
-(north and east by hAcc, down by vAcc, each velocity component by sAcc).
+(north and east by hAcc, down by vAcc, each velocity component by sAcc). A component the GPS file
+does not give (NaN value, infinite sigma: :func:`casrecon.io.gps_rules.fixes_ned`) has zero weight and
+no correlated error; its residual is NaN.
 
 With a GPS error model (``[sensors.gps]`` correlation times and fractions,
 :class:`~casrecon.physics.sensor_errors.GpsErrorModel`) the correlated part of each active
@@ -63,17 +65,21 @@ class GpsKind:
             xk, xk1, loc.point_params(theta, xk), loc.point_params(theta, xk1), tau, y_white, w, uk, uk1)
         k, tau_fix = layout.interval_of(data.gps_time_s)
         fraction = errors.fraction
-        block_data = [ca.DM(tau_fix).T, ca.DM(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]).T),
+        y_fix = np.nan_to_num(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]))  # missing: weight 1/inf = 0
+        block_data = [ca.DM(tau_fix).T, ca.DM(y_fix.T),
                       ca.DM(1.0 / (data.gps_sigma * np.sqrt(1.0 - fraction)).T), *layout.profile_block_data(k)]
         cols = layout.two_node_columns(k)
+        n_meas = int(np.isfinite(data.gps_sigma).sum())  # components the file gives
         if not active.size:
             kind = BlockKind("gps", loc.symbol, [tau0, y, w, *loc.data], r, None)
-            return [Term(context.group(self.name), (BlockSet(kind, cols, block_data),))]
+            return [Term(context.group(self.name), (BlockSet(kind, cols, block_data),), n_measurements=n_meas)]
         e_cols = layout.extra(self.name).cols.reshape(-1, active.size)
         kind = BlockKind("gps", ca.vertcat(loc.symbol, e), [tau0, y, w, *loc.data, amp], r, None)
-        block_data.append(ca.DM((data.gps_sigma[:, active] * np.sqrt(fraction[active])).T))
+        amp_fix = np.where(np.isfinite(data.gps_sigma), data.gps_sigma, 0.0) * np.sqrt(fraction)
+        block_data.append(ca.DM(amp_fix[:, active].T))
         phi = errors.transition(np.diff(data.gps_time_s))
-        return [Term(context.group(self.name), (BlockSet(kind, np.column_stack([cols, e_cols]), block_data),)),
+        return [Term(context.group(self.name), (BlockSet(kind, np.column_stack([cols, e_cols]), block_data),),
+                     n_measurements=n_meas),
                 *gauss_markov_terms(e_cols, phi, context.group("gps_error_start"), context.group("gps_error"))]
 
     def residuals(self, result) -> dict[str, np.ndarray]:
@@ -86,12 +92,14 @@ class GpsKind:
         white_sigma = data.gps_sigma * np.sqrt(1.0 - errors.fraction)
         whitened = result.residuals[result.nlp.groups[result.group(self.name)]].reshape(-1, 6)
         correlated = np.zeros_like(whitened)
+        missing = ~np.isfinite(data.gps_sigma)
         extra = result.part.extra(self.name)
         if extra is not None:
             e = result.z[extra.cols].reshape(-1, errors.active.size)
             act = errors.active
-            correlated[:, act] = e * data.gps_sigma[:, act] * np.sqrt(errors.fraction[act])
-        residual = whitened * white_sigma + correlated
+            correlated[:, act] = e * np.where(missing, 0.0, data.gps_sigma)[:, act] * np.sqrt(errors.fraction[act])
+        correlated[missing] = np.nan
+        residual = np.where(missing, np.nan, whitened * np.where(missing, 0.0, white_sigma) + correlated)
         time = data.gps_time_s - clock_offset(result)
         normalised = errors.whiten(residual / data.gps_sigma, time)
         return {"time_imu_s": time, "residual": residual, "sigma": data.gps_sigma, "correlated": correlated,
