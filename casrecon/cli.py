@@ -111,8 +111,11 @@ def _fit(args: argparse.Namespace) -> int:
     from casrecon.scenario import Scenario
 
     t0 = time.perf_counter()
-    if problem_kind(args.problem) == "point-mass":
+    kind = problem_kind(args.problem)
+    if kind == "point-mass":
         return _fit_point_mass(args)
+    if kind == "kinematic":
+        return _fit_kinematic(args)
     scenario = Scenario.load(args.problem)
     try:
         result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
@@ -192,6 +195,34 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
         write_pointmass_results(out, main, constant, report)
         if not args.no_figures:
             plot_track_fit(out, args.formats)
+    if not args.quiet:
+        print(report)
+    print(f"results -> {args.out}")
+    return 0
+
+
+def _fit_kinematic(args: argparse.Namespace) -> int:
+    from casrecon.estimation.fit import FitError
+    from casrecon.estimation.fitdata import FitDataError
+    from casrecon.estimation.kinematic_fit import fit_kinematic
+    from casrecon.estimation.kinematic_inputs import inputs_from_config
+    from casrecon.io.kinematic_problem import load_kinematic
+    from casrecon.output.kinematic_results import write_kinematic_results
+    from casrecon.output.results import atomic_folder
+    from casrecon.report.kinematic_plots import plot_kinematic
+    from casrecon.report.kinematic_report import kinematic_report
+
+    cfg = load_kinematic(args.problem)
+    try:
+        data, options = inputs_from_config(cfg)
+        result = fit_kinematic(data, options, print_level=5 if args.verbose else 0)
+    except (FitError, FitDataError) as err:
+        return fit_failed(f"fit of {cfg.name}", err)
+    report = kinematic_report(result, cfg.name)
+    with atomic_folder(args.out, **args.where) as out:
+        write_kinematic_results(out, result, report, cfg.site, cfg.path, cfg.name)
+        if not args.no_figures:
+            plot_kinematic(out, args.formats)
     if not args.quiet:
         print(report)
     print(f"results -> {args.out}")

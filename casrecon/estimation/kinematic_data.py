@@ -51,6 +51,9 @@ class KinematicOptions:
         Time-correlated GPS errors (white by default).
     baro_bias_sigma_pa : float
         Prior 1-sigma of the barometer's constant bias, Pa.
+    baro_height_scale_sigma : float
+        Prior 1-sigma of the scale k of the height above the ground at which the barometer reads the
+        profile (fraction: about 0.035 per 10 K between the day's air and the profile's).
     linear_solver, max_iter, tol
         Ipopt settings.
     """
@@ -74,6 +77,7 @@ class KinematicOptions:
     max_node_spacing_s: float = 0.5
     gps_errors: GpsErrorModel = field(default_factory=GpsErrorModel.white)
     baro_bias_sigma_pa: float = 50.0
+    baro_height_scale_sigma: float = 0.01
     linear_solver: str = "mumps"
     max_iter: int = 100
     tol: float = 1e-8
@@ -110,6 +114,8 @@ class KinematicData:
     window : (float, float)
         Span reconstructed, s.
     notes : tuple of str
+    time_ref_s : float
+        Value of the common clock at time 0 of this data (UTC seconds, or the flight computer's).
     """
 
     imu_time_s: np.ndarray
@@ -126,6 +132,7 @@ class KinematicData:
     baro_noise_pa: float = 3.0
     atmosphere: object | None = None
     notes: tuple[str, ...] = ()
+    time_ref_s: float = 0.0
 
     def noise_sigmas(self, options: KinematicOptions) -> tuple[np.ndarray, np.ndarray]:
         """Per-sample 1-sigma (N, 3) of the gyros and accelerometers, saturated samples inflated."""

@@ -8,8 +8,10 @@ Unknowns: the IMU's position, velocity and attitude at every node, the IMU error
 bias, and with a GPS error model the correlated part of each fix's error. Nodes sit on the fixes
 (plus the window's ends, and more where fixes are further apart than ``max_node_spacing_s``).
 A unit-norm constraint per node fixes each quaternion's scale; everything else is least squares,
-solved by Ipopt with the Gauss-Newton Hessian. The covariance is the z-block of the inverse KKT
-matrix, computed without it (:mod:`.kinematic_covariance`).
+solved by Ipopt with the Gauss-Newton Hessian, first with the IMU noise inflated
+(:data:`START_INFLATION`) from the guess, then with the stated noise from that solution. The
+covariance is the z-block of the inverse KKT matrix, computed without it
+(:mod:`.kinematic_covariance`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from scipy.spatial.transform import Rotation
 
 from casrecon.estimation.engine.blocks import BlockSet, Term, unit_norm_term
 from casrecon.estimation.engine.checks import FitError, check_converged
+from casrecon.estimation.engine.convergence import iteration_logging
 from casrecon.estimation.engine.covariance import SingularCovariance
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.engine.solve import SolveResult, solve
@@ -45,10 +48,15 @@ from casrecon.physics.preintegration import (
     preintegrate,
 )
 
+#: IMU noise inflation of the first (start-point) solve, its iteration limit and tolerance.
+START_INFLATION = 30.0
+START_MAX_ITER = 60
+START_TOL = 1e-4
 #: Nodes closer than this to the previous one are merged into it, s.
 MIN_NODE_SPACING_S = 1e-3
 CLOCK = "clock_offset_s"
 BARO_BIAS = "baro_bias_pa"
+BARO_SCALE = "baro_height_scale"
 
 
 @dataclass
@@ -129,6 +137,8 @@ def _parameters(options: KinematicOptions, has_baro: bool) -> tuple[ParameterSet
     if has_baro:
         s = options.baro_bias_sigma_pa
         specs.append(ParameterSpec(BARO_BIAS, "baro", s, s, "Pa"))
+        s = options.baro_height_scale_sigma
+        specs.append(ParameterSpec(BARO_SCALE, "baro", s, s, "-"))
     return ParameterSet(tuple(specs)), estimated
 
 
@@ -148,6 +158,7 @@ def initial_guess(data: KinematicData, nodes: np.ndarray, pre: Preintegrated, op
     attitudes from the chained preintegrated rotations turned by the rotation R0 that best maps the
     rotated specific force onto the fixes' acceleration minus gravity (Wahba's problem)."""
     y = data.fix_y
+    span = max(1.0, 4.0 * float(np.median(np.diff(data.fix_time_s)))) if data.fix_time_s.size > 1 else 1.0
     pos = np.zeros((nodes.size, 3))
     vel = np.zeros((nodes.size, 3))
     for i in range(3):
@@ -162,14 +173,14 @@ def initial_guess(data: KinematicData, nodes: np.ndarray, pre: Preintegrated, op
         if ok_v.sum() >= 2:
             vel[:, i] = np.interp(nodes, data.fix_time_s[ok_v], y[ok_v, 3 + i])
         else:
-            vel[:, i] = _smooth_derivative(nodes, pos[:, i])
+            vel[:, i] = _smooth_derivative(nodes, pos[:, i], span)
     # attitude: chain the preintegrated rotations from identity
     rel = [Rotation.identity()]
     for q in pre.delta[:, :4]:
         rel.append(rel[-1] * Rotation.from_quat([q[1], q[2], q[3], q[0]]))
     rel = Rotation.concatenate(rel)
     f_nodes = _at_nodes(nodes, data.imu_time_s, accel)
-    accel_ned = np.column_stack([_smooth_derivative(nodes, vel[:, i]) for i in range(3)])
+    accel_ned = np.column_stack([_smooth_derivative(nodes, vel[:, i], span) for i in range(3)])
     g = np.array([0.0, 0.0, 9.80665 if options.gravity != "off" else 0.0])
     target = accel_ned - g
     body = rel.apply(f_nodes)
@@ -214,23 +225,31 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     white = pre.whitening
     interval = interval_kind(options, params.scales[:estimated.size], estimated)
     cols = np.column_stack([state_cols[:-1], state_cols[1:], np.tile(imu_cols, (n_int, 1))])
-    interval_data = [pre.duration_s[None, :], pre.delta.T, pre.jac_theta.transpose(0, 2, 1).reshape(n_int, -1).T,
-                     white.transpose(0, 2, 1).reshape(n_int, -1).T, np.tile(pre.theta_lin[:, None], (1, n_int))]
-    terms = [Term("imu", (BlockSet(interval, cols, _dm(interval_data)),), n_measurements=9 * n_int)]
-
     fix_terms, n_z, e_cols = _fix_terms(data, options, nodes, params, theta_cols, state_cols, gyro, accel, n_z)
-    terms += fix_terms
-    if has_baro:
-        terms.append(_baro_term(data, options, nodes, params, theta_cols, state_cols))
-    terms += prior_terms(params, theta_cols)
-    terms.append(unit_norm_term(state_cols[:, 6:10], "quaternion_norm"))
-    nlp = assemble_nlp(terms, n_z, dependent=np.zeros(0, np.int64),
-                       parameter_names=dict(zip(theta_cols.tolist(), params.names)), latent=True, eliminated=e_cols)
+    other_terms = fix_terms + ([_baro_term(data, options, nodes, params, theta_cols, state_cols)] if has_baro else [])
+    other_terms += prior_terms(params, theta_cols) + [unit_norm_term(state_cols[:, 6:10], "quaternion_norm")]
+
+    def assemble(inflation: float) -> Nlp:
+        interval_data = [pre.duration_s[None, :], pre.delta.T,
+                         pre.jac_theta.transpose(0, 2, 1).reshape(n_int, -1).T,
+                         white.transpose(0, 2, 1).reshape(n_int, -1).T / inflation,
+                         np.tile(pre.theta_lin[:, None], (1, n_int))]
+        terms = [Term("imu", (BlockSet(interval, cols, _dm(interval_data)),), n_measurements=9 * n_int)]
+        return assemble_nlp(terms + other_terms, n_z, dependent=np.zeros(0, np.int64),
+                            parameter_names=dict(zip(theta_cols.tolist(), params.names)), latent=True,
+                            eliminated=e_cols)
+
     x0 = initial_guess(data, nodes, pre, options, gyro, accel)
     z0 = np.zeros(n_z)
     z0[state_cols.ravel()] = (x0 / KINEMATIC_SCALE).ravel()
     if CLOCK in params.names:
         z0[theta_cols[params.index(CLOCK)]] = options.clock_guess_s / params.specs[params.index(CLOCK)].scale
+    # continuation: the IMU noise inflated first, so the fixes place the trajectory and the attitude
+    # before the IMU's full weight binds them (the guess's attitude can be far off)
+    with iteration_logging(label=f"kinematic start (IMU noise x {START_INFLATION:g})"):
+        start = solve(assemble(START_INFLATION), z0, options.linear_solver, START_MAX_ITER, START_TOL, print_level)
+    z0 = start.z
+    nlp = assemble(1.0)
     t_built = time.perf_counter()
     sol = solve(nlp, z0, options.linear_solver, options.max_iter, options.tol, print_level)
     check_converged(sol, nlp)
@@ -301,8 +320,10 @@ def _baro_term(data, options, nodes, params, theta_cols, state_cols) -> Term:
     dur = nodes[k + 1] - nodes[k]
     tau = (t - nodes[k]) / dur
     bias_col = theta_cols[params.index(BARO_BIAS)]
-    kind = baro_kind(data.atmosphere, options, params.specs[params.index(BARO_BIAS)].scale)
-    cols = np.column_stack([state_cols[k], state_cols[k + 1], np.full(t.size, bias_col)])
+    kind = baro_kind(data.atmosphere, options, params.specs[params.index(BARO_BIAS)].scale,
+                     params.specs[params.index(BARO_SCALE)].scale)
+    cols = np.column_stack([state_cols[k], state_cols[k + 1], np.full(t.size, bias_col),
+                            np.full(t.size, theta_cols[params.index(BARO_SCALE)])])
     block_data = [tau[None, :], dur[None, :], p[None, :], np.full((1, t.size), 1.0 / data.baro_noise_pa)]
     return Term("baro", (BlockSet(kind, cols, _dm(block_data)),))
 

@@ -24,9 +24,10 @@ import math
 from casrecon.io.atmosphere_config import AtmosphereConfig
 from casrecon.io.baro import BaroConfig
 from casrecon.io.config_records import FROM_FIELD, REQUIRED, FileKind, Key, Table
+from casrecon.io.config_reference_gnss import KINEMATIC, POINT_MASS
+from casrecon.io.config_reference_shared import DYNAMICS_TABLE, SITE_TABLE, gps_error_keys, key
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.montecarlo_config import DISPERSION_KEYS, Dispersions, MonteCarloConfig
-from casrecon.io.pointmass_problem import DragConfig, GpsQuality, PointMassConfig, SegmentConfig
 from casrecon.io.problem import (
     EstimationConfig,
     GpsConfig,
@@ -36,13 +37,6 @@ from casrecon.io.problem import (
 )
 from casrecon.io.truth_errors import TruthErrors
 from casrecon.physics.aero import DISPERSION_NAMES, AnalyticCoefficients, DispersionSizes, SpinVanes
-from casrecon.physics.dynamics import DynamicsOptions
-from casrecon.physics.sensor_errors import GpsErrorModel
-
-
-def _k(key, type_, unit, meaning=None, default=FROM_FIELD, source=None, field=None, attr=None) -> Key:
-    return Key(key, type_, unit, meaning, default, source, field, attr)
-
 
 _DISTURBANCE = (
     ("gust_sigma_mps", "[float; 3]", "m/s", "1-sigma of the gust (wind perturbation) north, east, down; "
@@ -56,48 +50,16 @@ _DISTURBANCE = (
 )
 
 
-def _gps_error_keys(prefix: str) -> tuple[Key, ...]:
-    """The GPS error-model keys (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`), read into
-    ``{prefix}`` (``"gps.error_model"`` or ``"gps_errors"``)."""
-    m = prefix
-    return (
-        _k("position_error_time_s", "float", "s", "Correlation time of the correlated part of each GPS position "
-           "error component (first-order Gauss-Markov, estimated at every fix); 0: white", source=GpsErrorModel,
-           field="position_time_s", attr=f"{m}.position_time_s"),
-        _k("velocity_error_time_s", "float", "s", "Correlation time of the correlated part of each GPS velocity "
-           "error component; 0: white", source=GpsErrorModel, field="velocity_time_s", attr=f"{m}.velocity_time_s"),
-        _k("position_correlated_fraction", "float", "", "Fraction of the reported position variance (hAcc^2, "
-           "vAcc^2) that is correlated, at most 0.99", source=GpsErrorModel, field="position_fraction",
-           attr=f"{m}.position_fraction"),
-        _k("velocity_correlated_fraction", "float", "", "Fraction of the reported velocity variance (sAcc^2) that "
-           "is correlated, at most 0.99", source=GpsErrorModel, field="velocity_fraction",
-           attr=f"{m}.velocity_fraction"),
-    )
-
-
 def _disturbance_keys(where: str) -> tuple[Key, ...]:
-    return tuple(_k(k, t, u, f"{m} ({where}; all sigmas zero: none)", d) for k, t, u, m, d in _DISTURBANCE)
+    return tuple(key(k, t, u, f"{m} ({where}; all sigmas zero: none)", d) for k, t, u, m, d in _DISTURBANCE)
 
 
 #: The [truth] keys of the atmosphere-profile and coloured GPS errors (meanings from TruthErrors).
 _TRUTH_ERRORS = tuple(
-    _k(k, t, u, source=TruthErrors, attr=f"truth.errors.{k}") for k, t, u in (
+    key(k, t, u, source=TruthErrors, attr=f"truth.errors.{k}") for k, t, u in (
         ("profile_wind_sigma_mps", "float", "m/s"), ("profile_density_sigma", "float", ""),
         ("profile_length_m", "float", "m"), ("gps_position_time_s", "float", "s"),
         ("gps_velocity_time_s", "float", "s"), ("gps_white_fraction", "float", "")))
-
-_SITE = Table("site", required=True, keys=(
-    _k("lat_deg", "float", "deg", "Geodetic latitude of the NED origin (a ground point near the drop), within +-90",
-       REQUIRED),
-    _k("lon_deg", "float", "deg", "Longitude of the NED origin", REQUIRED),
-    _k("ground_alt_msl_m", "float", "m", "Ground altitude at the origin above mean sea level; altitude AGL = "
-       "altitude MSL - this", REQUIRED),
-))
-
-_DYNAMICS = Table("dynamics", tuple(
-    _k(k, t, u, source=DynamicsOptions, attr=f"dynamics.{k}") for k, t, u in (
-        ("gravity", "string", ""), ("earth_rotation", "bool", ""), ("aerodynamics", "bool", ""),
-        ("downwash_length_m", "float", "m"))))
 
 _ESTIMATION_KEYS = (
     ("start_after_release_s", "float", "s"), ("end_before_impact_s", "float", "s"),
@@ -118,237 +80,169 @@ SIX_DOF = FileKind(
     "`casrecon.io.problem.load_problem`; an unknown key anywhere is an error naming it.",
     (
         Table("problem", (
-            _k("kind", "string", "", '"six-dof" or "point-mass" (the GPS-only problem below)', "six-dof"),
-            _k("name", "string", "", "Name used in reports", REQUIRED),
-            _k("description", "string", "", "One line for reports", ""),
-            _k("vehicle", "path", "", "Vehicle TOML file (see Vehicle file)", REQUIRED),
-            _k("aero", "path", "", "Aero database TOML file (see Aero file)", REQUIRED),
+            key("kind", "string", "", '"six-dof" or "point-mass" (the GPS-only problem below)', "six-dof"),
+            key("name", "string", "", "Name used in reports", REQUIRED),
+            key("description", "string", "", "One line for reports", ""),
+            key("vehicle", "path", "", "Vehicle TOML file (see Vehicle file)", REQUIRED),
+            key("aero", "path", "", "Aero database TOML file (see Aero file)", REQUIRED),
         ), required=True),
-        _SITE,
+        SITE_TABLE,
         Table("atmosphere", (
-            _k("sounding", "path", "", "Balloon sounding: Wyoming TEXT:CSV or TEXT:LIST, IGRA2, or plain CSV "
+            key("sounding", "path", "", "Balloon sounding: Wyoming TEXT:CSV or TEXT:LIST, IGRA2, or plain CSV "
                "(see docs/design.md, Input files)", REQUIRED, AtmosphereConfig),
-            _k("launch", "int", "", "Which launch of a multi-launch file (IGRA2), counted from 0",
+            key("launch", "int", "", "Which launch of a multi-launch file (IGRA2), counted from 0",
                source=AtmosphereConfig, attr="atmosphere.launch"),
-            _k("wind_3sigma_mps", "float", "m/s", "3-sigma of the balloon's wind, the prior of the estimated wind "
+            key("wind_3sigma_mps", "float", "m/s", "3-sigma of the balloon's wind, the prior of the estimated wind "
                "bias north and east", source=AtmosphereConfig, attr="atmosphere.wind_3sigma_mps"),
-            _k("density_3sigma", "float", "", "3-sigma of the balloon's density as a fraction, the prior of the "
+            key("density_3sigma", "float", "", "3-sigma of the balloon's density as a fraction, the prior of the "
                "estimated density factor", source=AtmosphereConfig, attr="atmosphere.density_3sigma"),
-            _k("profile_wind_sigma_mps", "float", "m/s", "1-sigma of the difference between the wind the vehicle "
+            key("profile_wind_sigma_mps", "float", "m/s", "1-sigma of the difference between the wind the vehicle "
                "flew through and the sounding's (plus the wind bias), each of north and east: a Gauss-Markov process "
                "in altitude estimated on a grid; 0: none", source=AtmosphereConfig,
                attr="atmosphere.profile_wind_sigma_mps"),
-            _k("profile_density_sigma", "float", "", "1-sigma of the relative difference between the density flown "
+            key("profile_density_sigma", "float", "", "1-sigma of the relative difference between the density flown "
                "through and the sounding's (times 1 + density factor), Gauss-Markov in altitude; 0: none",
                source=AtmosphereConfig, attr="atmosphere.profile_density_sigma"),
-            _k("profile_length_m", "float", "m", "Correlation length in altitude of the profile errors",
+            key("profile_length_m", "float", "m", "Correlation length in altitude of the profile errors",
                source=AtmosphereConfig, attr="atmosphere.profile_length_m"),
-            _k("profile_step_m", "float", "m", "Altitude step of the grid the profile errors are estimated on "
+            key("profile_step_m", "float", "m", "Altitude step of the grid the profile errors are estimated on "
                "(linear in between), at most profile_length_m", source=AtmosphereConfig,
                attr="atmosphere.profile_step_m"),
         ), required=True),
-        _DYNAMICS,
+        DYNAMICS_TABLE,
         Table("release", (
-            _k("time_utc", "datetime or string", "UTC", "Release instant, ISO-8601 with its zone "
+            key("time_utc", "datetime or string", "UTC", "Release instant, ISO-8601 with its zone "
                "(2023-10-03T15:32:10.25Z)", REQUIRED),
-            _k("h_agl_m", "float", "m", "Release height of the centre of mass above ground (AGL)", REQUIRED),
-            _k("vel_ned_mps", "[float; 3]", "m/s", "Release velocity north, east, down", REQUIRED),
-            _k("euler_deg", "[float; 3]", "deg", "Release attitude: roll, pitch, yaw (ZYX Euler angles, body to "
+            key("h_agl_m", "float", "m", "Release height of the centre of mass above ground (AGL)", REQUIRED),
+            key("vel_ned_mps", "[float; 3]", "m/s", "Release velocity north, east, down", REQUIRED),
+            key("euler_deg", "[float; 3]", "deg", "Release attitude: roll, pitch, yaw (ZYX Euler angles, body to "
                "NED)", REQUIRED),
-            _k("rates_dps", "[float; 3]", "deg/s", "Release body angular rate p, q, r", REQUIRED),
-            _k("pos_ne_m", "[float; 2]", "m", "North, east offset of the centre of mass from the site origin",
+            key("rates_dps", "[float; 3]", "deg/s", "Release body angular rate p, q, r", REQUIRED),
+            key("pos_ne_m", "[float; 2]", "m", "North, east offset of the centre of mass from the site origin",
                source=ReleaseConfig, attr="release.pos_ne_m"),
         ), note="The release state is where the simulator starts. The fit finds release on the IMU clock "
                 "(or takes [estimation] release_imu_s); of [release] it uses only h_agl_m, the reference "
                 "altitude of the rotor-downwash hypothesis.", required=True),
         Table("sensors.imu", (
-            _k("file", "path", "", "IMU CSV (need not exist for `casrecon simulate --data`, which writes it)",
+            key("file", "path", "", "IMU CSV (need not exist for `casrecon simulate --data`, which writes it)",
                None, attr="imu.file"),
-            _k("rate_hz", "float", "Hz", "Nominal IMU sample rate", 500.0, attr="imu.rate_hz"),
-            _k("time_unit", "string", "", source=ImuCsvSpec, attr="imu.spec.time_unit"),
-            _k("accel_unit", "string", "", source=ImuCsvSpec, attr="imu.spec.accel_unit"),
-            _k("gyro_unit", "string", "", source=ImuCsvSpec, attr="imu.spec.gyro_unit"),
-            _k("accel_limits", "[[float; 2]; 3]", "accel_unit", "Saturation limits [low, high] of the x, y, z "
+            key("rate_hz", "float", "Hz", "Nominal IMU sample rate", 500.0, attr="imu.rate_hz"),
+            key("time_unit", "string", "", source=ImuCsvSpec, attr="imu.spec.time_unit"),
+            key("accel_unit", "string", "", source=ImuCsvSpec, attr="imu.spec.accel_unit"),
+            key("gyro_unit", "string", "", source=ImuCsvSpec, attr="imu.spec.gyro_unit"),
+            key("accel_limits", "[[float; 2]; 3]", "accel_unit", "Saturation limits [low, high] of the x, y, z "
                "accelerometer columns, in the file's unit; a sample at or beyond one is masked; absent: no "
                "saturation flagging", source=ImuCsvSpec, attr="imu.spec.accel_limits"),
-            _k("gyro_limits", "[[float; 2]; 3]", "gyro_unit", "Saturation limits [low, high] of the x, y, z gyro "
+            key("gyro_limits", "[[float; 2]; 3]", "gyro_unit", "Saturation limits [low, high] of the x, y, z gyro "
                "columns, in the file's unit (see accel_limits)", source=ImuCsvSpec, attr="imu.spec.gyro_limits"),
-            _k("axes", "string or [[float; 3]; 3]", "", source=ImuCsvSpec, attr="imu.spec.axes"),
-            _k("accel_noise_mps2", "float", "m/s^2", "Accelerometer white noise per sample, 1-sigma", REQUIRED),
-            _k("gyro_noise_dps", "float", "deg/s", "Gyro white noise per sample, 1-sigma", REQUIRED),
-            _k("accel_bias_sigma_mps2", "float", "m/s^2", "Prior 1-sigma of each constant accelerometer bias",
+            key("axes", "string or [[float; 3]; 3]", "", source=ImuCsvSpec, attr="imu.spec.axes"),
+            key("accel_noise_mps2", "float", "m/s^2", "Accelerometer white noise per sample, 1-sigma", REQUIRED),
+            key("gyro_noise_dps", "float", "deg/s", "Gyro white noise per sample, 1-sigma", REQUIRED),
+            key("accel_bias_sigma_mps2", "float", "m/s^2", "Prior 1-sigma of each constant accelerometer bias",
                REQUIRED),
-            _k("gyro_bias_sigma_dps", "float", "deg/s", "Prior 1-sigma of each constant gyro bias", REQUIRED),
+            key("gyro_bias_sigma_dps", "float", "deg/s", "Prior 1-sigma of each constant gyro bias", REQUIRED),
         ), required=True),
         Table("sensors.imu.columns", (
-            _k("time", "string", "", "Name of the time column", source=ImuCsvSpec, field="time_column",
+            key("time", "string", "", "Name of the time column", source=ImuCsvSpec, field="time_column",
                attr="imu.spec.time_column"),
-            _k("accel", "[string; 3]", "", "Names of the x, y, z accelerometer columns (file axes)", source=ImuCsvSpec,
+            key("accel", "[string; 3]", "", "Names of the x, y, z accelerometer columns (file axes)", source=ImuCsvSpec,
                field="accel_columns", attr="imu.spec.accel_columns"),
-            _k("gyro", "[string; 3]", "", "Names of the x, y, z gyro columns (file axes)", source=ImuCsvSpec,
+            key("gyro", "[string; 3]", "", "Names of the x, y, z gyro columns (file axes)", source=ImuCsvSpec,
                field="gyro_columns", attr="imu.spec.gyro_columns"),
         )),
         Table("sensors.imu.clock", (
-            _k("utc_at_zero", "datetime or string", "UTC", "UTC of IMU time 0 as recorded; the true relation is "
+            key("utc_at_zero", "datetime or string", "UTC", "UTC of IMU time 0 as recorded; the true relation is "
                "utc = utc_at_zero + t_imu + clock_offset, clock_offset estimated", REQUIRED),
         ), required=True),
         Table("sensors.gps", (
-            _k("file", "path", "", "FlySight 1 CSV or FlySight 2 TRACK.CSV (need not exist for `casrecon "
+            key("file", "path", "", "FlySight 1 CSV or FlySight 2 TRACK.CSV (need not exist for `casrecon "
                "simulate --data`)", None, attr="gps.file"),
-            _k("rate_hz", "float", "Hz", "Fix rate of the synthetic receiver", source=GpsConfig, attr="gps.rate_hz"),
-            _k("h_acc_m", "float", "m", "Horizontal accuracy (1-sigma) the synthetic receiver reports",
+            key("rate_hz", "float", "Hz", "Fix rate of the synthetic receiver", source=GpsConfig, attr="gps.rate_hz"),
+            key("h_acc_m", "float", "m", "Horizontal accuracy (1-sigma) the synthetic receiver reports",
                source=GpsConfig, attr="gps.h_acc_m"),
-            _k("v_acc_m", "float", "m", "Vertical accuracy (1-sigma) the synthetic receiver reports",
+            key("v_acc_m", "float", "m", "Vertical accuracy (1-sigma) the synthetic receiver reports",
                source=GpsConfig, attr="gps.v_acc_m"),
-            _k("s_acc_mps", "float", "m/s", "Speed accuracy (1-sigma) the synthetic receiver reports",
+            key("s_acc_mps", "float", "m/s", "Speed accuracy (1-sigma) the synthetic receiver reports",
                source=GpsConfig, attr="gps.s_acc_mps"),
-            _k("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
+            key("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
                "replacing the file's sAcc on every axis", None, attr="gps.velocity_sigma_mps"),
-            *_gps_error_keys("gps.error_model"),
+            *gps_error_keys("gps.error_model"),
         ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc); the "
                 "error-model keys split that variance into a white and a time-correlated part.",
             required=True),
         Table("sensors.baro", (
-            _k("file", "path", "", "FlySight 2 SENSOR.CSV (its BARO rows, on UTC) or a plain CSV with a time column "
+            key("file", "path", "", "FlySight 2 SENSOR.CSV (its BARO rows, on UTC) or a plain CSV with a time column "
                "(time_unix_s: UTC; time_s: IMU clock) and pressure_pa or pressure_hpa (need not exist for "
                "`casrecon simulate --data`)", None, attr="baro.file"),
-            _k("noise_pa", "float", "Pa", "1-sigma white noise of one pressure sample", source=BaroConfig,
+            key("noise_pa", "float", "Pa", "1-sigma white noise of one pressure sample", source=BaroConfig,
                attr="baro.noise_pa"),
-            _k("bias_sigma_pa", "float", "Pa", "1-sigma of the constant pressure bias (estimated as baro_bias_pa)",
+            key("bias_sigma_pa", "float", "Pa", "1-sigma of the constant pressure bias (estimated as baro_bias_pa)",
                source=BaroConfig, attr="baro.bias_sigma_pa"),
-            _k("bias_prior", "bool", "", "Give the bias its zero-mean prior", source=BaroConfig,
+            key("bias_prior", "bool", "", "Give the bias its zero-mean prior", source=BaroConfig,
                attr="baro.bias_prior"),
-            _k("rate_hz", "float", "Hz", "Sample rate of the synthetic barometer", source=BaroConfig,
+            key("rate_hz", "float", "Hz", "Sample rate of the synthetic barometer", source=BaroConfig,
                attr="baro.rate_hz"),
-            _k("position_error_sigma", "float", "", "1-sigma prior of the static-port position-error coefficient k "
+            key("position_error_sigma", "float", "", "1-sigma prior of the static-port position-error coefficient k "
                "(the sensor reads p + k qbar; estimated as baro_qbar_coef); 0: not estimated", source=BaroConfig,
                attr="baro.position_error_sigma"),
         ), note="Optional. A barometer adds static-pressure residuals against the sounding's pressure at the "
                 "reconstructed altitude, optionally with a static-port position error proportional to qbar."),
         Table("truth", (
-            _k("seed", "int", "", "Seed of the synthetic data's noise", 0, attr="truth.seed"),
-            _k("wind_bias_mps", "[float; 2]", "m/s", "True wind bias north, east added to the sounding",
+            key("seed", "int", "", "Seed of the synthetic data's noise", 0, attr="truth.seed"),
+            key("wind_bias_mps", "[float; 2]", "m/s", "True wind bias north, east added to the sounding",
                (0.0, 0.0), attr="truth.wind_bias_mps"),
-            _k("density_factor", "float", "", "True density factor: rho = rho_sounding (1 + factor)", 0.0,
+            key("density_factor", "float", "", "True density factor: rho = rho_sounding (1 + factor)", 0.0,
                attr="truth.density_factor"),
-            _k("accel_bias_mps2", "[float; 3]", "m/s^2", "True accelerometer bias, IMU axes", (0.0, 0.0, 0.0),
+            key("accel_bias_mps2", "[float; 3]", "m/s^2", "True accelerometer bias, IMU axes", (0.0, 0.0, 0.0),
                attr="truth.accel_bias_mps2"),
-            _k("gyro_bias_dps", "[float; 3]", "deg/s", "True gyro bias, IMU axes", (0.0, 0.0, 0.0)),
-            _k("clock_offset_s", "float", "s", "True IMU-to-GPS clock offset", 0.0, attr="truth.clock_offset_s"),
-            _k("downwash_mps", "float", "m/s", "True rotor downwash at release (decays with the distance fallen)",
+            key("gyro_bias_dps", "[float; 3]", "deg/s", "True gyro bias, IMU axes", (0.0, 0.0, 0.0)),
+            key("clock_offset_s", "float", "s", "True IMU-to-GPS clock offset", 0.0, attr="truth.clock_offset_s"),
+            key("downwash_mps", "float", "m/s", "True rotor downwash at release (decays with the distance fallen)",
                source=TruthConfig, attr="truth.downwash_mps"),
-            _k("baro_bias_pa", "float", "Pa", "True barometer bias (with [sensors.baro])", source=TruthConfig,
+            key("baro_bias_pa", "float", "Pa", "True barometer bias (with [sensors.baro])", source=TruthConfig,
                attr="truth.baro_bias_pa"),
-            _k("baro_qbar_coef", "float", "", "True static-port position error of the barometer: it reads p + k qbar",
+            key("baro_qbar_coef", "float", "", "True static-port position error of the barometer: it reads p + k qbar",
                source=TruthConfig, attr="truth.baro_qbar_coef"),
         ) + _disturbance_keys("what the simulator flies") + _TRUTH_ERRORS,
             note="Optional: what `casrecon simulate` uses to make synthetic data, and what the tests "
                  "compare the fit with. A real drop has no [truth]."),
         Table("truth.dispersions", tuple(
-            _k(n, "float", "", f"True normalised dispersion factor {n} (3-sigma = 1)", 0.0,
+            key(n, "float", "", f"True normalised dispersion factor {n} (3-sigma = 1)", 0.0,
                attr=f"truth.dispersions.{n}") for n in DISPERSION_NAMES)),
         Table("simulation", (
-            _k("dt_s", "float", "s", "Integrator step (also the IMU sample spacing of the synthetic data)",
+            key("dt_s", "float", "s", "Integrator step (also the IMU sample spacing of the synthetic data)",
                source=SimulationConfig, attr="simulation.dt_s"),
-            _k("substeps", "int", "", "Integrator substeps per step", source=SimulationConfig,
+            key("substeps", "int", "", "Integrator substeps per step", source=SimulationConfig,
                attr="simulation.substeps"),
-            _k("t_max_s", "float", "s", "Give up if the ground is not reached by then", source=SimulationConfig,
+            key("t_max_s", "float", "s", "Give up if the ground is not reached by then", source=SimulationConfig,
                attr="simulation.t_max_s"),
-            _k("pre_release_s", "float", "s", "Data made before release (vehicle hanging still)",
+            key("pre_release_s", "float", "s", "Data made before release (vehicle hanging still)",
                source=SimulationConfig, attr="simulation.pre_release_s"),
-            _k("post_impact_s", "float", "s", "Data made after impact", source=SimulationConfig,
+            key("post_impact_s", "float", "s", "Data made after impact", source=SimulationConfig,
                attr="simulation.post_impact_s"),
         )),
         Table("estimation", tuple(
-            _k(k, t, u, source=EstimationConfig, attr=f"estimation.{k}") for k, t, u in _ESTIMATION_KEYS)
+            key(k, t, u, source=EstimationConfig, attr=f"estimation.{k}") for k, t, u in _ESTIMATION_KEYS)
             + _disturbance_keys("the prior of the disturbance estimated at every node: the weak-constraint "
                                 "option"),
             note="Every key optional; the defaults fit a 500 Hz drop."),
         Table("montecarlo", (
-            _k("cases", "int", "", source=MonteCarloConfig, attr="montecarlo.cases"),
-            _k("seed", "int", "", source=MonteCarloConfig, attr="montecarlo.seed"),
-            _k("center", "string", "", source=Dispersions, attr="montecarlo.dispersions.center"),
+            key("cases", "int", "", source=MonteCarloConfig, attr="montecarlo.cases"),
+            key("seed", "int", "", source=MonteCarloConfig, attr="montecarlo.seed"),
+            key("center", "string", "", source=Dispersions, attr="montecarlo.dispersions.center"),
         ) + tuple(
-            _k(key, "float", unit, default=default, source=Dispersions, field=DISPERSION_KEYS[key],
-               attr=None if default is not FROM_FIELD else f"montecarlo.dispersions.{DISPERSION_KEYS[key]}")
-            for key, unit, default in (
+            key(name, "float", unit, default=default, source=Dispersions, field=DISPERSION_KEYS[name],
+                attr=None if default is not FROM_FIELD else f"montecarlo.dispersions.{DISPERSION_KEYS[name]}")
+            for name, unit, default in (
                 ("h_agl_sigma_m", "m", FROM_FIELD), ("velocity_sigma_mps", "m/s", FROM_FIELD),
                 ("euler_sigma_deg", "deg", FROM_FIELD), ("rate_sigma_dps", "deg/s", FROM_FIELD),
                 ("aero_factor_sigma", "", FROM_FIELD),
                 ("wind_bias_sigma_mps", "m/s", "<[atmosphere] wind_3sigma_mps / 3>"),
                 ("density_factor_sigma", "", "<[atmosphere] density_3sigma / 3>"))
-        ) + (_k("aero_factors", "[string]", "", source=Dispersions, attr="montecarlo.dispersions.aero_factors"),),
+        ) + (key("aero_factors", "[string]", "", source=Dispersions, attr="montecarlo.dispersions.aero_factors"),),
             note="Optional: the dispersed Monte Carlo of `casrecon montecarlo` (not `--estimator`), each "
                  "dispersion a zero-mean Gaussian of this 1-sigma about the centre; `--cases`, `--seed` and "
                  "`--center` override the table."),
-    ),
-)
-
-POINT_MASS = FileKind(
-    "problem.toml (point-mass problem, `kind = \"point-mass\"`)",
-    "A GPS-only problem (no IMU): a point mass with a drag area fitted to one GPS track. Read by "
-    "`casrecon.io.pointmass_problem.load_point_mass`. [site] and [dynamics] are as in the 6-DOF problem.",
-    (
-        Table("problem", (
-            _k("kind", "string", "", 'Must be "point-mass"', REQUIRED),
-            _k("name", "string", "", "Name used in reports", REQUIRED),
-            _k("description", "string", "", "One line for reports", ""),
-        ), required=True),
-        _SITE,
-        Table("atmosphere", (
-            _k("sounding", "string or path", "", '"standard" (ICAO standard atmosphere, no wind) or a sounding '
-               "file", REQUIRED),
-            _k("wind_3sigma_mps", "float", "m/s", "3-sigma prior of the estimated constant wind bias", 3.0,
-               attr="wind_3sigma_mps"),
-        ), required=True),
-        Table("vehicle", (_k("mass_kg", "float", "kg", "Mass of the body", REQUIRED),), required=True),
-        Table("drag", (
-            _k("model", "string", "", '"constant" (one CdA) or "spline" (cubic B-spline in time)',
-               source=DragConfig, attr="drag.model"),
-            _k("knot_spacing_s", "float", "s", "Spline knot spacing", source=DragConfig, attr="drag.knot_spacing_s"),
-            _k("smoothness_sigma_m2", "float", "m^2", "1-sigma prior of the spline's second differences",
-               source=DragConfig, attr="drag.smoothness_sigma_m2"),
-            _k("lift", "bool", "", "Also estimate horizontal lift areas north and east", source=DragConfig,
-               attr="drag.lift"),
-            _k("lift_sigma_m2", "float", "m^2", "1-sigma prior of each lift-area coefficient", source=DragConfig,
-               attr="drag.lift_sigma_m2"),
-        )),
-        Table("gps", (
-            _k("file", "path", "", "FlySight 1 CSV, FlySight 2 TRACK.CSV, NMEA 0183 log (GGA, RMC, VTG, GSA: "
-               "accuracies from DOP, no vertical velocity) or GNSS CSV (ts,latitude,longitude,satellites: horizontal "
-               "position only); a component the file does not give has zero weight", REQUIRED),
-            _k("date", "date or string", "UTC", "UTC date (YYYY-MM-DD) of the first fix of an NMEA log without RMC "
-               "sentences (GGA carries no date)", None, attr="gps_date"),
-            _k("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
-               "replacing the file's sAcc on every axis", None, attr="velocity_sigma_mps"),
-            _k("max_h_acc_m", "float", "m", "Fixes reporting a worse horizontal accuracy are dropped",
-               source=GpsQuality, attr="quality.max_h_acc_m"),
-            _k("max_v_acc_m", "float", "m", "Fixes reporting a worse vertical accuracy are dropped",
-               source=GpsQuality, attr="quality.max_v_acc_m"),
-            _k("max_s_acc_mps", "float", "m/s", "Fixes reporting a worse speed accuracy are dropped",
-               source=GpsQuality, attr="quality.max_s_acc_mps"),
-            _k("min_num_sv", "int", "", "Fixes with fewer satellites are dropped", source=GpsQuality,
-               attr="quality.min_num_sv"),
-            *_gps_error_keys("gps_errors"),
-        ), required=True),
-        Table("segment", (
-            _k("start_utc", "datetime or string", "UTC", "Start of the fitted segment", "<found from the data>"),
-            _k("end_utc", "datetime or string", "UTC", "End of the fitted segment", "<found from the data>"),
-            _k("min_speed_mps", "float", "m/s", "Descent speed that defines the segment when start/end are not "
-               "given", source=SegmentConfig, attr="segment.min_speed_mps"),
-            _k("end_margin_s", "float", "s", "The found segment ends this long before the final drop began",
-               source=SegmentConfig, attr="segment.end_margin_s"),
-            _k("deploy_drop_mps", "float", "m/s", "The final drop (canopy opening, impact): the last fixes each this "
-               "far below the running maximum of the vertical speed over the preceding 2 s",
-               source=SegmentConfig, attr="segment.deploy_drop_mps"),
-        )),
-        _DYNAMICS,
-        Table("estimation", (
-            _k("linear_solver", "string", "", 'Ipopt\'s linear solver, "mumps" or "spral"', source=PointMassConfig,
-               attr="linear_solver"),
-            _k("max_iter", "int", "", "Ipopt iteration limit", source=PointMassConfig, attr="max_iter"),
-            _k("tol", "float", "", "Ipopt tolerance", source=PointMassConfig, attr="tol"),
-        )),
     ),
 )
 
@@ -359,27 +253,27 @@ VEHICLE = FileKind(
     "`casrecon.io.vehicle_files.load_vehicle`.",
     (
         Table("", (
-            _k("name", "string", "", "Vehicle name", REQUIRED),
-            _k("mass_kg", "float", "kg", "Mass", REQUIRED),
-            _k("ref_length_m", "float", "m", "Aerodynamic reference length d (the maximum diameter)", REQUIRED),
-            _k("ref_area_m2", "float", "m^2", "Aerodynamic reference area S", "<pi d^2 / 4>"),
-            _k("cm_m", "[float; 3]", "m", "Centre of mass, native axes", REQUIRED),
-            _k("mrp_m", "[float; 3]", "m", "Aerodynamic moment reference point, native axes", REQUIRED),
-            _k("native_to_body", "[[float; 3]; 3]", "", "Rotation from native to body axes, v_body = R v_native "
+            key("name", "string", "", "Vehicle name", REQUIRED),
+            key("mass_kg", "float", "kg", "Mass", REQUIRED),
+            key("ref_length_m", "float", "m", "Aerodynamic reference length d (the maximum diameter)", REQUIRED),
+            key("ref_area_m2", "float", "m^2", "Aerodynamic reference area S", "<pi d^2 / 4>"),
+            key("cm_m", "[float; 3]", "m", "Centre of mass, native axes", REQUIRED),
+            key("mrp_m", "[float; 3]", "m", "Aerodynamic moment reference point, native axes", REQUIRED),
+            key("native_to_body", "[[float; 3]; 3]", "", "Rotation from native to body axes, v_body = R v_native "
                "(body x out of the leading face)", "<identity>"),
         )),
         Table("inertia_kgm2", tuple(
-            _k(n, "float", "kg m^2", f"{'Moment' if n[1] == n[2] else 'Product'} of inertia about the centre of "
+            key(n, "float", "kg m^2", f"{'Moment' if n[1] == n[2] else 'Product'} of inertia about the centre of "
                "mass, native axes" + ("" if n[1] == n[2] else f" ({n} = integral of {n[1].lower()} {n[2].lower()} "
                                                               "dm; enters the tensor negated)"),
                REQUIRED if n[1] == n[2] else 0.0) for n in ("Ixx", "Iyy", "Izz", "Ixy", "Ixz", "Iyz")),
             required=True),
         Table("imu", (
-            _k("position_m", "[float; 3]", "m", "IMU position, native axes", (0.0, 0.0, 0.0), attr="imu_position_m"),
-            _k("to_native", "[[float; 3]; 3]", "", "Rotation from IMU axes to native axes, v_native = R v_imu",
+            key("position_m", "[float; 3]", "m", "IMU position, native axes", (0.0, 0.0, 0.0), attr="imu_position_m"),
+            key("to_native", "[[float; 3]; 3]", "", "Rotation from IMU axes to native axes, v_native = R v_imu",
                "<identity>"),
         )),
-        Table("gps", (_k("position_m", "[float; 3]", "m", "GPS antenna position, native axes", (0.0, 0.0, 0.0),
+        Table("gps", (key("position_m", "[float; 3]", "m", "GPS antenna position, native axes", (0.0, 0.0, 0.0),
                          attr="gps_position_m"),)),
     ),
 )
@@ -391,45 +285,45 @@ AERO = FileKind(
     "`casrecon.io.vehicle_files.load_aero`.",
     (
         Table("", (
-            _k("name", "string", "", "Database name", REQUIRED),
-            _k("description", "string", "", "One line for reports", "", attr="description"),
-            _k("model", "string", "", '"analytic" (with [coefficients]) or "table" (with `table`)', REQUIRED),
-            _k("table", "path", "", 'CSV with header mach,alpha_t_deg,CA,CN,Cm,Cmq, a full grid of at least 4 '
+            key("name", "string", "", "Database name", REQUIRED),
+            key("description", "string", "", "One line for reports", "", attr="description"),
+            key("model", "string", "", '"analytic" (with [coefficients]) or "table" (with `table`)', REQUIRED),
+            key("table", "path", "", 'CSV with header mach,alpha_t_deg,CA,CN,Cm,Cmq, a full grid of at least 4 '
                'Mach x 4 alpha_T points (required when model = "table")', REQUIRED),
-            _k("Clp", "float", "", 'Roll damping coefficient (per p d / 2V), model = "table"', 0.0),
-            _k("Cl0", "float", "", 'Static roll coefficient, model = "table"', 0.0),
+            key("Clp", "float", "", 'Roll damping coefficient (per p d / 2V), model = "table"', 0.0),
+            key("Cl0", "float", "", 'Static roll coefficient, model = "table"', 0.0),
         )),
         Table("coefficients", (
-            _k("CA0", "float", "", "Axial force coefficient at alpha_T = 0", REQUIRED),
-            _k("CA2", "float", "", "C_A = CA0 + CA2 sin^2 alpha_T", source=AnalyticCoefficients,
+            key("CA0", "float", "", "Axial force coefficient at alpha_T = 0", REQUIRED),
+            key("CA2", "float", "", "C_A = CA0 + CA2 sin^2 alpha_T", source=AnalyticCoefficients,
                attr="coefficients.CA2"),
-            _k("CNa", "float", "", "C_N = CNa sin alpha_T", source=AnalyticCoefficients,
+            key("CNa", "float", "", "C_N = CNa sin alpha_T", source=AnalyticCoefficients,
                attr="coefficients.CNa"),
-            _k("Cma", "float", "", "C_m = Cma sin alpha_T (about the MRP; < 0 restoring)",
+            key("Cma", "float", "", "C_m = Cma sin alpha_T (about the MRP; < 0 restoring)",
                source=AnalyticCoefficients,
                attr="coefficients.Cma"),
-            _k("Cmq0", "float", "", "Pitch/yaw damping C_mq = Cmq0 + Cmq2 sin^2 alpha_T (per q d / 2V)",
+            key("Cmq0", "float", "", "Pitch/yaw damping C_mq = Cmq0 + Cmq2 sin^2 alpha_T (per q d / 2V)",
                source=AnalyticCoefficients,
                attr="coefficients.Cmq0"),
-            _k("Cmq2", "float", "", "See Cmq0", source=AnalyticCoefficients,
+            key("Cmq2", "float", "", "See Cmq0", source=AnalyticCoefficients,
                attr="coefficients.Cmq2"),
-            _k("Clp", "float", "", "Roll damping (per p d / 2V)", source=AnalyticCoefficients,
+            key("Clp", "float", "", "Roll damping (per p d / 2V)", source=AnalyticCoefficients,
                attr="coefficients.Clp"),
-            _k("Cl0", "float", "", "Static roll coefficient", source=AnalyticCoefficients,
+            key("Cl0", "float", "", "Static roll coefficient", source=AnalyticCoefficients,
                attr="coefficients.Cl0"),
         ), note='model = "analytic" only.'),
         Table("dispersion_sizes", tuple(
-            _k(n, "float", "fraction" if n.endswith("_mult") else "coefficient",
+            key(n, "float", "fraction" if n.endswith("_mult") else "coefficient",
                f"3-sigma size U of {n}; 0 disables the factor", source=DispersionSizes, attr=f"sizes.{n}")
             for n in DISPERSION_NAMES),
             note="Multipliers are fractions of the coefficient, adders coefficient units; the factors "
                  "estimated by default are those with a non-zero size.", required=True),
         Table("vanes", (
-            _k("count", "int", "", "Number of spin vanes K", REQUIRED),
-            _k("radius_m", "float", "m", "Radius R of the vanes' centre of pressure", REQUIRED),
-            _k("area_m2", "float", "m^2", "Area S_k of one vane", REQUIRED),
-            _k("incidence_deg", "float", "deg", "Incidence alpha_k of each vane", REQUIRED),
-            _k("lift_slope_per_rad", "float", "1/rad", "Vane lift-curve slope C_La", source=SpinVanes,
+            key("count", "int", "", "Number of spin vanes K", REQUIRED),
+            key("radius_m", "float", "m", "Radius R of the vanes' centre of pressure", REQUIRED),
+            key("area_m2", "float", "m^2", "Area S_k of one vane", REQUIRED),
+            key("incidence_deg", "float", "deg", "Incidence alpha_k of each vane", REQUIRED),
+            key("lift_slope_per_rad", "float", "1/rad", "Vane lift-curve slope C_La", source=SpinVanes,
                attr="vanes.lift_slope_per_rad"),
         ), note="Optional: the spin-vane roll model; `CLa_mult` scales C_La."),
     ),
@@ -441,19 +335,19 @@ JOINT = FileKind(
     "`casrecon.estimation.joint.load_joint`.",
     (
         Table("joint", (
-            _k("name", "string", "", "Name of the joint fit", REQUIRED),
-            _k("drops", "[path]", "", "At least two problem folders (or problem.toml files), relative to this file",
+            key("name", "string", "", "Name of the joint fit", REQUIRED),
+            key("drops", "[path]", "", "At least two problem folders (or problem.toml files), relative to this file",
                REQUIRED),
-            _k("shared", "[string]", "", "Dispersion factors common to all drops", "<every factor the drops "
+            key("shared", "[string]", "", "Dispersion factors common to all drops", "<every factor the drops "
                "estimate>"),
-            _k("per_drop", "[string]", "", "Factors each drop estimates for itself", ()),
-            _k("fixed", "[string]", "", "Factors held at 0", ()),
+            key("per_drop", "[string]", "", "Factors each drop estimates for itself", ()),
+            key("fixed", "[string]", "", "Factors held at 0", ()),
         ), required=True),
     ),
 )
 
 #: Every file kind, in the order of the page.
-FILE_KINDS = (SIX_DOF, POINT_MASS, VEHICLE, AERO, JOINT)
+FILE_KINDS = (SIX_DOF, POINT_MASS, KINEMATIC, VEHICLE, AERO, JOINT)
 
 
 def format_default(value: object) -> str:

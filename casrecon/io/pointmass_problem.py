@@ -86,7 +86,7 @@ def problem_kind(path: str | Path) -> str:
     path = Path(path)
     f = load_toml(path / "problem.toml" if path.is_dir() else path)
     head = f.table("problem", required=True)
-    return head.string("kind", "six-dof", choices=("six-dof", "point-mass"))
+    return head.string("kind", "six-dof", choices=("six-dof", "point-mass", "kinematic"))
 
 
 def _segment(t: Fields) -> SegmentConfig:

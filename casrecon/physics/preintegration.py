@@ -32,6 +32,7 @@ rotations up to 1 rad per piece; :data:`MAX_PIECE_ROTATION_RAD` is checked by th
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -93,6 +94,7 @@ def _step() -> ca.Function:
     return ca.Function("preintegration_step", [d, piece, theta, nu], [out])
 
 
+@functools.lru_cache(maxsize=16)
 def preintegration_function(n_pieces: int) -> ca.Function:
     """``(pieces (16, n_pieces), theta (12)) -> (delta (10), d delta / d theta (10, 12),
     d delta / d nu (10, 9 n_pieces))``: the preintegrated (dq, dv, dp) of one interval whose pieces

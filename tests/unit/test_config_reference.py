@@ -14,6 +14,7 @@ import pytest
 
 from casrecon.estimation.joint import load_joint
 from casrecon.io import config_reference as ref
+from casrecon.io.kinematic_problem import load_kinematic
 from casrecon.io.pointmass_problem import load_point_mass, problem_kind
 from casrecon.io.problem import load_problem
 from casrecon.io.toml_fields import record_keys
@@ -36,6 +37,9 @@ def _load_recording(folder: Path) -> dict[str, set[tuple[str, str]]]:
         if kind == "point-mass":
             load_point_mass(folder)
             files = {(folder / "problem.toml").resolve(): ref.POINT_MASS.title}
+        elif kind == "kinematic":
+            load_kinematic(folder)
+            files = {(folder / "problem.toml").resolve(): ref.KINEMATIC.title}
         else:
             cfg = load_problem(folder)
             files = {cfg.path: ref.SIX_DOF.title, Path(cfg.sources["vehicle"]): ref.VEHICLE.title,
@@ -97,12 +101,12 @@ def keys_read(tmp_path_factory) -> dict[str, set[tuple[str, str]]]:
     return read
 
 
-def test_shipped_problems_cover_both_problem_kinds():
+def test_shipped_problems_cover_every_problem_kind():
     kinds = {problem_kind(f) for f in SHIPPED}
-    assert kinds == {"six-dof", "point-mass"}
+    assert kinds == {"six-dof", "point-mass", "kinematic"}
 
 
-@pytest.mark.parametrize("kind", ref.FILE_KINDS, ids=("six-dof", "point-mass", "vehicle", "aero", "joint"))
+@pytest.mark.parametrize("kind", ref.FILE_KINDS, ids=("six-dof", "point-mass", "kinematic", "vehicle", "aero", "joint"))
 def test_every_key_read_is_in_the_reference(kind, keys_read):
     tables = {t.name for t in kind.tables}
     # sub-tables are read as tables (not recorded); a key that names a listed table is one too
@@ -111,7 +115,7 @@ def test_every_key_read_is_in_the_reference(kind, keys_read):
     assert not missing, f"{kind.title}: keys read by the parser but not in the reference: {missing}"
 
 
-@pytest.mark.parametrize("kind", ref.FILE_KINDS, ids=("six-dof", "point-mass", "vehicle", "aero", "joint"))
+@pytest.mark.parametrize("kind", ref.FILE_KINDS, ids=("six-dof", "point-mass", "kinematic", "vehicle", "aero", "joint"))
 def test_every_listed_key_is_read_by_the_parser(kind, keys_read):
     stale = sorted(_listed(kind) - keys_read[kind.title])
     assert not stale, f"{kind.title}: keys in the reference that no parser reads: {stale}"

@@ -1,0 +1,94 @@
+"""The results folder of a kinematic (IMU-driven) reconstruction.
+
+Files: ``trajectory.csv`` (time on the problem's clock and since the span's start, UTC when the clock
+is UTC, the IMU's latitude, longitude and h_MSL, NED position and velocity, roll, pitch and yaw of
+the IMU axes, each with its 3-sigma; the attitude's 3-sigma as the NED rotation-vector components
+``att_n/e/d_deg_3sigma``), ``parameters.json`` (IMU errors, clock offset, barometer bias and
+scale: value, 1- and 3-sigma, unit), ``summary.json`` (convergence, chi-square per residual group
+and per measurement, timings, notes), ``residuals_imu.csv`` (the whitened preintegration residual
+of every interval: rotation, velocity, position), ``residuals_gps.csv`` (fix residuals over their
+sigma), ``report.txt``, ``config/problem.toml``. Units in every name (:mod:`casrecon.io.units`).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from casrecon.io.gps_rules import ned_to_geodetic
+from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, utc_text
+from casrecon.output.columns import write_table
+from casrecon.output.results import write_json
+
+#: Clock values above this are UTC seconds since 1970 (a flight computer's clock counts from boot).
+UTC_CLOCK_MIN_S = 1e8
+STATE_COLUMNS = ("pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps", "vel_d_mps")
+INTERVAL_COLUMNS = ("rot_n", "rot_e", "rot_d", "vel_x", "vel_y", "vel_z", "pos_x", "pos_y", "pos_z")
+
+
+def euler_deg(quaternions: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw (ZYX, deg) of scalar-first quaternions (K, 4)."""
+    q = np.asarray(quaternions, float)
+    return Rotation.from_quat(np.column_stack([q[:, 1:], q[:, 0]])).as_euler("ZYX", degrees=True)[:, ::-1]
+
+
+def time_columns(result) -> dict[str, np.ndarray]:
+    """Times of the nodes: on the problem's clock, since the span's start, and UTC when the clock is UTC."""
+    clock = result.node_time_s + result.data.time_ref_s
+    cols = {"time_s": result.node_time_s, "clock_s": clock}
+    if result.data.time_ref_s > UTC_CLOCK_MIN_S:
+        cols = {TIME_UNIX: clock, UTC: utc_text(clock), "time_s": result.node_time_s}
+    return cols
+
+
+def write_kinematic_results(out: Path, result, report_text: str, site, problem_path: Path | None,
+                            name: str = "") -> None:
+    """Write the folder into ``out`` (an atomic temporary folder).
+
+    Parameters
+    ----------
+    out : Path
+    result : casrecon.estimation.kinematic_fit.KinematicResult
+    report_text : str
+    site : casrecon.physics.dynamics.Site
+        For latitude, longitude and h_MSL.
+    problem_path : Path or None
+        ``problem.toml`` copied into ``config/``.
+    name : str
+        Problem name for ``summary.json``.
+    """
+    out = Path(out)
+    cols = dict(time_columns(result))
+    cols.update(dict(zip(GEODETIC, ned_to_geodetic(result.states[:, :3], site))))
+    for i, column in enumerate(STATE_COLUMNS):
+        cols[column], cols[f"{column}_3sigma"] = result.states[:, i], 3 * result.state_sigma[:, i]
+    for column, values in zip(("roll_deg", "pitch_deg", "yaw_deg"), euler_deg(result.states[:, 6:10]).T):
+        cols[column] = values
+    for i, axis in enumerate("ned"):
+        cols[f"att_{axis}_deg_3sigma"] = np.degrees(3 * result.state_sigma[:, 6 + i])
+    write_table(out / "trajectory.csv", cols)
+    r = result.nlp.residual_vector(result.z)
+    interval = r[result.nlp.groups["imu"]].reshape(-1, 9)
+    write_table(out / "residuals_imu.csv", {"time_s": result.node_time_s[:-1],
+                                            **{f"{n}_z": interval[:, i] for i, n in enumerate(INTERVAL_COLUMNS)}})
+    gps = r[result.nlp.groups["gps"]].reshape(-1, 6)
+    names = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
+    write_table(out / "residuals_gps.csv", {f"{n}_z": gps[:, i] for i, n in enumerate(names)})
+    params = {s.name: {"value": float(v), "sigma": float(sg), "three_sigma": 3 * float(sg), "unit": s.unit,
+                       "prior_sigma": s.prior_sigma}
+              for s, v, sg in zip(result.params.specs, result.values, result.sigma)}
+    write_json(out / "parameters.json", {"parameters": params})
+    write_json(out / "summary.json", {
+        "problem": name, "kind": "kinematic", "converged": result.solver.converged, "status": result.solver.status,
+        "iterations": result.solver.iterations, "chi2": result.chi2, "n_measurements": result.n_measurements,
+        "reduced_chi2": result.reduced_chi2, "reduced_chi2_by_group": result.group_reduced_chi2(),
+        "span_clock_s": [float(result.data.time_ref_s + result.node_time_s[0]),
+                         float(result.data.time_ref_s + result.node_time_s[-1])],
+        "nodes": int(result.node_time_s.size), "timings": result.timings, "notes": list(result.notes)})
+    (out / "report.txt").write_text(report_text + "\n")
+    if problem_path is not None:
+        (out / "config").mkdir()
+        shutil.copy2(problem_path, out / "config" / "problem.toml")

@@ -1,0 +1,42 @@
+"""The text report of a kinematic reconstruction: span, convergence, chi-square per residual group,
+the IMU parameters against their priors (those beyond 3 sigma named), and the bands' sizes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: A parameter whose estimate lies this many prior sigmas from its prior mean is named.
+PRIOR_Z_LIMIT = 3.0
+
+
+def kinematic_report(result, name: str = "") -> str:
+    """The report text of ``result`` (:class:`~casrecon.estimation.kinematic_fit.KinematicResult`)."""
+    t = result.node_time_s
+    lines = [f"KINEMATIC RECONSTRUCTION {name}".rstrip(),
+             f"span {t[-1] - t[0]:.2f} s ({t.size} nodes), clock {result.data.time_ref_s + t[0]:.3f} to "
+             f"{result.data.time_ref_s + t[-1]:.3f} s",
+             f"converged: {result.solver.converged} ({result.solver.status}), {result.solver.iterations} iterations; "
+             f"build {result.timings.get('build_s', 0):.2f} s, solve {result.timings.get('solve_s', 0):.2f} s, "
+             f"covariance {result.timings.get('covariance_s', 0):.2f} s",
+             f"reduced chi-square {result.reduced_chi2:.3f}", "", "chi-square per residual group (per measurement):"]
+    for group, value in result.chi2.items():
+        n = result.n_measurements.get(group, 0)
+        lines.append(f"  {group:18s} {value:12.2f}  n {n:6d}  ({value / max(n, 1):.3f})")
+    lines += ["", f"{'parameter':18s} {'value':>12s} {'3-sigma':>11s} {'prior 1-sigma':>14s} {'z':>6s}  unit"]
+    flagged = []
+    for spec, value, sigma in zip(result.params.specs, result.values, result.sigma):
+        z = value / spec.prior_sigma if spec.prior_sigma else float("nan")
+        if np.isfinite(z) and abs(z) >= PRIOR_Z_LIMIT:
+            flagged.append(f"{spec.name} ({z:+.1f})")
+        lines.append(f"{spec.name:18s} {value:12.5g} {3 * sigma:11.3g} {spec.prior_sigma or float('nan'):14.3g} "
+                     f"{z:6.1f}  {spec.unit}")
+    sig = result.state_sigma
+    lines += ["", "median 3-sigma bands: position N/E/D "
+              + " / ".join(f"{3 * np.median(sig[:, i]):.2f}" for i in range(3)) + " m, velocity "
+              + " / ".join(f"{3 * np.median(sig[:, i]):.3f}" for i in range(3, 6)) + " m/s, attitude "
+              + " / ".join(f"{np.degrees(3 * np.median(sig[:, i])):.2f}" for i in range(6, 9)) + " deg"]
+    if flagged:
+        lines.append(f"parameters beyond {PRIOR_Z_LIMIT:g} sigma of their prior: {', '.join(flagged)}: the IMU "
+                     "model (or its stated noise) does not describe these data; the bands assume it does")
+    lines += ["", *result.notes]
+    return "\n".join(lines)
