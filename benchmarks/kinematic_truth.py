@@ -32,6 +32,8 @@ def main() -> None:
         print(f"IMU {s['rate_hz']:.1f} Hz: {s['fits']} fits, {len(s['failed'])} failed; coverage {cov}; "
               f"NEES {s['nees']:.1f} in [{lo:.1f}, {hi:.1f}]; median fit {np.median(s['seconds']):.1f} s")
         print("   mean z: " + ", ".join(f"{n} {z:+.2f}" for n, z in zip(s["names"], s["mean_z"])))
+        for why in s["failed"]:
+            print(f"   failed: {why}")
 
 
 if __name__ == "__main__":

@@ -23,6 +23,18 @@ from casrecon.estimation.engine.nlp import Nlp
 MAX_CONDITION = 1e12
 
 
+def gauge_matrix(z: np.ndarray, gauge_cols: np.ndarray, n_z: int) -> tuple[sps.csc_matrix, np.ndarray]:
+    """(Q Q^T, unit quaternions (K, 4)): the sparse n_z x n_z matrix with each node's unit
+    quaternion's outer product in its columns (see the module docstring)."""
+    gauge_cols = np.asarray(gauge_cols, np.int64)
+    q = z[gauge_cols]
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    rows = np.repeat(gauge_cols, 4, axis=1).ravel()
+    cols = np.tile(gauge_cols, (1, 4)).ravel()
+    vals = (q[:, :, None] * q[:, None, :]).ravel()
+    return sps.csc_matrix((vals, (rows, cols)), shape=(n_z, n_z)), q
+
+
 class GaugeCovariance:
     """Covariance blocks of z from H + Q Q^T (see the module docstring); the interface the fits
     read: ``covariance_of``, ``blocks``, ``variance_of_combination``, ``reduced_chi2``, ``condition``.
@@ -43,13 +55,9 @@ class GaugeCovariance:
 
     def __init__(self, nlp: Nlp, z: np.ndarray, gauge_cols: np.ndarray, chi2: float, dof: int) -> None:
         h, _ = fisher_and_jacobian(nlp, z)
-        q = z[gauge_cols]
-        self._q = q / np.linalg.norm(q, axis=1, keepdims=True)
+        gauge, self._q = gauge_matrix(z, gauge_cols, h.shape[0])
         self._cols = np.asarray(gauge_cols, np.int64)
-        rows = np.repeat(self._cols, 4, axis=1).ravel()
-        cols = np.tile(self._cols, (1, 4)).ravel()
-        vals = (self._q[:, :, None] * self._q[:, None, :]).ravel()
-        aug = (h + sps.csc_matrix((vals, (rows, cols)), shape=h.shape)).tocsc()
+        aug = (h + gauge).tocsc()
         try:
             self._lu = splu(aug, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         except RuntimeError as err:

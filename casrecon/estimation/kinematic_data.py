@@ -28,6 +28,8 @@ class KinematicOptions:
         Prior 1-sigma of the constant biases (0: held at zero).
     gyro_scale_sigma, accel_scale_sigma : float
         Prior 1-sigma of the scale-factor errors (fraction; 0: held at zero).
+    gyro_misalignment_sigma, accel_misalignment_sigma : float
+        Prior 1-sigma of each axis's sensitivity to the other axes (rad; 0: held at zero).
     saturated_gyro_sigma_radps, saturated_accel_sigma_mps2 : float
         Noise 1-sigma given to a saturated (clipped) sample, whose value is bridged by interpolation.
     gps_lever_m : (3,) tuple
@@ -64,6 +66,8 @@ class KinematicOptions:
     accel_bias_sigma_mps2: float
     gyro_scale_sigma: float = 0.0
     accel_scale_sigma: float = 0.0
+    gyro_misalignment_sigma: float = 0.0
+    accel_misalignment_sigma: float = 0.0
     saturated_gyro_sigma_radps: float = 1.0
     saturated_accel_sigma_mps2: float = 10.0
     gps_lever_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -84,9 +88,10 @@ class KinematicOptions:
 
     @property
     def imu_prior_sigmas(self) -> np.ndarray:
-        """Prior 1-sigma of the 12 IMU error parameters (order of ``preintegration.IMU_PARAMETERS``)."""
-        return np.repeat([self.gyro_bias_sigma_radps, self.accel_bias_sigma_mps2, self.gyro_scale_sigma,
-                          self.accel_scale_sigma], 3)
+        """Prior 1-sigma of the 24 IMU error parameters (order of ``preintegration.IMU_PARAMETERS``)."""
+        return np.r_[np.repeat([self.gyro_bias_sigma_radps, self.accel_bias_sigma_mps2, self.gyro_scale_sigma,
+                                self.accel_scale_sigma], 3),
+                     np.repeat([self.gyro_misalignment_sigma, self.accel_misalignment_sigma], 6)]
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,9 @@ Unknowns: the IMU's position, velocity and attitude at every node, the IMU error
 bias, and with a GPS error model the correlated part of each fix's error. Nodes sit on the fixes
 (plus the window's ends, and more where fixes are further apart than ``max_node_spacing_s``).
 A unit-norm constraint per node fixes each quaternion's scale; everything else is least squares,
-solved by Ipopt with the Gauss-Newton Hessian, first with the IMU noise inflated
-(:data:`START_INFLATION`) from the guess, then with the stated noise from that solution. The
+solved by Levenberg-Marquardt on the unit quaternions from the guess, first with the IMU noise
+inflated (:data:`START_INFLATION`) and then as stated (:mod:`.kinematic_solve`), and finished by
+Ipopt with the Gauss-Newton Hessian, whose verdict decides convergence. The
 covariance is the z-block of the inverse KKT matrix, computed without it
 (:mod:`.kinematic_covariance`).
 """
@@ -25,7 +26,6 @@ from scipy.spatial.transform import Rotation
 
 from casrecon.estimation.engine.blocks import BlockSet, Term, unit_norm_term
 from casrecon.estimation.engine.checks import FitError, check_converged
-from casrecon.estimation.engine.convergence import iteration_logging
 from casrecon.estimation.engine.covariance import SingularCovariance
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.engine.solve import SolveResult, solve
@@ -33,6 +33,7 @@ from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.kinematic_covariance import GaugeCovariance
 from casrecon.estimation.kinematic_data import KinematicData, KinematicOptions
+from casrecon.estimation.kinematic_solve import levenberg_marquardt
 from casrecon.estimation.kinematic_terms import (
     KINEMATIC_SCALE,
     N_STATE,
@@ -52,6 +53,9 @@ from casrecon.physics.preintegration import (
 START_INFLATION = 30.0
 START_MAX_ITER = 60
 START_TOL = 1e-4
+#: Span (s) over which the guess's heading is aligned, and the window of its tilt corrections.
+HEADING_SPAN_S = 10.0
+LEVEL_WINDOW_S = 1.0
 #: Nodes closer than this to the previous one are merged into it, s.
 MIN_NODE_SPACING_S = 1e-3
 CLOCK = "clock_offset_s"
@@ -130,7 +134,7 @@ def node_times(data: KinematicData, max_spacing_s: float) -> np.ndarray:
 def _parameters(options: KinematicOptions, has_baro: bool) -> tuple[ParameterSet, np.ndarray]:
     sig = options.imu_prior_sigmas
     estimated = np.flatnonzero(sig > 0)
-    units = ["rad/s"] * 3 + ["m/s^2"] * 3 + ["-"] * 6
+    units = ["rad/s"] * 3 + ["m/s^2"] * 3 + ["-"] * 6 + ["rad"] * 12
     specs = [ParameterSpec(IMU_PARAMETERS[i], "imu", sig[i], sig[i], units[i]) for i in estimated]
     if options.clock_sigma_s > 0:
         specs.append(ParameterSpec(CLOCK, "clock", options.clock_sigma_s, options.clock_sigma_s, "s"))
@@ -155,8 +159,9 @@ def initial_guess(data: KinematicData, nodes: np.ndarray, pre: Preintegrated, op
                   gyro: np.ndarray, accel: np.ndarray) -> np.ndarray:
     """(K, 10) node states: positions and velocities interpolated from the fixes (velocity from the
     positions where the receiver gives none; the barometer's altitude where it gives no height),
-    attitudes from the chained preintegrated rotations turned by the rotation R0 that best maps the
-    rotated specific force onto the fixes' acceleration minus gravity (Wahba's problem)."""
+    attitudes from the chained preintegrated rotations, turned by the rotation that best maps the
+    rotated specific force onto the fixes' acceleration minus gravity over the first
+    :data:`HEADING_SPAN_S` (Wahba's problem) and re-levelled window by window (:func:`levelled`)."""
     y = data.fix_y
     span = max(1.0, 4.0 * float(np.median(np.diff(data.fix_time_s)))) if data.fix_time_s.size > 1 else 1.0
     pos = np.zeros((nodes.size, 3))
@@ -183,10 +188,33 @@ def initial_guess(data: KinematicData, nodes: np.ndarray, pre: Preintegrated, op
     accel_ned = np.column_stack([_smooth_derivative(nodes, vel[:, i], span) for i in range(3)])
     g = np.array([0.0, 0.0, 9.80665 if options.gravity != "off" else 0.0])
     target = accel_ned - g
-    body = rel.apply(f_nodes)
-    r0, _ = Rotation.align_vectors(target, body)
-    q = (r0 * rel).as_quat()
+    first = nodes <= nodes[0] + HEADING_SPAN_S
+    r0, _ = Rotation.align_vectors(target[first], rel[first].apply(f_nodes[first]))
+    q = levelled(nodes, rel, f_nodes, target, r0).as_quat()
     return np.column_stack([pos, vel, q[:, 3], q[:, :3]])
+
+
+def levelled(nodes: np.ndarray, rel: Rotation, f_body: np.ndarray, target: np.ndarray, r0: Rotation,
+             window_s: float = LEVEL_WINDOW_S) -> Rotation:
+    """Body-to-NED attitudes at the nodes from the chained gyro rotations ``rel`` (node to first
+    node), started at ``r0`` and tilted window by window: in each window of ``window_s`` the
+    smallest rotation that turns the mean NED specific force C f onto the mean of ``target``
+    (acceleration minus gravity) is applied from there on. Keeps the tilt right however far the
+    gyros drift over a long record; the heading stays the first window's."""
+    out = []
+    corr = r0
+    start = 0
+    while start < nodes.size:
+        stop = max(int(np.searchsorted(nodes, nodes[start] + window_s)), start + 2)
+        r = corr * rel[start:stop]
+        u, v = r.apply(f_body[start:stop]).mean(axis=0), target[start:stop].mean(axis=0)
+        axis = np.cross(u, v)
+        norm = np.linalg.norm(axis)
+        if norm > 1e-12:
+            corr = Rotation.from_rotvec(axis / norm * np.arctan2(norm, u @ v)) * corr
+        out.append(corr * rel[start:stop])
+        start = stop
+    return Rotation.concatenate(out)[:nodes.size]
 
 
 def _smooth_derivative(t: np.ndarray, x: np.ndarray, span_s: float = 1.0) -> np.ndarray:
@@ -246,9 +274,11 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
         z0[theta_cols[params.index(CLOCK)]] = options.clock_guess_s / params.specs[params.index(CLOCK)].scale
     # continuation: the IMU noise inflated first, so the fixes place the trajectory and the attitude
     # before the IMU's full weight binds them (the guess's attitude can be far off)
-    with iteration_logging(label=f"kinematic start (IMU noise x {START_INFLATION:g})"):
-        start = solve(assemble(START_INFLATION), z0, options.linear_solver, START_MAX_ITER, START_TOL, print_level)
-    z0 = start.z
+    t_guess = time.perf_counter()
+    start = levenberg_marquardt(assemble(START_INFLATION), z0, state_cols[:, 6:10], START_MAX_ITER, START_TOL,
+                                label=f"kinematic start (IMU noise x {START_INFLATION:g})")
+    z0 = levenberg_marquardt(assemble(1.0), start.z, state_cols[:, 6:10], START_MAX_ITER, START_TOL,
+                             label="kinematic start (stated IMU noise)").z
     nlp = assemble(1.0)
     t_built = time.perf_counter()
     sol = solve(nlp, z0, options.linear_solver, options.max_iter, options.tol, print_level)
@@ -261,7 +291,8 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     except SingularCovariance as err:
         raise FitError(str(err)) from None
     result = _result(data, options, nodes, pre, params, estimated, nlp, sol, cov, r, state_cols, theta_cols)
-    result.timings.update(build_s=t_built - t_start + sol.build_s, solve_s=sol.solve_s,
+    result.timings.update(build_s=t_guess - t_start + sol.build_s, start_solve_s=t_built - t_guess,
+                          solve_s=sol.solve_s,
                           covariance_s=time.perf_counter() - t_solved, total_s=time.perf_counter() - t_start)
     return result
 

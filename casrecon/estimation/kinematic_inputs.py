@@ -121,7 +121,9 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
     options = KinematicOptions(
         gyro_noise_radps=imu.gyro_noise_radps, accel_noise_mps2=imu.accel_noise_mps2,
         gyro_bias_sigma_radps=imu.gyro_bias_sigma_radps, accel_bias_sigma_mps2=imu.accel_bias_sigma_mps2,
-        gyro_scale_sigma=imu.gyro_scale_sigma, accel_scale_sigma=imu.accel_scale_sigma, gps_lever_m=cfg.gps_lever_m,
+        gyro_scale_sigma=imu.gyro_scale_sigma, accel_scale_sigma=imu.accel_scale_sigma,
+        gyro_misalignment_sigma=imu.gyro_misalignment_sigma, accel_misalignment_sigma=imu.accel_misalignment_sigma,
+        gps_lever_m=cfg.gps_lever_m,
         latitude_rad=math.radians(cfg.site.lat_deg), ground_alt_msl_m=cfg.site.ground_alt_msl_m,
         gravity=cfg.dynamics.gravity, earth_rotation=cfg.dynamics.earth_rotation,
         gyro_senses_earth_rate=imu.gyro_senses_earth_rate, clock_sigma_s=cfg.clock_sigma_s,

@@ -117,6 +117,10 @@ KINEMATIC = FileKind(
                 "estimated)", 0.02, attr="imu.gyro_scale_sigma"),
             key("accel_scale_sigma", "float", "", "Prior 1-sigma of each accelerometer scale-factor error "
                 "(fraction; 0: not estimated)", 0.02, attr="imu.accel_scale_sigma"),
+            key("gyro_misalignment_sigma", "float", "rad", "Prior 1-sigma of each gyro axis's sensitivity to the "
+                "other two (0: not estimated)", 0.005, attr="imu.gyro_misalignment_sigma"),
+            key("accel_misalignment_sigma", "float", "rad", "Prior 1-sigma of each accelerometer axis's "
+                "sensitivity to the other two (0: not estimated)", 0.005, attr="imu.accel_misalignment_sigma"),
             key("gyro_senses_earth_rate", "bool", "", "The gyros measure the rate against inertial space "
                 "(a real gyro; casrecon's simulator gives the rate against NED)", True,
                 attr="imu.gyro_senses_earth_rate"),

@@ -56,6 +56,8 @@ class KinematicImu:
         Prior 1-sigma of the constant biases.
     gyro_scale_sigma, accel_scale_sigma : float
         Prior 1-sigma of the scale-factor errors (fraction; 0: not estimated).
+    gyro_misalignment_sigma, accel_misalignment_sigma : float
+        Prior 1-sigma of each axis's sensitivity to the other two (rad; 0: not estimated).
     gyro_senses_earth_rate : bool
         A real gyro measures the rate against inertial space (true, default).
     """
@@ -69,6 +71,8 @@ class KinematicImu:
     accel_bias_sigma_mps2: float
     gyro_scale_sigma: float
     accel_scale_sigma: float
+    gyro_misalignment_sigma: float = 0.0
+    accel_misalignment_sigma: float = 0.0
     gyro_senses_earth_rate: bool = True
 
 
@@ -129,6 +133,8 @@ def _imu(t: Fields) -> KinematicImu:
         accel_bias_sigma_mps2=t.number("accel_bias_sigma_mps2", 0.2, positive=True),
         gyro_scale_sigma=t.number("gyro_scale_sigma", 0.02, minimum=0.0),
         accel_scale_sigma=t.number("accel_scale_sigma", 0.02, minimum=0.0),
+        gyro_misalignment_sigma=t.number("gyro_misalignment_sigma", 0.005, minimum=0.0),
+        accel_misalignment_sigma=t.number("accel_misalignment_sigma", 0.005, minimum=0.0),
         gyro_senses_earth_rate=t.boolean("gyro_senses_earth_rate", True))
 
 

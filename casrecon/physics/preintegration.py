@@ -6,11 +6,12 @@ The IMU's own frame is the reference: the attitude q rotates IMU axes into NED a
 and velocity are those of the IMU. Between two nodes the measured signals are taken as a sequence
 of *pieces*: the IMU samples' cells (each sample governs the time from the midpoint with its
 predecessor to the midpoint with its successor) cut at the nodes. The corrected rate is
-w_c = (1 + s_g) w - b_g and the specific force f_c = (1 + s_a) f - b_a (biases b, scale-factor
-errors s, per IMU axis), with w and f from the local quadratic through the sample and its two
-neighbours (:func:`piece_table`): on each piece the rate is the line with the quadratic's mean and its slope
-at the piece's middle, and the specific force is sampled from the quadratic at the piece's start,
-middle and end. Per piece (scalar-first quaternions, body-to-NED like :mod:`.rotations`; w_c and
+w_c = (I + S_g + M_g) w - b_g and the specific force f_c = (I + S_a + M_a) f - b_a (biases b,
+diagonal scale-factor errors S and off-diagonal misalignments M, IMU axes), with w and f from the
+local quadratic through the sample and its two neighbours (:func:`piece_table`): on each piece the
+rate is the line with the quadratic's mean and its slope at the piece's middle, and the specific
+force is sampled from the quadratic at the piece's start, middle and end. Per piece (scalar-first
+quaternions, body-to-NED like :mod:`.rotations`; w_c and
 f_c corrected as below)::
 
     phi(s) = a s + b s^2 / 2 + (a x b) s^3 / 12     rotation vector after s (Bortz, rate a + b s)
@@ -41,8 +42,12 @@ import numpy as np
 from casrecon.physics.rotations import dcm_body_to_ned, quat_multiply
 
 #: IMU error parameters, in this order (SI: rad/s, m/s^2, fractions).
+#: Misalignment m_ij: the i axis senses m_ij times the rate (force) along the j axis.
+MISALIGNMENT_PAIRS = ("xy", "xz", "yx", "yz", "zx", "zy")
 IMU_PARAMETERS = ("gyro_bias_x", "gyro_bias_y", "gyro_bias_z", "accel_bias_x", "accel_bias_y", "accel_bias_z",
-                  "gyro_scale_x", "gyro_scale_y", "gyro_scale_z", "accel_scale_x", "accel_scale_y", "accel_scale_z")
+                  "gyro_scale_x", "gyro_scale_y", "gyro_scale_z", "accel_scale_x", "accel_scale_y", "accel_scale_z",
+                  *(f"gyro_misalignment_{p}" for p in MISALIGNMENT_PAIRS),
+                  *(f"accel_misalignment_{p}" for p in MISALIGNMENT_PAIRS))
 N_IMU_PARAMETERS = len(IMU_PARAMETERS)
 #: Integrated noises of a piece: rotation (rad), velocity (m/s) and the part of the position noise
 #: (m) independent of the velocity noise.
@@ -75,13 +80,24 @@ def _rotation_vector(a, b, s):
     return a * s + b * (s * s / 2) + ca.cross(a, b) * (s * s * s / 12)
 
 
+def _gain(scale, misalignment):
+    """I + diag(scale) + the off-diagonal misalignment (order of MISALIGNMENT_PAIRS)."""
+    rows = []
+    for i, axis in enumerate("xyz"):
+        row = []
+        for j, other in enumerate("xyz"):
+            row.append(1 + scale[i] if i == j else misalignment[MISALIGNMENT_PAIRS.index(axis + other)])
+        rows.append(ca.horzcat(*row))
+    return ca.vertcat(*rows)
+
+
 def _step() -> ca.Function:
     d, piece = ca.SX.sym("d", 10), ca.SX.sym("piece", PIECE_COLUMNS)
     theta, nu = ca.SX.sym("theta", N_IMU_PARAMETERS), ca.SX.sym("nu", N_NOISE)
     tau = piece[0]
-    gyro_gain, accel_gain = 1 + theta[6:9], 1 + theta[9:12]
-    w_m, slope = piece[1:4] * gyro_gain - theta[0:3], piece[4:7] * gyro_gain
-    f = [piece[7 + 3 * i:10 + 3 * i] * accel_gain - theta[3:6] for i in range(3)]
+    gyro_gain, accel_gain = _gain(theta[6:9], theta[12:18]), _gain(theta[9:12], theta[18:24])
+    w_m, slope = gyro_gain @ piece[1:4] - theta[0:3], gyro_gain @ piece[4:7]
+    f = [accel_gain @ piece[7 + 3 * i:10 + 3 * i] - theta[3:6] for i in range(3)]
     a = w_m - slope * (tau / 2)
     dq, dv, dp = d[0:4], d[4:7], d[7:10]
     q_mid = quat_multiply(dq, quat_exp(_rotation_vector(a, slope, tau / 2) + nu[0:3] / 2))
@@ -96,7 +112,7 @@ def _step() -> ca.Function:
 
 @functools.lru_cache(maxsize=16)
 def preintegration_function(n_pieces: int) -> ca.Function:
-    """``(pieces (16, n_pieces), theta (12)) -> (delta (10), d delta / d theta (10, 12),
+    """``(pieces (16, n_pieces), theta (24)) -> (delta (10), d delta / d theta (10, 24),
     d delta / d nu (10, 9 n_pieces))``: the preintegrated (dq, dv, dp) of one interval whose pieces
     are the columns of :data:`PIECE_COLUMNS` (padding pieces have tau = 0), and its Jacobians at
     zero noise; nu stacks each piece's (nu_g, nu_a, nu_p)."""
@@ -131,11 +147,11 @@ class Preintegrated:
         Interval lengths, s.
     delta : (n, 10) array
         (dq (4), dv (3) m/s, dp (3) m), IMU axes of the interval's first node.
-    jac_theta : (n, 9, 12) array
+    jac_theta : (n, 9, 24) array
         d (dphi, dv, dp) / d theta, dphi the rotation in the tangent space of dq (rad).
     covariance : (n, 9, 9) array
         Covariance of (dphi, dv, dp) from the IMU noise.
-    theta_lin : (12,) array
+    theta_lin : (24,) array
         Where the Jacobians were taken (SI).
     """
 
@@ -222,7 +238,7 @@ def preintegrate(sample_time_s: np.ndarray, gyro_radps: np.ndarray, accel_mps2: 
         Node times, s, strictly increasing.
     gyro_sigma_radps, accel_sigma_mps2 : (N, 3) arrays
         White noise 1-sigma of each sample and axis (large where a sample is saturated).
-    theta_lin : (12,) array, optional
+    theta_lin : (24,) array, optional
         IMU error parameters (SI) at which to linearise; zero by default.
 
     Returns

@@ -66,7 +66,8 @@ def test_parameter_jacobian_matches_finite_differences():
     t = np.arange(0.0, 1.0, 0.01)
     nodes = np.array([0.0, 0.3, 0.9])
     sig = np.full((t.size, 3), 1e-3)
-    theta = np.array([0.01, -0.02, 0.005, 0.05, -0.1, 0.02, 0.01, -0.01, 0.02, 0.003, 0.004, -0.005])
+    theta = np.r_[0.01, -0.02, 0.005, 0.05, -0.1, 0.02, 0.01, -0.01, 0.02, 0.003, 0.004, -0.005,
+                  0.002 * np.arange(1, 13) * (-1) ** np.arange(12)]
     pre = preintegrate(t, rate(t), force(t), nodes, sig, sig, theta)
     step = 1e-6
     for j in range(N_IMU_PARAMETERS):
