@@ -2,10 +2,9 @@
 
 :func:`savgol_coeffs` and :func:`savgol_filter` give the numbers of ``scipy.signal.savgol_coeffs`` and
 ``scipy.signal.savgol_filter`` (mode ``"interp"``) bit for bit (the same least-squares solve, and the
-same sums in the same order as ``scipy.ndimage.correlate1d``), without importing ``scipy.signal``,
-which costs about 0.7 s (it imports ``scipy.stats``) in every ``casrecon fit``. Samples within half a
-window of either end (where scipy fits a polynomial to the edge) are computed by ``scipy.signal``
-itself, imported only then.
+same sums in the same order as ``scipy.ndimage.correlate1d``; near the ends the same polynomial fit
+to the first and last window), without importing ``scipy.signal``, which
+costs about 0.7 s (it imports ``scipy.stats``) in every ``casrecon fit``.
 """
 
 from __future__ import annotations
@@ -90,8 +89,7 @@ def savgol_filter(x: np.ndarray, window: int, order: int, deriv: int = 0, delta:
     window, order, deriv, delta
         As in :func:`savgol_coeffs` (``window`` odd, at most n).
     rows : (m,) int array, optional
-        The samples wanted (default all); ``scipy.signal`` is imported only when one of them lies
-        within half a window of an end.
+        The samples wanted (default all).
 
     Returns
     -------
@@ -107,12 +105,34 @@ def savgol_filter(x: np.ndarray, window: int, order: int, deriv: int = 0, delta:
     inner = (rows >= half) & (rows < n - half)
     out = np.empty((rows.size, *x.shape[1:]))
     out[inner] = _correlate(x, w, rows[inner])
-    if not inner.all():
-        from scipy.signal import savgol_filter as scipy_savgol  # the edges: polynomial fits
-
-        for part in (slice(0, window), slice(n - window, n)):
-            at = ~inner & (rows >= part.start) & (rows < part.stop)
-            if at.any():
-                edge = scipy_savgol(x[part], window, order, deriv=deriv, delta=delta, axis=0, mode="interp")
-                out[at] = edge[rows[at] - part.start]
+    for part in (slice(0, window), slice(n - window, n)):
+        at = ~inner & (rows >= part.start) & (rows < part.stop)
+        if at.any():
+            out[at] = _edge(x[part], rows[at] - part.start, order, deriv, delta)
     return out
+
+
+def _edge(x: np.ndarray, at: np.ndarray, order: int, deriv: int, delta: float) -> np.ndarray:
+    """The filter near an end, as scipy's mode ``"interp"`` computes it: a polynomial of ``order``
+    fitted to the first (or last) window ``x`` (scaled Vandermonde, least squares), differentiated
+    ``deriv`` times and evaluated at the window positions ``at``."""
+    window = x.shape[0]
+    y = x.reshape(window, -1)
+    t = np.arange(0, window, dtype=np.float64)
+    lhs = t[:, None] ** np.flip(np.arange(order + 1, dtype=np.float64))[None, :]
+    scale = np.sqrt(np.sum(lhs * lhs, axis=0))
+    lhs /= scale
+    c = (lstsq(lhs, y, cond=window * EPS)[0].T / scale).T
+    if deriv > 0:
+        m = c.shape[0]
+        if m <= deriv:
+            c = np.zeros_like(c[:1])
+        else:
+            c = c[:-deriv].copy()
+            for k in range(deriv):
+                c *= np.arange(m - k - 1, deriv - k - 1, -1, dtype=np.float64).reshape(-1, 1)
+    u = np.asarray(at, dtype=np.float64).reshape(-1, 1)
+    v = np.zeros_like(u)
+    for j in range(c.shape[0]):
+        v = v * u + c[j]
+    return (v / (delta ** deriv)).reshape(u.shape[0], *x.shape[1:])

@@ -34,9 +34,9 @@ def test_filter_is_scipys_bit_for_bit(window, order, deriv, delta):
         assert np.array_equal(savgol_filter(x, window, order, deriv, delta, rows=rows), ref[rows])
 
 
-def test_interior_rows_do_not_import_scipy_signal():
+def test_scipy_signal_is_not_imported():
     code = ("import sys, numpy as np; from casrecon.estimation.savgol import savgol_filter; "
-            "savgol_filter(np.arange(300.0) ** 2, 51, 3, 1, 0.002, rows=np.arange(25, 275)); "
+            "savgol_filter(np.arange(300.0) ** 2, 51, 3, 1, 0.002, rows=np.arange(300)); "
             "print('scipy.signal' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout
     assert out.strip() == "False"
