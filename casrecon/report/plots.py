@@ -98,9 +98,10 @@ def _attempt(label: str, draw: Callable[[], list[Path]], notes: list[str]) -> li
         return []
 
 
-def _draw_one(folder: Path, index: int, correlation: bool,
-              formats: Sequence[str] = style.DEFAULT_FORMATS) -> tuple[list[Path], list[str]]:
-    """Figure number ``index`` of DROP_FIGURES (or the correlation matrix) of one drop folder."""
+def draw_drop_figure(folder: Path, index: int, correlation: bool,
+                     formats: Sequence[str] = style.DEFAULT_FORMATS) -> tuple[list[Path], list[str]]:
+    """Figure number ``index`` of DROP_FIGURES (or the correlation matrix) of one drop folder: the
+    paths written and the notes of a skipped figure."""
     notes: list[str] = []
     drop = DropFolder(folder)
     out = drop.folder / "figures"
@@ -118,13 +119,14 @@ def draw_drop_figures(folder: Path, notes: list[str] | None = None, correlation:
 
     Each figure is saved once per format of ``formats`` (``"png"``, ``"pdf"``, ``"svg"``).
     Figures are drawn by ``workers`` forked processes (matplotlib spends its time in layout and
-    rasterisation, one core per figure); ``workers=1`` draws them in this process.
+    rasterisation, one core per figure); ``workers=1`` draws them in this process
+    (:class:`casrecon.report.figure_pool.FigurePool` draws them with workers started before the fit).
     Raises FileNotFoundError if summary.json or trajectory.csv is missing.
     """
     notes = [] if notes is None else notes
     DropFolder(folder)  # validates the folder before any worker starts
     indices = draw_order(correlation)
-    done = parallel_map(partial(_draw_one, folder, correlation=correlation, formats=tuple(formats)), indices,
+    done = parallel_map(partial(draw_drop_figure, folder, correlation=correlation, formats=tuple(formats)), indices,
                         workers=workers, start_method="fork")
     paths: list[Path] = []
     for _, (p, n) in sorted(zip(indices, done)):
