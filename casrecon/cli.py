@@ -130,7 +130,7 @@ def _fit_drop(args: argparse.Namespace, t0: float, figures) -> int:
                           print_level=5 if args.verbose else 0)
     except FitError as err:
         return fit_failed(f"fit of {scenario.config.name}", err)
-    products = fit_products(result)
+    products = fit_products(result, concurrent=True)
     report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
     with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
