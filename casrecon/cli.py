@@ -101,14 +101,9 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    from casrecon.analysis.fit_products import fit_products
-    from casrecon.estimation.fit import FitError, fit_drop
+    from contextlib import nullcontext
+
     from casrecon.io.pointmass_problem import problem_kind
-    from casrecon.output.fit_results import write_fit_results
-    from casrecon.output.results import atomic_folder
-    from casrecon.report.fit_report import fit_report
-    from casrecon.report.tables import drop_tables
-    from casrecon.scenario import Scenario
 
     t0 = time.perf_counter()
     kind = problem_kind(args.problem)
@@ -116,19 +111,38 @@ def _fit(args: argparse.Namespace) -> int:
         return _fit_point_mass(args)
     if kind == "kinematic":
         return _fit_kinematic(args)
+    from casrecon.report.figure_pool import FigurePool
+
+    # figure workers forked first: they import matplotlib while this process fits
+    with nullcontext() if args.no_figures else FigurePool() as figures:
+        return _fit_drop(args, t0, figures)
+
+
+def _fit_drop(args: argparse.Namespace, t0: float, figures) -> int:
+    from casrecon.analysis.fit_products import fit_products
+    from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.output.fit_results import write_fit_results
+    from casrecon.output.results import atomic_folder
+    from casrecon.report.fit_report import fit_report
+    from casrecon.report.tables import drop_tables
+    from casrecon.scenario import Scenario
+
     scenario = Scenario.load(args.problem)
     try:
         result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
                           print_level=5 if args.verbose else 0)
     except FitError as err:
         return fit_failed(f"fit of {scenario.config.name}", err)
-    products = fit_products(result)
+    products = fit_products(result, concurrent=True)
     report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
     with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         write_fit_results(out, result, products, report, drop_tables(result, products))
-        if not args.no_figures:
-            _figures(out, args.formats)
+        if figures is not None:
+            notes: list[str] = []
+            figures.draw(out, notes, args.formats)
+            for note in notes:
+                print(f"casrecon: figure skipped: {note}", file=sys.stderr)
     if not args.quiet:
         print(report)
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")

@@ -269,3 +269,49 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
         if counts is not None:
             counts.close()
     return [value for k in range(len(chunks)) for value in results[k]]
+
+
+class Forked:
+    """``fn()`` computed in a forked child process while this one goes on; :meth:`result` waits for
+    it and returns its value (sent back pickled) or raises its exception. ``fn`` need not be
+    picklable (the child is a copy of this process), its value must be. Where fork is not available
+    ``fn()`` runs at once in this process."""
+
+    def __init__(self, fn: Callable[[], Any]) -> None:
+        self.fn, self.proc = fn, None
+        if "fork" not in multiprocessing.get_all_start_methods():
+            self.value = self._call()
+            return
+        ctx = multiprocessing.get_context("fork")
+        self.conn, child = ctx.Pipe(duplex=False)
+        self.proc = ctx.Process(target=self._child, args=(child,), daemon=True)
+        self.proc.start()
+        child.close()
+
+    def _call(self) -> tuple[bool, Any]:
+        try:
+            return True, self.fn()
+        except Exception as exc:  # noqa: BLE001 - handed to the parent, which raises it
+            return False, exc
+
+    def _child(self, conn: Any) -> None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent acts on Ctrl-C
+        conn.send(self._call())
+        conn.close()
+
+    def result(self) -> Any:
+        """The child's value of ``fn()``; its exception is raised here."""
+        if self.proc is not None:
+            try:
+                self.value = self.conn.recv()
+            except EOFError:
+                self.proc.join()
+                self.value = (False, RuntimeError(f"forked worker died (exit code {self.proc.exitcode})"))
+            finally:
+                self.proc.join()
+                self.conn.close()
+                self.proc = None
+        ok, value = self.value
+        if not ok:
+            raise value
+        return value

@@ -30,12 +30,12 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
-from scipy.signal import savgol_coeffs
 
 from casrecon.analysis import aero_columns as cols
 from casrecon.estimation.bands import MAX_BAND_NODES, node_cell_inputs, node_parameters
 from casrecon.estimation.kinds.imu import SENSOR_NAMES, imu_sigma
 from casrecon.estimation.layout import NS, BlockLocals
+from casrecon.estimation.savgol import savgol_coeffs
 from casrecon.estimation.transcription import STATE_SCALE, disturbance_selection
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment, flow_angles
 from casrecon.physics.dynamics import DISTURBANCE_NAMES, FlightModel

@@ -27,6 +27,7 @@ from casrecon.io.units import (
     imu_residual_column,
     imu_sigma_key,
 )
+from casrecon.parallel import Forked
 
 #: GPS residual components (antenna position NED, m; velocity NED, m/s).
 GPS_COMPONENTS = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
@@ -131,18 +132,23 @@ def roll_rate_comparison(result, rec: dict, nom: dict, n: int = 6) -> list[dict]
     return out
 
 
-def fit_products(result) -> FitProducts:
+def fit_products(result, concurrent: bool = False) -> FitProducts:
     """Residuals, pitching moment and reconciled simulations of a fit.
 
     Parameters
     ----------
     result : casrecon.estimation.fit.FitResult
         A converged per-drop fit.
+    concurrent : bool
+        Run the nominal-database simulation in a forked process while this one computes the rest
+        (:class:`casrecon.parallel.Forked`; the same numbers): for a command on a machine with a
+        second core, not inside worker processes.
 
     Returns
     -------
     FitProducts
     """
+    nominal = Forked(lambda: dg.reconciled_simulation(result, nominal=True)) if concurrent else None
     imu = dg.imu_residuals(result)
     factors = np.array([IMU_CHANNEL_UNITS[c][1] for c in dg.IMU_CHANNELS])
     imu_cols = {"time_imu_s": imu["time_imu_s"]}
@@ -158,9 +164,10 @@ def fit_products(result) -> FitProducts:
     fixes = np.column_stack([d.gps_pos_ned, d.gps_vel_ned])
     pm = dg.pitching_moment(result)
     rec = dg.reconciled_simulation(result)
-    nom = dg.reconciled_simulation(result, nominal=True)
     vanes = result.scenario.config.aero.vanes is not None
     others = other_kind_residuals(result)
+    coefficients = aero_coefficients(result)
+    nom = dg.reconciled_simulation(result, nominal=True) if nominal is None else nominal.result()
     return FitProducts(
         imu_residuals=imu_cols,
         imu_sigma={imu_sigma_key(c): float(sg * f) for c, sg, f in zip(dg.IMU_CHANNELS, imu["sigma"], factors)},
@@ -172,7 +179,7 @@ def fit_products(result) -> FitProducts:
         nominal={k: nom[k] for k in SIMULATION_COLUMNS},
         summary={**rec["summary"], "nominal_database": nom["summary"]},
         kind_residuals=others,
-        aero_coefficients=aero_coefficients(result),
+        aero_coefficients=coefficients,
         roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None,
         adequacy=drop_adequacy(result, imu, gps, others))
 

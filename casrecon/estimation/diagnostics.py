@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
-from scipy.signal import savgol_filter
 
 from casrecon.estimation.bands import node_parameter_values
 from casrecon.estimation.kinds.gps import GpsKind
 from casrecon.estimation.kinds.imu import IMU_CHANNELS, ImuKind, model_and_bias_values
+from casrecon.estimation.savgol import savgol_filter
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment
 from casrecon.simulation.simulate import Simulator
 
@@ -70,11 +70,11 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     dt = float(np.median(np.diff(data.imu_time_s)))
     w = (data.gyro_imu - b[3:]) @ r_ib.T
     f = (data.accel_imu - b[:3]) @ r_ib.T
-    wdot = savgol_filter(w, 51, 3, deriv=1, delta=dt, axis=0)
     saturated = ~(data.accel_valid.all(axis=1) & data.gyro_valid.all(axis=1))
     near_saturated = np.convolve(saturated.astype(float), np.ones(51), mode="same") > 0
     idx = np.clip(np.searchsorted(data.imu_time_s, result.node_time_s), 0, data.imu_time_s.size - 1)
-    w, wdot, f = w[idx], wdot[idx], f[idx]
+    wdot = savgol_filter(w, 51, 3, deriv=1, delta=dt, rows=idx)
+    w, f = w[idx], f[idx]
     inertia = np.asarray(veh.inertia_kgm2)
     lever_imu = veh.lever(veh.imu_position_m)
     f_cm = f - np.cross(wdot, lever_imu) - np.cross(w, np.cross(w, lever_imu))

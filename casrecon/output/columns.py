@@ -20,7 +20,10 @@ def column_cells(name: str, values) -> np.ndarray:
 
 def write_table(path: str | Path, columns: dict[str, np.ndarray], every: int = 1) -> None:
     """Write named columns (1-D arrays of one length, numbers or text) as CSV with a header row,
-    keeping every ``every``-th row."""
-    cells = [column_cells(name, np.asarray(values)[::every]) for name, values in columns.items()]
-    lines = [",".join(columns)] + [",".join(row) for row in zip(*cells)]
+    keeping every ``every``-th row (the cells of :func:`column_cells`, one format per row)."""
+    arrays = [np.asarray(values)[::every] for values in columns.values()]
+    text = [a.dtype.kind in "US" for a in arrays]
+    row = ",".join("%s" if t else column_format(name) for name, t in zip(columns, text))
+    cells = [a.astype(str).tolist() if t else a.astype(float).tolist() for a, t in zip(arrays, text)]
+    lines = [",".join(columns)] + [row % r for r in zip(*cells)]
     Path(path).write_text("\n".join(lines) + "\n")

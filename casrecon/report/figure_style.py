@@ -45,6 +45,9 @@ FLIGHT_TIME_LABEL = "flight time since release, s"
 #: File formats :func:`save_figure` can write, and the default.
 SUPPORTED_FORMATS = ("png", "pdf", "svg")
 DEFAULT_FORMATS = ("png",)
+#: PNG encoder options: zlib level 1 (the same pixels as the default level 6, files ~12 % larger,
+#: encoding ~40 % faster: 1 s of the ~16 s CPU that a drop's figures take).
+PNG_OPTIONS = {"compress_level": 1}
 #: Lines longer than this are drawn decimated (:func:`decimate`).
 MAX_LINE_POINTS = 4000
 
@@ -71,15 +74,15 @@ def new_figure(nrows: int, ncols: int, size: tuple[float, float], sharex: bool |
 
 
 def save_figure(fig: Figure, path: Path, formats: Sequence[str] = DEFAULT_FORMATS) -> list[Path]:
-    """Save ``fig`` as ``path`` with each suffix of ``formats`` (PNG at DPI; PDF and SVG vector,
-    with artists marked ``rasterized`` embedded at DPI), drop its artists (frees memory) and return
-    the paths written."""
+    """Save ``fig`` as ``path`` with each suffix of ``formats`` (PNG at DPI with :data:`PNG_OPTIONS`; PDF
+    and SVG vector, with artists marked ``rasterized`` embedded at DPI), drop its artists (frees memory)
+    and return the paths written."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     paths = []
     for fmt in formats:
         out = path.with_suffix(f".{fmt}")
-        fig.savefig(out, dpi=DPI, format=fmt)
+        fig.savefig(out, dpi=DPI, format=fmt, **({"pil_kwargs": PNG_OPTIONS} if fmt == "png" else {}))
         paths.append(out)
     fig.clear()
     return paths

@@ -7,9 +7,10 @@ import math
 import os
 import time
 
+import numpy as np
 import pytest
 
-from casrecon.parallel import Progress, ProgressCounter, parallel_map, report_progress
+from casrecon.parallel import Forked, Progress, ProgressCounter, parallel_map, report_progress
 
 
 def test_in_process_keeps_order_and_chunking_changes_nothing():
@@ -76,3 +77,24 @@ def test_on_done_sees_every_item_and_result():
     seen = []
     parallel_map(math.sqrt, [4, 9, 16], chunksize=2, on_done=lambda item, value: seen.append((item, value)))
     assert sorted(seen) == [(4, 2.0), (9, 3.0), (16, 4.0)]
+
+
+def test_forked_returns_the_childs_value_of_a_closure():
+    data = np.arange(5.0)
+    job = Forked(lambda: (os.getpid(), data * 2))  # a closure: not picklable, fine for a fork
+    pid, value = job.result()
+    assert pid != os.getpid()
+    assert np.array_equal(value, data * 2)
+
+
+def test_forked_raises_the_childs_exception():
+    def fail():
+        raise ValueError("bad value in the child")
+
+    with pytest.raises(ValueError, match="bad value in the child"):
+        Forked(fail).result()
+
+
+def test_forked_child_that_dies_is_an_error():
+    with pytest.raises(RuntimeError, match="died"):
+        Forked(lambda: os._exit(3)).result()
