@@ -26,7 +26,7 @@ def main() -> None:
     args = ap.parse_args()
     steps = tuple(int(s) for s in args.steps.split(","))
     study = kinematic_truth_study(args.problem, args.cases, steps, args.seed, args.workers)
-    for step, s in study.items():
+    for s in study.values():
         lo, hi = s["nees_interval"]
         cov = ", ".join(f"{g} {v:.4f}" for g, v in s["coverage"].items())
         print(f"IMU {s['rate_hz']:.1f} Hz: {s['fits']} fits, {len(s['failed'])} failed; coverage {cov}; "
