@@ -10,7 +10,8 @@ bias, and with a GPS error model the correlated part of each fix's error. Nodes 
 A unit-norm constraint per node fixes each quaternion's scale; everything else is least squares,
 solved by Levenberg-Marquardt on the unit quaternions (:mod:`.kinematic_solve`; not Ipopt, whose
 steps on the scale-free quaternions wander and fail at the optimum), first from the guess with the
-IMU noise inflated (:data:`START_INFLATION`), then with the stated noise to the Gauss-Newton
+IMU noise inflated 30, 10 and 3 times (:data:`START_INFLATIONS`, each from the last), then with
+the stated noise to the Gauss-Newton
 decrement test of the other fits; where that crawls (a fast-spinning body), Ipopt finishes from its
 last iterate and its verdict decides. The
 covariance is the z-block of the inverse KKT matrix, computed without it
@@ -52,9 +53,13 @@ from casrecon.physics.preintegration import (
     preintegrate,
 )
 
-#: IMU noise inflation of the first (start-point) solve and its iteration limit.
-START_INFLATION = 30.0
-START_MAX_ITER = 60
+#: IMU noise inflations of the start solves, each from the last one's result, and their iteration limit.
+START_INFLATIONS = (30.0, 10.0, 3.0)
+#: Re-preintegration at the estimate when an IMU parameter moved more than this many prior sigmas
+#: from the linearisation point, and how many times the final solve may do so.
+RELINEARISE_SIGMAS = 1.0
+RELINEARISATIONS = 3
+START_MAX_ITER = 40
 #: Span (s) over which the guess's heading is aligned, and the window of its tilt corrections.
 HEADING_SPAN_S = 10.0
 LEVEL_WINDOW_S = 1.0
@@ -252,17 +257,16 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     n_z = N_STATE * k + params.n
     state_cols = N_STATE * np.arange(k)[:, None] + np.arange(N_STATE)[None, :]
 
-    white = pre.whitening
     interval = interval_kind(options, params.scales[:estimated.size], estimated)
     cols = np.column_stack([state_cols[:-1], state_cols[1:], np.tile(imu_cols, (n_int, 1))])
     fix_terms, n_z, e_cols = _fix_terms(data, options, nodes, params, theta_cols, state_cols, gyro, accel, n_z)
     other_terms = fix_terms + ([_baro_term(data, options, nodes, params, theta_cols, state_cols)] if has_baro else [])
     other_terms += prior_terms(params, theta_cols) + [unit_norm_term(state_cols[:, 6:10], "quaternion_norm")]
 
-    def assemble(inflation: float) -> Nlp:
+    def assemble(inflation: float, pre: Preintegrated) -> Nlp:
         interval_data = [pre.duration_s[None, :], pre.delta.T,
                          pre.jac_theta.transpose(0, 2, 1).reshape(n_int, -1).T,
-                         white.transpose(0, 2, 1).reshape(n_int, -1).T / inflation,
+                         pre.whitening.transpose(0, 2, 1).reshape(n_int, -1).T / inflation,
                          np.tile(pre.theta_lin[:, None], (1, n_int))]
         terms = [Term("imu", (BlockSet(interval, cols, _dm(interval_data)),), n_measurements=9 * n_int)]
         return assemble_nlp(terms + other_terms, n_z, dependent=np.zeros(0, np.int64),
@@ -277,11 +281,20 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     # continuation: the IMU noise inflated first, so the fixes place the trajectory and the attitude
     # before the IMU's full weight binds them (the guess's attitude can be far off)
     t_guess = time.perf_counter()
-    start = levenberg_marquardt(assemble(START_INFLATION), z0, state_cols[:, 6:10], START_MAX_ITER,
-                                label=f"kinematic start (IMU noise x {START_INFLATION:g})")
-    nlp = assemble(1.0)
+    prior = params.scales[:estimated.size]
+    for inflation in START_INFLATIONS:
+        z0 = levenberg_marquardt(assemble(inflation, pre), z0, state_cols[:, 6:10], START_MAX_ITER,
+                                 label=f"kinematic start (IMU noise x {inflation:g})").z
+        pre = _relinearised(pre, z0[imu_cols] * prior, estimated, prior, data, gyro, accel, nodes, options)
+    nlp = assemble(1.0, pre)
     t_built = time.perf_counter()
-    sol = levenberg_marquardt(nlp, start.z, state_cols[:, 6:10], options.max_iter)
+    for _ in range(RELINEARISATIONS + 1):
+        sol = levenberg_marquardt(nlp, z0, state_cols[:, 6:10], options.max_iter)
+        moved = _relinearised(pre, sol.z[imu_cols] * prior, estimated, prior, data, gyro, accel, nodes, options)
+        if moved is pre:
+            break
+        pre, z0 = moved, sol.z
+        nlp = assemble(1.0, pre)
     if not sol.converged:
         sol = _ipopt_finish(nlp, sol, options, print_level)
     t_solved = time.perf_counter()
@@ -295,6 +308,20 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     result.timings.update(build_s=t_guess - t_start, start_solve_s=t_built - t_guess, solve_s=sol.solve_s,
                           covariance_s=time.perf_counter() - t_solved, total_s=time.perf_counter() - t_start)
     return result
+
+
+def _relinearised(pre: Preintegrated, theta_estimated: np.ndarray, estimated: np.ndarray, prior: np.ndarray,
+                  data: KinematicData, gyro, accel, nodes, options) -> Preintegrated:
+    """The preintegration taken again at the estimated IMU parameters when any has moved more than
+    :data:`RELINEARISE_SIGMAS` prior sigmas from where it was linearised (the first-order
+    correction J (theta - theta_lin) then errs by more than the noise on a fast-turning record);
+    ``pre`` itself otherwise."""
+    if np.all(np.abs(theta_estimated - pre.theta_lin[estimated]) <= RELINEARISE_SIGMAS * prior):
+        return pre
+    theta = np.zeros_like(pre.theta_lin)
+    theta[estimated] = theta_estimated
+    gyro_sigma, accel_sigma = data.noise_sigmas(options)
+    return preintegrate(data.imu_time_s, gyro, accel, nodes, gyro_sigma, accel_sigma, theta)
 
 
 def _ipopt_finish(nlp: Nlp, lm: LmResult, options: KinematicOptions, print_level: int):
