@@ -8,6 +8,19 @@ from casrecon.io.config_reference_shared import DYNAMICS_TABLE, SITE_TABLE, gps_
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.pointmass_problem import DragConfig, GpsQuality, PointMassConfig, SegmentConfig
 
+#: The fix-quality and GPS error-model keys of the [gps] table of both problems.
+_QUALITY_KEYS = (
+    key("max_h_acc_m", "float", "m", "Fixes reporting a worse horizontal accuracy are dropped", source=GpsQuality,
+        attr="quality.max_h_acc_m"),
+    key("max_v_acc_m", "float", "m", "Fixes reporting a worse vertical accuracy are dropped", source=GpsQuality,
+        attr="quality.max_v_acc_m"),
+    key("max_s_acc_mps", "float", "m/s", "Fixes reporting a worse speed accuracy are dropped", source=GpsQuality,
+        attr="quality.max_s_acc_mps"),
+    key("min_num_sv", "int", "", "Fixes with fewer satellites are dropped", source=GpsQuality,
+        attr="quality.min_num_sv"),
+    *gps_error_keys("gps_errors"),
+)
+
 POINT_MASS = FileKind(
     "problem.toml (point-mass problem, `kind = \"point-mass\"`)",
     "A GPS-only problem (no IMU): a point mass with a drag area fitted to one GPS track. Read by "
@@ -45,15 +58,7 @@ POINT_MASS = FileKind(
                "sentences (GGA carries no date)", None, attr="gps_date"),
             key("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
                "replacing the file's sAcc on every axis", None, attr="velocity_sigma_mps"),
-            key("max_h_acc_m", "float", "m", "Fixes reporting a worse horizontal accuracy are dropped",
-               source=GpsQuality, attr="quality.max_h_acc_m"),
-            key("max_v_acc_m", "float", "m", "Fixes reporting a worse vertical accuracy are dropped",
-               source=GpsQuality, attr="quality.max_v_acc_m"),
-            key("max_s_acc_mps", "float", "m/s", "Fixes reporting a worse speed accuracy are dropped",
-               source=GpsQuality, attr="quality.max_s_acc_mps"),
-            key("min_num_sv", "int", "", "Fixes with fewer satellites are dropped", source=GpsQuality,
-               attr="quality.min_num_sv"),
-            *gps_error_keys("gps_errors"),
+            *_QUALITY_KEYS,
         ), required=True),
         Table("segment", (
             key("start_utc", "datetime or string", "UTC", "Start of the fitted segment", "<found from the data>"),
@@ -141,15 +146,7 @@ KINEMATIC = FileKind(
                 attr="gps_date"),
             key("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down, replacing the "
                 "file's sAcc", None, attr="velocity_sigma_mps"),
-            key("max_h_acc_m", "float", "m", "Fixes reporting a worse horizontal accuracy are dropped",
-                source=GpsQuality, attr="quality.max_h_acc_m"),
-            key("max_v_acc_m", "float", "m", "Fixes reporting a worse vertical accuracy are dropped",
-                source=GpsQuality, attr="quality.max_v_acc_m"),
-            key("max_s_acc_mps", "float", "m/s", "Fixes reporting a worse speed accuracy are dropped",
-                source=GpsQuality, attr="quality.max_s_acc_mps"),
-            key("min_num_sv", "int", "", "Fixes with fewer satellites are dropped", source=GpsQuality,
-                attr="quality.min_num_sv"),
-            *gps_error_keys("gps_errors"),
+            *_QUALITY_KEYS,
         ), required=True),
         Table("baro", (
             key("file", "path", "", "FlySight 2 SENSOR.CSV or a barometer CSV", REQUIRED, attr="baro_file"),
