@@ -143,9 +143,9 @@ def load_problem(path: str | Path) -> Scenario | PointMassConfig:
 
     Returns
     -------
-    casrecon.scenario.Scenario or casrecon.io.pointmass_problem.PointMassConfig
+    Scenario, PointMassConfig or KinematicConfig
         The 6-DOF problem with its atmosphere and flight model built, or the configuration of a
-        ``kind = "point-mass"`` (GPS-only) problem.
+        ``kind = "point-mass"`` (GPS-only) or ``kind = "kinematic"`` (IMU-driven) problem.
 
     Raises
     ------
@@ -158,8 +158,13 @@ def load_problem(path: str | Path) -> Scenario | PointMassConfig:
     path = Path(path)
     if not path.exists():
         raise InputError(path, "problem folder or problem.toml not found")
-    if problem_kind(path) == "point-mass":
+    kind = problem_kind(path)
+    if kind == "point-mass":
         return load_point_mass(path)
+    if kind == "kinematic":
+        from casrecon.io.kinematic_problem import load_kinematic
+
+        return load_kinematic(path)
     return Scenario.load(path)
 
 
@@ -167,7 +172,9 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
         print_level: int = 0) -> DropFit | PointMassFit:
     """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
     simulations (for a ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`;
-    ``linear_solver`` and ``hessian`` do not apply to it).
+    for a ``kind = "kinematic"`` problem the IMU-driven reconstruction, a
+    :class:`~casrecon.estimation.kinematic_fit.KinematicResult`; ``linear_solver`` and ``hessian``
+    do not apply to them).
 
     Parameters
     ----------
@@ -200,6 +207,11 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
 
     t0 = time.perf_counter()
     scenario = problem if hasattr(problem, "config") and hasattr(problem, "model") else load_problem(problem)
+    if hasattr(scenario, "imu") and not hasattr(scenario, "model"):  # a kinematic problem
+        from casrecon.estimation.kinematic_fit import fit_kinematic
+        from casrecon.estimation.kinematic_inputs import inputs_from_config
+
+        return fit_kinematic(*inputs_from_config(scenario), print_level=print_level)
     if not hasattr(scenario, "model"):
         return _fit_point_mass(scenario, print_level)
     result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level)
