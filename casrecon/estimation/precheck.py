@@ -7,13 +7,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from casrecon.estimation.fitdata import load_fit_data
+from casrecon.estimation.kinematic_inputs import inputs_from_config
 from casrecon.estimation.pointmass_fit import prepare_data
+from casrecon.io.kinematic_problem import load_kinematic
 from casrecon.io.pointmass_problem import load_point_mass, problem_kind
 from casrecon.io.problem import load_problem
 
 
 def check_problem(path: str | Path) -> tuple[str, ...]:
-    """Check the data of a 6-DOF or point-mass problem (folder or ``problem.toml``) as a fit would.
+    """Check the data of a 6-DOF, point-mass or kinematic problem (folder or ``problem.toml``) as a
+    fit would (a kinematic problem: its files read onto one clock and its span found).
 
     Returns
     -------
@@ -27,6 +30,9 @@ def check_problem(path: str | Path) -> tuple[str, ...]:
     FitError, FitDataError
         Data a fit cannot use for another reason (no release or impact found, too few fixes).
     """
-    if problem_kind(path) == "point-mass":
+    kind = problem_kind(path)
+    if kind == "point-mass":
         return prepare_data(load_point_mass(path)).notes
+    if kind == "kinematic":
+        return inputs_from_config(load_kinematic(path))[0].notes
     return load_fit_data(load_problem(path)).notes

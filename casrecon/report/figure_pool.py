@@ -12,6 +12,7 @@ from __future__ import annotations
 import io
 import logging
 import multiprocessing
+import signal
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -22,9 +23,12 @@ log = logging.getLogger(__name__)
 
 
 def warm_up() -> None:
-    """Worker initializer: Ctrl-C left to the parent; import the figure modules and draw a small
-    figure with mathtext into memory (loads the fonts and builds the mathtext parser once)."""
+    """Worker initializer: Ctrl-C left to the parent, SIGTERM (the parent's stop) back to its default
+    (the forked worker inherits the command's handler, which would print a traceback); import the
+    figure modules and draw a small figure with mathtext into memory (loads the fonts and builds the
+    mathtext parser once)."""
     ignore_interrupts()
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     from casrecon.report import figure_style as style
     from casrecon.report import plots  # noqa: F401  (imported here, not when the first figure is due)
 
