@@ -288,8 +288,10 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
         pre = _relinearised(pre, z0[imu_cols] * prior, estimated, prior, data, gyro, accel, nodes, options)
     nlp = assemble(1.0, pre)
     t_built = time.perf_counter()
-    for _ in range(RELINEARISATIONS + 1):
+    for attempt in range(RELINEARISATIONS + 1):
         sol = levenberg_marquardt(nlp, z0, state_cols[:, 6:10], options.max_iter)
+        if attempt == RELINEARISATIONS:
+            break  # the solution belongs to this linearisation; it is reported with it
         moved = _relinearised(pre, sol.z[imu_cols] * prior, estimated, prior, data, gyro, accel, nodes, options)
         if moved is pre:
             break
