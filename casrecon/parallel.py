@@ -164,13 +164,22 @@ def drain(counts: Any, counter: ProgressCounter, stop: threading.Event) -> None:
 
 def stop_pool(pool: ProcessPoolExecutor) -> None:
     """Cancel the pending work of ``pool`` and terminate its workers (after an error or a signal in
-    the parent), so that leaving the ``with`` block does not wait for the running work."""
+    the parent), so that leaving the ``with`` block does not wait for the running work; a worker
+    still alive 2 s after SIGTERM is killed."""
     processes = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
     pool.shutdown(wait=False, cancel_futures=True)
     for proc in processes:
         try:
             proc.terminate()
         except (OSError, ValueError, AttributeError):
+            pass
+    for proc in processes:  # a worker terminated before its initializer ran may hold the parent's
+        try:                # SIGTERM handler (which only records the signal): it is killed
+            proc.join(timeout=2.0)
+            if proc.is_alive():
+                proc.kill()
+                proc.join(timeout=2.0)
+        except (OSError, ValueError, AttributeError, AssertionError):
             pass
 
 
