@@ -43,6 +43,8 @@ from casrecon.physics.dynamics import DISTURBANCE_NAMES, FlightModel
 #: Savitzky-Golay filter of the IMU samples: window (s) and polynomial order.
 SMOOTHING_WINDOW_S = 0.1
 SMOOTHING_ORDER = 3
+#: Fewest samples of a cubic window; below, the quartic through 5 samples (:func:`filter_shape`).
+MIN_SMOOTHING_SAMPLES = 7
 N_COEF = len(cols.COEFFICIENTS)
 
 
@@ -77,21 +79,29 @@ def database_coefficients(model: FlightModel, x, p, d=None):
     return coefficient_vector(force, moment, qbar, veh.ref_area_m2, veh.ref_length_m, fl.crossflow_dir)
 
 
+def imu_force_moment(vehicle, f_body, w_body, wdot_body):
+    """Aerodynamic force (N) and moment about the MRP (N m), body axes, from the IMU's corrected
+    specific force ``f_body`` (m/s^2), rate ``w_body`` (rad/s) and angular acceleration ``wdot_body``
+    (rad/s^2), all already turned into body axes (CasADi).
+
+    F = m (f - dw/dt x r - w x (w x r)) (r the IMU position from the centre of mass), M_cm = I dw/dt +
+    w x I w, M_MRP = M_cm - (r_MRP - r_cm) x F."""
+    r = ca.DM(vehicle.lever(vehicle.imu_position_m))
+    force = vehicle.mass_kg * (f_body - ca.cross(wdot_body, r) - ca.cross(w_body, ca.cross(w_body, r)))
+    inertia = ca.DM(np.asarray(vehicle.inertia_kgm2))
+    moment_cm = inertia @ wdot_body + ca.cross(w_body, inertia @ w_body)
+    return force, moment_cm - ca.cross(ca.DM(vehicle.lever(vehicle.mrp_m)), force)
+
+
 def reconstructed_coefficients(model: FlightModel, x, p, d, bias, f_imu, w_imu, wdot_imu):
     """Coefficients (8) from IMU quantities: specific force ``f_imu`` (m/s^2), rate ``w_imu`` (rad/s)
     and angular acceleration ``wdot_imu`` (rad/s^2), IMU axes, before removing ``bias`` (6:
-    accelerometer m/s^2, gyro rad/s); qbar and the crossflow direction from ``x``, ``p``, ``d``.
-
-    F = m (f - dw/dt x r - w x (w x r)) (r the IMU position from the centre of mass), M_cm = I dw/dt +
-    w x I w, M_MRP = M_cm - (r_MRP - r_cm) x F, in body axes."""
+    accelerometer m/s^2, gyro rad/s); qbar and the crossflow direction from ``x``, ``p``, ``d``;
+    force and moment by :func:`imu_force_moment`."""
     veh = model.vehicle
     r_ib = ca.DM(np.asarray(veh.imu_to_body))
-    f, w, wdot = r_ib @ (f_imu - bias[0:3]), r_ib @ (w_imu - bias[3:6]), r_ib @ wdot_imu
-    r = ca.DM(veh.lever(veh.imu_position_m))
-    force = veh.mass_kg * (f - ca.cross(wdot, r) - ca.cross(w, ca.cross(w, r)))
-    inertia = ca.DM(np.asarray(veh.inertia_kgm2))
-    moment_cm = inertia @ wdot + ca.cross(w, inertia @ w)
-    moment_mrp = moment_cm - ca.cross(ca.DM(veh.lever(veh.mrp_m)), force)
+    force, moment_mrp = imu_force_moment(veh, r_ib @ (f_imu - bias[0:3]), r_ib @ (w_imu - bias[3:6]),
+                                         r_ib @ wdot_imu)
     qbar, fl, _ = _flow(model, x, p, d)
     return coefficient_vector(force, moment_mrp, qbar, veh.ref_area_m2, veh.ref_length_m, fl.crossflow_dir)
 
@@ -132,6 +142,18 @@ def _node_function(result) -> ca.Function:
     return ca.Function("aero_coefficients_node", [zx, zt, zu, zg, base, s], [y, jac])
 
 
+def filter_shape(window_s: float, dt_s: float) -> tuple[int, int]:
+    """(samples, polynomial order) of the Savitzky-Golay filter for a ``window_s`` window at sample
+    spacing ``dt_s``: the window rounded to an odd number of samples, cubic; where that holds fewer
+    than :data:`MIN_SMOOTHING_SAMPLES` (an IMU below about 60 Hz), the quartic through 5 samples
+    instead (no smoothing of the values; the fourth-order central derivative), because a cubic
+    over a longer window would flatten the vehicle's oscillation (at 13 Hz a 0.38 s window)."""
+    width = int(round(window_s / dt_s)) // 2 * 2 + 1
+    if width < MIN_SMOOTHING_SAMPLES:
+        return 5, 4
+    return width, SMOOTHING_ORDER
+
+
 def smoothed_imu(time_s: np.ndarray, accel: np.ndarray, gyro: np.ndarray, valid: np.ndarray,
                  node_time_s: np.ndarray, sigma: np.ndarray, window_s: float = SMOOTHING_WINDOW_S):
     """Savitzky-Golay values at the nodes of the IMU specific force, rate and angular acceleration.
@@ -145,11 +167,12 @@ def smoothed_imu(time_s: np.ndarray, accel: np.ndarray, gyro: np.ndarray, valid:
     valid : (N,) bool array
         False where any channel of a sample is saturated.
     node_time_s : (K,) array
-        Times (s) to evaluate at (each on its nearest sample).
+        Times (s) to evaluate at (the filter's window centred on the nearest sample, its
+        polynomial evaluated at the time itself).
     sigma : (6,) array
         White-noise 1-sigma per sample of the six channels (m/s^2, rad/s).
     window_s : float
-        Filter window, s (rounded to an odd number of samples, cubic).
+        Filter window, s (:func:`filter_shape`).
 
     Returns
     -------
@@ -161,19 +184,20 @@ def smoothed_imu(time_s: np.ndarray, accel: np.ndarray, gyro: np.ndarray, valid:
     """
     n, k = time_s.size, node_time_s.size
     dt = float(np.median(np.diff(time_s))) if n > 1 else 1.0
-    width = max(int(round(window_s / dt)) // 2 * 2 + 1, SMOOTHING_ORDER + 2 + (SMOOTHING_ORDER % 2))
+    width, order = filter_shape(window_s, dt)
     s, cov = np.full((k, 9), np.nan), np.zeros((k, 9, 9))
     if n < width:
         return s, cov
     idx = np.clip(np.searchsorted(time_s, node_time_s - 0.5 * dt), 0, n - 1)
     start = np.clip(idx - width // 2, 0, n - width)
-    pos = idx - start
+    # the polynomial evaluated at the node's own time (between samples at a low IMU rate)
+    pos = np.round(np.clip((node_time_s - time_s[start]) / dt, 0.0, width - 1.0), 6)
     windows = start[:, None] + np.arange(width)[None, :]
     y = np.column_stack([accel, gyro])[windows]                      # (K, width, 6)
     for p in np.unique(pos):
         rows = pos == p
-        c0 = savgol_coeffs(width, SMOOTHING_ORDER, pos=int(p), use="dot")
-        c1 = savgol_coeffs(width, SMOOTHING_ORDER, deriv=1, delta=dt, pos=int(p), use="dot")
+        c0 = savgol_coeffs(width, order, pos=float(p), use="dot")
+        c1 = savgol_coeffs(width, order, deriv=1, delta=dt, pos=float(p), use="dot")
         s[rows, 0:6] = np.einsum("w,kwc->kc", c0, y[rows])
         s[rows, 6:9] = np.einsum("w,kwc->kc", c1, y[rows, :, 3:6])
         block = np.zeros((9, 9))

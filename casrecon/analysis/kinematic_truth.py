@@ -67,6 +67,42 @@ def coverage(errors: np.ndarray, sigmas: np.ndarray, k: float = 3.0) -> dict[str
     return out
 
 
+def truth_aero(scenario, trajectory, truth: dict[str, float], flight_time_s: np.ndarray) -> dict[str, np.ndarray]:
+    """The coefficients (:data:`~casrecon.analysis.aero_columns.COEFFICIENTS`, database totals about the
+    MRP), alpha_T (deg) and qbar (Pa) that acted on the simulated flight at ``flight_time_s`` (s
+    after release), with the true dispersions and atmosphere corrections ``truth`` (by name)."""
+    from casrecon.analysis import aero_columns as cols
+    from casrecon.analysis.aero_coefficients import coefficient_functions
+    from casrecon.physics.dynamics import OUTPUT_NAMES, PARAMETER_NAMES
+
+    x = np.column_stack([np.interp(flight_time_s, trajectory.time_s, trajectory.states[:, i]) for i in range(13)]).T
+    p = np.array([truth.get(n, 0.0) if not n.startswith("wind_gradient") else 0.0 for n in PARAMETER_NAMES])
+    p = np.repeat(p[:, None], x.shape[1], axis=1)
+    database, _ = coefficient_functions(scenario.model)
+    c = np.asarray(database.map(x.shape[1])(x, p, np.zeros((9, x.shape[1])))).T
+    y = np.asarray(scenario.model.outputs.map(x.shape[1])(x, p)).T
+    out = {cols.ALPHA_T: np.degrees(y[:, OUTPUT_NAMES.index("alpha_t")]), cols.QBAR: y[:, OUTPUT_NAMES.index("qbar")]}
+    out.update({name: c[:, i] for i, name in enumerate(cols.COEFFICIENTS)})
+    return out
+
+
+def aero_coverage(implied: dict[str, np.ndarray], truth: dict[str, np.ndarray], k: float = 3.0) -> dict:
+    """Per coefficient, alpha_T and qbar: (nodes whose truth lies inside the implied value's k/3 of
+    its 3-sigma band, nodes with a value), from :func:`~casrecon.analysis.implied_aero.implied_aero`'s
+    table and :func:`truth_aero`."""
+    from casrecon.analysis import aero_columns as cols
+    from casrecon.analysis.implied_aero import ALPHA_T_3SIGMA, IMPLIED, QBAR_3SIGMA
+
+    pairs = {c: (cols.column(c, IMPLIED), cols.sigma_column(c, IMPLIED)) for c in cols.COEFFICIENTS}
+    pairs.update({cols.ALPHA_T: (cols.ALPHA_T, ALPHA_T_3SIGMA), cols.QBAR: (cols.QBAR, QBAR_3SIGMA)})
+    out = {}
+    for name, (value, three) in pairs.items():
+        e, band = implied[value] - truth[name], implied[three] * k / 3.0
+        ok = np.isfinite(e) & np.isfinite(band)
+        out[name] = (int(np.sum(np.abs(e[ok]) <= band[ok])), int(ok.sum()))
+    return out
+
+
 def decimated(data, step: int):
     """The IMU record of ``data`` (KinematicData) keeping every ``step``-th sample (a lower IMU rate
     with the same per-sample noise)."""
@@ -81,9 +117,11 @@ def decimated(data, step: int):
 def truth_case(problem: str, seed: int, index: int, steps: tuple[int, ...] = (1,)) -> dict:
     """Case ``index``: a truth drawn from the fit's priors (IMU biases, clock offset, aero and
     atmosphere of the 6-DOF problem), synthetic data, and a kinematic fit of the IMU record
-    decimated by each of ``steps``: per step the coverage counts of :func:`coverage`, the NEES of
-    the estimated parameters that have a truth, and the seconds taken."""
+    decimated by each of ``steps``: per step the coverage counts of :func:`coverage` and of the
+    implied aerodynamics (:func:`aero_coverage`), the NEES of the estimated parameters that have a
+    truth, and the seconds taken."""
     from casrecon.analysis.estimator_mc import draw_truth
+    from casrecon.analysis.implied_aero import AirPrior, implied_aero
     from casrecon.estimation.engine.checks import FitError
     from casrecon.estimation.kinematic_fit import fit_kinematic
     from casrecon.estimation.kinematic_inputs import data_from_problem, options_from_problem
@@ -108,13 +146,17 @@ def truth_case(problem: str, seed: int, index: int, steps: tuple[int, ...] = (1,
                 out[step] = {"failed": str(err)}
                 continue
             err_nodes, sig = node_errors(res, cfg.vehicle, syn.trajectory, release)
+            prior = AirPrior(cfg.atmosphere.wind_3sigma_mps / 3.0, cfg.atmosphere.density_3sigma / 3.0)
+            implied = implied_aero(res, cfg.vehicle, sc.atmosphere, prior)
+            aero = aero_coverage(implied, truth_aero(sc, syn.trajectory, truth, res.node_time_s - release))
             names = [n for n in res.params.names if n in truth]
             idx = [res.params.index(n) for n in names]
             e = np.array([res.values[i] - truth[n] for i, n in zip(idx, names)])
             cols = np.array(sorted(res.nlp.parameter_names))[idx]
             c = res.covariance.covariance_of(cols, res.params.scales[idx])
             out[step] = {"rate_hz": float(1.0 / np.median(np.diff(data.imu_time_s))),
-                         "coverage": coverage(err_nodes, sig), "names": names, "z": (e / np.sqrt(np.diag(c))).tolist(),
+                         "coverage": coverage(err_nodes, sig), "aero_coverage": aero,
+                         "names": names, "z": (e / np.sqrt(np.diag(c))).tolist(),
                          "nees": float(e @ np.linalg.solve(c, e)), "seconds": time.perf_counter() - t0,
                          "reduced_chi2": res.reduced_chi2}
     return out
@@ -134,9 +176,12 @@ def kinematic_truth_study(problem: str, n_cases: int, steps: tuple[int, ...], se
         fits = [c[step] for c in cases if "coverage" in c[step]]
         pooled = {g: (sum(f["coverage"][g][0] for f in fits), sum(f["coverage"][g][1] for f in fits)) for g in GROUPS}
         dof = sum(len(f["names"]) for f in fits)
+        aero = {c: (sum(f["aero_coverage"][c][0] for f in fits), sum(f["aero_coverage"][c][1] for f in fits))
+                for c in (fits[0]["aero_coverage"] if fits else {})}
         out[step] = {"rate_hz": fits[0]["rate_hz"] if fits else float("nan"), "fits": len(fits),
                      "failed": [c[step]["failed"] for c in cases if "failed" in c[step]],
                      "coverage": {g: a / b if b else float("nan") for g, (a, b) in pooled.items()},
+                     "aero_coverage": {c: a / b if b else float("nan") for c, (a, b) in aero.items()},
                      "nees": float(sum(f["nees"] for f in fits)), "nees_interval": chi2_interval(dof),
                      "names": fits[0]["names"] if fits else [],
                      "mean_z": np.mean([f["z"] for f in fits], axis=0).tolist() if fits else [],

@@ -110,6 +110,16 @@ class KinematicResult:
     timings: dict[str, float]
     notes: tuple[str, ...] = ()
 
+    @property
+    def state_columns(self) -> np.ndarray:
+        """(K, 10) columns of z holding each node's scaled state (p, v, q; times KINEMATIC_SCALE is SI)."""
+        return N_STATE * np.arange(self.node_time_s.size)[:, None] + np.arange(N_STATE)[None, :]
+
+    @property
+    def parameter_columns(self) -> np.ndarray:
+        """Columns of z holding the parameters, in the order of ``params`` (times ``params.scales`` is SI)."""
+        return N_STATE * self.node_time_s.size + np.arange(self.params.n)
+
     def parameter(self, name: str) -> tuple[float, float]:
         """(value, 1-sigma) of a parameter, SI."""
         i = self.params.index(name)

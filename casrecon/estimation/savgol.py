@@ -19,7 +19,7 @@ __all__ = ["savgol_coeffs", "savgol_filter"]
 EPS = np.finfo(float).eps
 
 
-def savgol_coeffs(window: int, order: int, deriv: int = 0, delta: float = 1.0, pos: int | None = None,
+def savgol_coeffs(window: int, order: int, deriv: int = 0, delta: float = 1.0, pos: float | None = None,
                   use: str = "conv") -> np.ndarray:
     """Weights of a Savitzky-Golay filter, as ``scipy.signal.savgol_coeffs`` computes them.
 
@@ -33,8 +33,9 @@ def savgol_coeffs(window: int, order: int, deriv: int = 0, delta: float = 1.0, p
         Derivative order (0: smoothing).
     delta : float
         Sample spacing (s for a time series); derivative weights are per ``delta ** deriv``.
-    pos : int, optional
-        Position in the window of the evaluated sample (default the middle).
+    pos : float, optional
+        Position in the window of the evaluated point, samples (default the middle; a fraction
+        evaluates the fitted polynomial between samples).
     use : {"conv", "dot"}
         ``"dot"``: weights in window order (a dot product with the window); ``"conv"``: reversed.
 

@@ -15,12 +15,18 @@ from casrecon.cli import main
 def test_kinematic_fit_recovers_a_drawn_truth_at_100_hz():
     """ees-drop-1 with a truth drawn from the priors, its 500 Hz IMU decimated to 100 Hz: the fit
     converges, at least 95 % of the node values of position, velocity and attitude lie inside their
-    3-sigma bands, and the NEES of the IMU biases and clock offset is below its 99.9 % quantile."""
+    3-sigma bands, so do the aerodynamic coefficients, alpha_T and qbar that acted (the truth
+    database with the true dispersions and air) inside the implied ones' bands, and the NEES of the
+    IMU biases and clock offset is below its 99.9 % quantile."""
     case = truth_case("problems/ees-drop-1", seed=7, index=0, steps=(5,))[5]
     assert "failed" not in case, case
     assert case["rate_hz"] == pytest.approx(100.0, rel=1e-6)
     for group, (inside, total) in case["coverage"].items():
         assert total > 500 and inside / total >= 0.95, (group, inside, total)
+    # the aerodynamics the trajectory implies: the truth database's totals inside their bands
+    assert set(case["aero_coverage"]) >= {"CA", "CN_crossflow", "Cm_crossflow", "alpha_t_deg", "qbar_pa"}
+    for name, (inside, total) in case["aero_coverage"].items():
+        assert total > 150 and inside / total >= 0.95, (name, inside, total)
     assert case["nees"] < chi2_interval(len(case["names"]), (0.001, 0.999))[1], case
     assert 0.7 < case["reduced_chi2"] < 1.3
 
