@@ -135,9 +135,26 @@ def _fit_drop(args: argparse.Namespace, t0: float, figures) -> int:
         return fit_failed(f"fit of {scenario.config.name}", err)
     products = fit_products(result, concurrent=True)
     report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
+    check = None
+    if getattr(args, "kinematic_check", False):
+        from casrecon.analysis.kinematic_check import kinematic_check
+
+        try:
+            _, implied, check = kinematic_check(result, products.aero_coefficients)
+        except FitError as err:
+            return fit_failed(f"kinematic check of {scenario.config.name}", err)
+        report = f"{report.rstrip()}\n{check.verdict()}\n"
     with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
         write_fit_results(out, result, products, report, drop_tables(result, products))
+        if check is not None:
+            from casrecon.output.kinematic_check_results import write_kinematic_check
+
+            write_kinematic_check(out, implied, check)
+            if figures is not None:
+                from casrecon.report.kinematic_check_plots import plot_kinematic_check
+
+                plot_kinematic_check(out, args.formats)
         if figures is not None:
             notes: list[str] = []
             figures.draw(out, notes, args.formats)
@@ -348,6 +365,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: [estimation] hessian)")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
+    p.add_argument("--kinematic-check", action="store_true",
+                   help="also reconstruct the drop from its IMU without the aero model and compare the aero "
+                        "coefficients (implied_aero.csv, kinematic_check.csv/.json; a 6-DOF problem)")
     add_format_argument(p)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_fit)
