@@ -29,7 +29,8 @@ def main() -> None:
     for s in study.values():
         lo, hi = s["nees_interval"]
         cov = ", ".join(f"{g} {v:.4f}" for g, v in s["coverage"].items())
-        print(f"IMU {s['rate_hz']:.1f} Hz: {s['fits']} fits, {len(s['failed'])} failed; coverage {cov}; "
+        print(f"IMU {s['rate_hz']:.1f} Hz: {s['fits']} fits, {len(s['failed'])} failed, {s['trusted']} trusted by "
+              f"the adequacy verdict; coverage {cov}; "
               f"NEES {s['nees']:.1f} in [{lo:.1f}, {hi:.1f}]; median fit {np.median(s['seconds']):.1f} s")
         print("   implied aero coverage: " + ", ".join(f"{c} {v:.4f}" for c, v in s["aero_coverage"].items()))
         print("   mean z: " + ", ".join(f"{n} {z:+.2f}" for n, z in zip(s["names"], s["mean_z"])))

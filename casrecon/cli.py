@@ -233,6 +233,7 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
 
 
 def _fit_kinematic(args: argparse.Namespace) -> int:
+    from casrecon.analysis.fit_adequacy import kinematic_adequacy
     from casrecon.estimation.fit import FitError
     from casrecon.estimation.fitdata import FitDataError
     from casrecon.estimation.kinematic_fit import fit_kinematic
@@ -249,9 +250,10 @@ def _fit_kinematic(args: argparse.Namespace) -> int:
         result = fit_kinematic(data, options, print_level=5 if args.verbose else 0)
     except (FitError, FitDataError) as err:
         return fit_failed(f"fit of {cfg.name}", err)
-    report = kinematic_report(result, cfg.name)
+    adequacy = kinematic_adequacy(result)
+    report = kinematic_report(result, cfg.name, adequacy)
     with atomic_folder(args.out, **args.where) as out:
-        write_kinematic_results(out, result, report, cfg.site, cfg.path, cfg.name)
+        write_kinematic_results(out, result, report, cfg.site, cfg.path, cfg.name, adequacy.to_dict())
         if not args.no_figures:
             plot_kinematic(out, args.formats)
     if not args.quiet:

@@ -131,6 +131,35 @@ def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
                   result.config.gps_errors.enabled)
 
 
+def kinematic_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
+    """Verdict of a kinematic reconstruction
+    (:class:`~casrecon.estimation.kinematic_fit.KinematicResult`): the six GPS components, the
+    barometer, and the priors of the IMU errors, clock offset and barometer (no ground check: a
+    kinematic span need not end on the ground).
+
+    The whitened preintegration residuals are not tested: they are the estimated IMU noise of each
+    interval, which the node states absorb almost entirely (leverage near 1; on an exact synthetic
+    drop their reduced chi-square is below 0.001 and they look correlated), so neither their scale
+    nor their whiteness says anything. An IMU model that does not describe the data shows in the
+    GPS channels and in the IMU parameters pushed beyond their priors.
+    """
+    specs = result.params.specs
+    cov = result.covariance.covariance_of(result.parameter_columns, result.params.scales)
+    names, values, prior_sigma, post, units = prior_arrays(specs, result.values, cov)
+    r = result.nlp.residual_vector(result.z)
+    groups = result.nlp.groups
+    gps = r[groups["gps"]].reshape(-1, 6)
+    gps = np.where(np.isfinite(result.data.fix_sigma[:gps.shape[0]]), gps, np.nan)  # missing: not tested
+    channels = {name: gps[:, i] for i, name in enumerate(GPS_NAMES.values())}
+    if "baro" in groups:
+        channels["barometer"] = r[groups["baro"]]
+    n_imu = r[groups["imu"]].size
+    notes = (f"the whitened preintegration residuals are not tested (the node states absorb them; their "
+             f"reduced chi-square is {float(r[groups['imu']] @ r[groups['imu']]) / max(n_imu, 1):.3g} on {n_imu})",)
+    return assess(channels, names, values, prior_sigma, post, units, None, alpha, notes,
+                  result.options.gps_errors.enabled)
+
+
 @dataclass(frozen=True)
 class JointAdequacy:
     """The verdict of a joint fit: each drop's own (:class:`Adequacy`, each at the family-wise

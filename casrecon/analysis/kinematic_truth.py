@@ -118,9 +118,10 @@ def truth_case(problem: str, seed: int, index: int, steps: tuple[int, ...] = (1,
     """Case ``index``: a truth drawn from the fit's priors (IMU biases, clock offset, aero and
     atmosphere of the 6-DOF problem), synthetic data, and a kinematic fit of the IMU record
     decimated by each of ``steps``: per step the coverage counts of :func:`coverage` and of the
-    implied aerodynamics (:func:`aero_coverage`), the NEES of the estimated parameters that have a
-    truth, and the seconds taken."""
+    implied aerodynamics (:func:`aero_coverage`), whether the adequacy verdict trusts the bands,
+    the NEES of the estimated parameters that have a truth, and the seconds taken."""
     from casrecon.analysis.estimator_mc import draw_truth
+    from casrecon.analysis.fit_adequacy import kinematic_adequacy
     from casrecon.analysis.implied_aero import AirPrior, implied_aero
     from casrecon.estimation.engine.checks import FitError
     from casrecon.estimation.kinematic_fit import fit_kinematic
@@ -156,7 +157,8 @@ def truth_case(problem: str, seed: int, index: int, steps: tuple[int, ...] = (1,
             c = res.covariance.covariance_of(cols, res.params.scales[idx])
             out[step] = {"rate_hz": float(1.0 / np.median(np.diff(data.imu_time_s))),
                          "coverage": coverage(err_nodes, sig), "aero_coverage": aero,
-                         "names": names, "z": (e / np.sqrt(np.diag(c))).tolist(),
+                         "trusted": kinematic_adequacy(res).trusted, "names": names,
+                         "z": (e / np.sqrt(np.diag(c))).tolist(),
                          "nees": float(e @ np.linalg.solve(c, e)), "seconds": time.perf_counter() - t0,
                          "reduced_chi2": res.reduced_chi2}
     return out
@@ -183,6 +185,7 @@ def kinematic_truth_study(problem: str, n_cases: int, steps: tuple[int, ...], se
                      "coverage": {g: a / b if b else float("nan") for g, (a, b) in pooled.items()},
                      "aero_coverage": {c: a / b if b else float("nan") for c, (a, b) in aero.items()},
                      "nees": float(sum(f["nees"] for f in fits)), "nees_interval": chi2_interval(dof),
+                     "trusted": sum(bool(f["trusted"]) for f in fits),
                      "names": fits[0]["names"] if fits else [],
                      "mean_z": np.mean([f["z"] for f in fits], axis=0).tolist() if fits else [],
                      "seconds": [f["seconds"] for f in fits]}

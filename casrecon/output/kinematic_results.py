@@ -45,7 +45,7 @@ def time_columns(result) -> dict[str, np.ndarray]:
 
 
 def write_kinematic_results(out: Path, result, report_text: str, site, problem_path: Path | None,
-                            name: str = "") -> None:
+                            name: str = "", adequacy: dict | None = None) -> None:
     """Write the folder into ``out`` (an atomic temporary folder).
 
     Parameters
@@ -59,6 +59,8 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
         ``problem.toml`` copied into ``config/``.
     name : str
         Problem name for ``summary.json``.
+    adequacy : dict or None
+        The model-adequacy verdict (``Adequacy.to_dict()``) for ``summary.json``.
     """
     out = Path(out)
     cols = dict(time_columns(result))
@@ -87,7 +89,8 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
         "reduced_chi2": result.reduced_chi2, "reduced_chi2_by_group": result.group_reduced_chi2(),
         "span_clock_s": [float(result.data.time_ref_s + result.node_time_s[0]),
                          float(result.data.time_ref_s + result.node_time_s[-1])],
-        "nodes": int(result.node_time_s.size), "timings": result.timings, "notes": list(result.notes)})
+        "nodes": int(result.node_time_s.size), "timings": result.timings, "notes": list(result.notes),
+        **({} if adequacy is None else {"adequacy": adequacy})})
     (out / "report.txt").write_text(report_text + "\n")
     if problem_path is not None:
         (out / "config").mkdir()

@@ -1,16 +1,21 @@
 """The text report of a kinematic reconstruction: span, convergence, chi-square per residual group,
-the IMU parameters against their priors (those beyond 3 sigma named), and the bands' sizes."""
+the IMU parameters against their priors (those beyond 3 sigma named), the bands' sizes and the
+model-adequacy verdict (per-channel reduced chi-square, lag-1 and Ljung-Box)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from casrecon.analysis.adequacy import report_lines
+
 #: A parameter whose estimate lies this many prior sigmas from its prior mean is named.
 PRIOR_Z_LIMIT = 3.0
 
 
-def kinematic_report(result, name: str = "") -> str:
-    """The report text of ``result`` (:class:`~casrecon.estimation.kinematic_fit.KinematicResult`)."""
+def kinematic_report(result, name: str = "", adequacy=None) -> str:
+    """The report text of ``result`` (:class:`~casrecon.estimation.kinematic_fit.KinematicResult`),
+    with the model-adequacy block of ``adequacy`` (:func:`casrecon.analysis.fit_adequacy.kinematic_adequacy`)
+    when given."""
     t = result.node_time_s
     lines = [f"KINEMATIC RECONSTRUCTION {name}".rstrip(),
              f"span {t[-1] - t[0]:.2f} s ({t.size} nodes), clock {result.data.time_ref_s + t[0]:.3f} to "
@@ -38,5 +43,7 @@ def kinematic_report(result, name: str = "") -> str:
     if flagged:
         lines.append(f"parameters beyond {PRIOR_Z_LIMIT:g} sigma of their prior: {', '.join(flagged)}: the IMU "
                      "model (or its stated noise) does not describe these data; the bands assume it does")
+    if adequacy is not None:
+        lines += ["", *report_lines(adequacy)]
     lines += ["", *result.notes]
     return "\n".join(lines)

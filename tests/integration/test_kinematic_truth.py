@@ -17,7 +17,7 @@ def test_kinematic_fit_recovers_a_drawn_truth_at_100_hz():
     converges, at least 95 % of the node values of position, velocity and attitude lie inside their
     3-sigma bands, so do the aerodynamic coefficients, alpha_T and qbar that acted (the truth
     database with the true dispersions and air) inside the implied ones' bands, and the NEES of the
-    IMU biases and clock offset is below its 99.9 % quantile."""
+    IMU biases and clock offset is below its 99.9 % quantile, and the adequacy verdict trusts the bands."""
     case = truth_case("problems/ees-drop-1", seed=7, index=0, steps=(5,))[5]
     assert "failed" not in case, case
     assert case["rate_hz"] == pytest.approx(100.0, rel=1e-6)
@@ -28,6 +28,7 @@ def test_kinematic_fit_recovers_a_drawn_truth_at_100_hz():
     for name, (inside, total) in case["aero_coverage"].items():
         assert total > 150 and inside / total >= 0.95, (name, inside, total)
     assert case["nees"] < chi2_interval(len(case["names"]), (0.001, 0.999))[1], case
+    assert case["trusted"], "the adequacy verdict rejects an exact synthetic drop"
     assert 0.7 < case["reduced_chi2"] < 1.3
 
 
