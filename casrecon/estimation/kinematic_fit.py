@@ -8,12 +8,12 @@ Unknowns: the IMU's position, velocity and attitude at every node, the IMU error
 bias, and with a GPS error model the correlated part of each fix's error. Nodes sit on the fixes
 (plus the window's ends, and more where fixes are further apart than ``max_node_spacing_s``).
 A unit-norm constraint per node fixes each quaternion's scale; everything else is least squares,
-solved by Levenberg-Marquardt on the unit quaternions (:mod:`.kinematic_solve`; not Ipopt, whose
+solved by Levenberg-Marquardt on the unit quaternions (:mod:`.kinematic_solve`: Gauss-Newton steps
+with their geodesic acceleration and a line search, damping as the fallback; not Ipopt, whose
 steps on the scale-free quaternions wander and fail at the optimum), first from the guess with the
 IMU noise inflated 30, 10 and 3 times (:data:`START_INFLATIONS`, each from the last), then with
-the stated noise to the Gauss-Newton
-decrement test of the other fits; where that crawls (a fast-spinning body), Ipopt finishes from its
-last iterate and its verdict decides. The
+the stated noise to the Gauss-Newton decrement test of the other fits; should that still not
+converge, Ipopt finishes from its last iterate and its verdict decides. The
 covariance is the z-block of the inverse KKT matrix, computed without it
 (:mod:`.kinematic_covariance`).
 """
