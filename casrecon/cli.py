@@ -136,7 +136,7 @@ def _fit_drop(args: argparse.Namespace, t0: float, figures) -> int:
     products = fit_products(result, concurrent=True)
     report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
     check = None
-    if getattr(args, "kinematic_check", False):
+    if args.kinematic_check:
         from casrecon.analysis.kinematic_check import kinematic_check
 
         try:

@@ -153,9 +153,8 @@ def kinematic_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
     channels = {name: gps[:, i] for i, name in enumerate(GPS_NAMES.values())}
     if "baro" in groups:
         channels["barometer"] = r[groups["baro"]]
-    n_imu = r[groups["imu"]].size
     notes = (f"the whitened preintegration residuals are not tested (the node states absorb them; their "
-             f"reduced chi-square is {float(r[groups['imu']] @ r[groups['imu']]) / max(n_imu, 1):.3g} on {n_imu})",)
+             f"reduced chi-square is {result.group_reduced_chi2()['imu']:.3g} on {result.n_measurements['imu']})",)
     return assess(channels, names, values, prior_sigma, post, units, None, alpha, notes,
                   result.options.gps_errors.enabled)
 

@@ -36,7 +36,7 @@ from casrecon.estimation.kinematic_fit import KinematicResult
 from casrecon.estimation.kinematic_terms import KINEMATIC_SCALE, N_STATE
 from casrecon.physics.aero import DISPERSION_NAMES, AeroDatabase, aero_force_moment, flow_angles
 from casrecon.physics.atmosphere import Atmosphere, AtmosphereCorrections
-from casrecon.physics.preintegration import IMU_PARAMETERS, N_IMU_PARAMETERS, imu_gain
+from casrecon.physics.preintegration import IMU_PARAMETERS, N_IMU_PARAMETERS, imu_gains
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.physics.vehicle import Vehicle
 
@@ -87,7 +87,7 @@ def node_function(vehicle: Vehicle, atmosphere: Atmosphere, ground_alt_msl_m: fl
     q = x[6:10] / ca.norm_2(x[6:10])
     r_ib = ca.DM(np.asarray(vehicle.imu_to_body, float))
     c_nb = dcm_body_to_ned(q) @ r_ib.T
-    gyro_gain, accel_gain = imu_gain(theta[6:9], theta[12:18]), imu_gain(theta[9:12], theta[18:24])
+    gyro_gain, accel_gain = imu_gains(theta)
     f_b = r_ib @ (accel_gain @ s[0:3] - theta[3:6])
     w_b = r_ib @ (gyro_gain @ s[3:6] - theta[0:3])
     wdot_b = r_ib @ (gyro_gain @ s[6:9])
@@ -112,18 +112,20 @@ def node_function(vehicle: Vehicle, atmosphere: Atmosphere, ground_alt_msl_m: fl
     return ca.Function("implied_aero_node", [zs, theta, air_p, s, disp], [ca.vertcat(banded, database), jac])
 
 
-def imu_parameter_vector(result: KinematicResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(theta (24, SI, zero where not estimated), positions in theta of the estimated ones, their z columns)."""
+def imu_parameter_vector(result: KinematicResult) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(theta (24, SI, zero where not estimated), positions in theta of the estimated ones, their z
+    columns, their scales (z times scale is SI))."""
     names = list(result.params.names)
     theta = np.zeros(N_IMU_PARAMETERS)
-    where, columns = [], []
+    where, fitted = [], []
     for i, name in enumerate(IMU_PARAMETERS):
         if name in names:
             j = names.index(name)
             theta[i] = result.values[j]
             where.append(i)
-            columns.append(result.parameter_columns[j])
-    return theta, np.array(where, np.int64), np.array(columns, np.int64)
+            fitted.append(j)
+    fitted = np.array(fitted, np.int64)
+    return theta, np.array(where, np.int64), result.parameter_columns[fitted], result.params.scales[fitted]
 
 
 def node_covariances(result: KinematicResult, theta_cols: np.ndarray, group: int = NODES_PER_SOLVE) -> np.ndarray:
@@ -175,7 +177,7 @@ def implied_aero(result: KinematicResult, vehicle: Vehicle, atmosphere: Atmosphe
     gyro_sigma, accel_sigma = data.noise_sigmas(options)
     sigma6 = np.r_[np.median(accel_sigma, axis=0), np.median(gyro_sigma, axis=0)]
     s, cov_s = smoothed_imu(data.imu_time_s, data.accel_mps2, data.gyro_radps, valid, result.node_time_s, sigma6)
-    theta, where, theta_cols = imu_parameter_vector(result)
+    theta, where, theta_cols, scale_theta = imu_parameter_vector(result)
     disp = np.zeros(len(DISPERSION_NAMES)) if dispersions is None else np.asarray(dispersions, float)
     fn = node_function(vehicle, atmosphere, options.ground_alt_msl_m, aero).map(k, "thread", 2)
     zs = result.z[result.state_columns].T
@@ -188,7 +190,6 @@ def implied_aero(result: KinematicResult, vehicle: Vehicle, atmosphere: Atmosphe
     j_theta = jac[:, :, N_STATE + where]                                       # SI theta
     j_air = jac[:, :, N_STATE + N_IMU_PARAMETERS:N_STATE + N_IMU_PARAMETERS + N_AIR]
     j_s = jac[:, :, N_STATE + N_IMU_PARAMETERS + N_AIR:]
-    scale_theta = result.params.scales[[list(result.params.names).index(IMU_PARAMETERS[i]) for i in where]]
     j_z = np.concatenate([j_state, j_theta * scale_theta[None, None, :]], axis=2)  # scaled z units
     var = np.einsum("kij,kjl,kil->ki", j_z, node_covariances(result, theta_cols), j_z)
     var += np.einsum("kij,jl,kil->ki", j_air, air_prior.covariance, j_air)

@@ -76,7 +76,7 @@ def truth_aero(scenario, trajectory, truth: dict[str, float], flight_time_s: np.
     from casrecon.physics.dynamics import OUTPUT_NAMES, PARAMETER_NAMES
 
     x = np.column_stack([np.interp(flight_time_s, trajectory.time_s, trajectory.states[:, i]) for i in range(13)]).T
-    p = np.array([truth.get(n, 0.0) if not n.startswith("wind_gradient") else 0.0 for n in PARAMETER_NAMES])
+    p = np.array([truth.get(n, 0.0) for n in PARAMETER_NAMES])
     p = np.repeat(p[:, None], x.shape[1], axis=1)
     database, _ = coefficient_functions(scenario.model)
     c = np.asarray(database.map(x.shape[1])(x, p, np.zeros((9, x.shape[1])))).T

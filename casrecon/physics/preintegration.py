@@ -80,7 +80,7 @@ def _rotation_vector(a, b, s):
     return a * s + b * (s * s / 2) + ca.cross(a, b) * (s * s * s / 12)
 
 
-def imu_gain(scale, misalignment):
+def _gain(scale, misalignment):
     """I + diag(scale) + the off-diagonal misalignment (order of MISALIGNMENT_PAIRS)."""
     rows = []
     for i, axis in enumerate("xyz"):
@@ -91,11 +91,18 @@ def imu_gain(scale, misalignment):
     return ca.vertcat(*rows)
 
 
+def imu_gains(theta):
+    """(gyro gain, accelerometer gain), the 3 x 3 matrices I + S + M of the IMU error parameters
+    ``theta`` (:data:`IMU_PARAMETERS` order): the corrected rate is gyro gain @ w - b_g, the
+    corrected specific force accelerometer gain @ f - b_a (IMU axes)."""
+    return _gain(theta[6:9], theta[12:18]), _gain(theta[9:12], theta[18:24])
+
+
 def _step() -> ca.Function:
     d, piece = ca.SX.sym("d", 10), ca.SX.sym("piece", PIECE_COLUMNS)
     theta, nu = ca.SX.sym("theta", N_IMU_PARAMETERS), ca.SX.sym("nu", N_NOISE)
     tau = piece[0]
-    gyro_gain, accel_gain = imu_gain(theta[6:9], theta[12:18]), imu_gain(theta[9:12], theta[18:24])
+    gyro_gain, accel_gain = imu_gains(theta)
     w_m, slope = gyro_gain @ piece[1:4] - theta[0:3], gyro_gain @ piece[4:7]
     f = [accel_gain @ piece[7 + 3 * i:10 + 3 * i] - theta[3:6] for i in range(3)]
     a = w_m - slope * (tau / 2)
