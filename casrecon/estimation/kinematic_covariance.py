@@ -7,15 +7,16 @@ directions, and the constrained covariance (the z-block of the inverse KKT matri
 pseudo-inverse H^+ = Z (Z^T H Z)^-1 Z^T over the tangent space. With Q the orthonormal columns
 (one per node, q_k in its four entries), H + Q Q^T is positive definite and
 H^+ = P (H + Q Q^T)^-1 P with P = I - Q Q^T: one sparse factorisation of a block-banded matrix with
-an arrow (the IMU parameters), no KKT matrix and no pivoting for the zero block.
+an arrow (the IMU parameters; :mod:`casrecon.estimation.banded_factor`), no KKT matrix and no
+pivoting for the zero block.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sps
-from scipy.sparse.linalg import splu
 
+from casrecon.estimation.banded_factor import SymmetricFactor
 from casrecon.estimation.engine.covariance import SingularCovariance, fisher_and_jacobian
 from casrecon.estimation.engine.nlp import Nlp
 
@@ -59,7 +60,7 @@ class GaugeCovariance:
         self._cols = np.asarray(gauge_cols, np.int64)
         aug = (h + gauge).tocsc()
         try:
-            self._lu = splu(aug, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+            self._lu = SymmetricFactor(aug)
         except RuntimeError as err:
             raise SingularCovariance(f"Hessian singular ({err}): some combination of the unknowns is not "
                                      "determined by the data") from None

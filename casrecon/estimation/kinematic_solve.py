@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sps
-from scipy.sparse.linalg import splu
 
+from casrecon.estimation.banded_factor import SymmetricFactor
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.kinematic_covariance import gauge_matrix
 
@@ -98,7 +98,7 @@ def levenberg_marquardt(nlp: Nlp, z0: np.ndarray, gauge_cols: np.ndarray, max_it
         jac = residual_jacobian(nlp, z)
         grad = jac.T @ r
         a = (jac.T @ jac + gauge_matrix(z, gauge_cols, nlp.n_z)[0]).tocsc()
-        lu = _factor(a)
+        lu = SymmetricFactor(a)
         # grad is J^T r, the gradient of |r|^2 / 2: the full step dz = -A^-1 grad lowers |r|^2 by -grad.dz
         step = lu.solve(-grad)
         decrement = float(-grad @ step)
@@ -110,7 +110,7 @@ def levenberg_marquardt(nlp: Nlp, z0: np.ndarray, gauge_cols: np.ndarray, max_it
         if z_new is None:  # no fraction of the accelerated step lowers the chi-square: damp it
             diag = np.maximum(a.diagonal(), 1e-12)
             while lam < 1e12:
-                z_new, chi2_new = _trial(nlp, z, _factor(a + sps.diags(lam * diag)).solve(-grad), gauge_cols)
+                z_new, chi2_new = _trial(nlp, z, SymmetricFactor(a + sps.diags(lam * diag)).solve(-grad), gauge_cols)
                 if chi2_new < chi2:
                     break
                 lam *= 10.0
@@ -148,6 +148,3 @@ def _trial(nlp: Nlp, z: np.ndarray, step: np.ndarray, gauge_cols: np.ndarray) ->
     chi2 = float(r @ r)
     return z_new, chi2 if np.isfinite(chi2) else float("inf")
 
-
-def _factor(a: sps.spmatrix):
-    return splu(a.tocsc(), permc_spec="MMD_AT_PLUS_A")
