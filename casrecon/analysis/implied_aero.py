@@ -44,8 +44,6 @@ N_COEF = len(cols.COEFFICIENTS)
 #: Rows of the banded outputs: the coefficients, alpha_T (deg), qbar (Pa), Mach.
 N_BANDED = N_COEF + 3
 N_AIR = 3
-#: Nodes whose covariance columns are solved together.
-NODES_PER_SOLVE = 100
 
 
 @dataclass(frozen=True)
@@ -128,21 +126,11 @@ def imu_parameter_vector(result: KinematicResult) -> tuple[np.ndarray, np.ndarra
     return theta, np.array(where, np.int64), result.parameter_columns[fitted], result.params.scales[fitted]
 
 
-def node_covariances(result: KinematicResult, theta_cols: np.ndarray, group: int = NODES_PER_SOLVE) -> np.ndarray:
+def node_covariances(result: KinematicResult, theta_cols: np.ndarray) -> np.ndarray:
     """(K, 10 + n, 10 + n) covariance of each node's scaled state with the parameters in
-    ``theta_cols``, from solves for ``group`` nodes at a time (the parameters' columns solved once
-    per group, not once per node)."""
-    k, n_s = result.node_time_s.size, N_STATE
-    out = np.empty((k, n_s + theta_cols.size, n_s + theta_cols.size))
-    for start in range(0, k, group):
-        nodes = np.arange(start, min(start + group, k))
-        idx = np.r_[result.state_columns[nodes].ravel(), theta_cols]
-        c = result.covariance.covariance_of(idx)
-        tail = np.arange(nodes.size * n_s, idx.size)
-        for j in range(nodes.size):
-            sel = np.r_[np.arange(j * n_s, (j + 1) * n_s), tail]
-            out[start + j] = c[np.ix_(sel, sel)]
-    return out
+    ``theta_cols`` (the fit's covariance blocks, :meth:`GaugeCovariance.blocks`)."""
+    sets = [result.state_columns[k] for k in range(result.node_time_s.size)]
+    return np.array(result.covariance.blocks(sets, shared=theta_cols))
 
 
 def implied_aero(result: KinematicResult, vehicle: Vehicle, atmosphere: Atmosphere, air_prior: AirPrior,
