@@ -292,9 +292,11 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     # before the IMU's full weight binds them (the guess's attitude can be far off)
     t_guess = time.perf_counter()
     prior = params.scales[:estimated.size]
+    earlier_iterations = 0   # of the starts and of the solves before a relinearisation
     for inflation in START_INFLATIONS:
-        z0 = levenberg_marquardt(assemble(inflation, pre), z0, state_cols[:, 6:10], START_MAX_ITER,
-                                 label=f"kinematic start (IMU noise x {inflation:g})").z
+        start = levenberg_marquardt(assemble(inflation, pre), z0, state_cols[:, 6:10], START_MAX_ITER,
+                                    label=f"kinematic start (IMU noise x {inflation:g})")
+        z0, earlier_iterations = start.z, earlier_iterations + start.iterations
         pre = _relinearised(pre, z0[imu_cols] * prior, estimated, prior, data, gyro, accel, nodes, options)
     nlp = assemble(1.0, pre)
     t_built = time.perf_counter()
@@ -305,7 +307,7 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
         moved = _relinearised(pre, sol.z[imu_cols] * prior, estimated, prior, data, gyro, accel, nodes, options)
         if moved is pre:
             break
-        pre, z0 = moved, sol.z
+        pre, z0, earlier_iterations = moved, sol.z, earlier_iterations + sol.iterations
         nlp = assemble(1.0, pre)
     if not sol.converged:
         sol = _ipopt_finish(nlp, sol, options, print_level)
@@ -317,7 +319,8 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     except SingularCovariance as err:
         raise FitError(str(err)) from None
     result = _result(data, options, nodes, pre, params, estimated, nlp, sol, cov, r, state_cols, theta_cols)
-    result.timings.update(build_s=t_guess - t_start, start_solve_s=t_built - t_guess, solve_s=sol.solve_s,
+    result.timings.update(build_s=t_guess - t_start, start_solve_s=t_built - t_guess, solve_s=t_solved - t_built,
+                          earlier_iterations=earlier_iterations,
                           covariance_s=time.perf_counter() - t_solved, total_s=time.perf_counter() - t_start)
     return result
 

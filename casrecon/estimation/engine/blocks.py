@@ -101,6 +101,7 @@ class BlockKind:
             plain.append(constraint)
             self.patterns["jg"] = _triplet(jg)
         self.values = ca.Function(f"{name}_values", [local, *data], plain)
+        self.residual_values = ca.Function(f"{name}_residuals", [local, *data], [ca.densify(residual)])
         self.derivatives = ca.Function(f"{name}_derivatives", [local, *data], [ca.densify(o) for o in outs])
         self.n_local = local.numel()
         self._symbols = (name, local, data, residual, constraint)
@@ -174,6 +175,11 @@ class BlockSet:
     def derivs(self) -> ca.Function:
         """The kind's derivative function over all blocks (built at first use)."""
         return self.mapped(self.kind.derivatives)
+
+    @cached_property
+    def residual_function(self) -> ca.Function:
+        """The kind's residual function (no derivatives) over all blocks (built at first use)."""
+        return self.mapped(self.kind.residual_values)
 
     @cached_property
     def hess(self) -> ca.Function:
