@@ -304,6 +304,9 @@ HINTS = {
     "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
              "moved parameters far to make up for it",
     "ground": "the site's ground altitude or the GPS height is wrong",
+    "pessimistic": "residuals smaller than their stated sigmas: those sigmas are pessimistic for these data (a "
+                   "receiver's accuracy estimate, a noise figure given as an upper bound), so these channels weigh "
+                   "too little and the bands are wider than the data need",
 }
 #: Items of one kind named in the verdict line before "+N more".
 LINE_ITEMS = 3
@@ -337,6 +340,8 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
     if off:
         line.append("reduced chi-square outside its interval: "
                     + _some([f"{c.name} {c.reduced_chi2:.3g}" for c in off]))
+        if any(c.reduced_chi2 < c.chi2_interval[0] for c in off):
+            kinds.add("pessimistic")
     far = [d for d in deviations if abs(d.z) > z_limit]
     reasons += [f"{d.name} {d.z:+.1f} sigma from its prior" for d in far]
     if far:
@@ -359,7 +364,8 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
 
 def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.ndarray, prior_sigma: np.ndarray,
            posterior_cov: np.ndarray, units: list[str] | None = None, ground: GroundCheck | None = None,
-           alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = (), gps_model: bool = False) -> Adequacy:
+           alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = (), gps_model: bool = False,
+           prior_hint: str = HINTS["prior"]) -> Adequacy:
     """The verdict of one fit.
 
     Parameters
@@ -383,6 +389,9 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     gps_model : bool
         Whether the GPS channels were whitened under a GPS error model (changes the hint given
         when only they are correlated).
+    prior_hint : str
+        Why parameters far from their priors matter, for this kind of fit (default: the dynamic
+        fit's inputs).
 
     Returns
     -------
@@ -410,7 +419,8 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
         line = "bands NOT to be trusted: " + "; ".join(items)
         if gps_model and "gps_correlated" in kinds:
             kinds = (kinds - {"gps_correlated"}) | {"gps_model"}
-        hints = [HINTS[k] for k in ("gps_correlated", "gps_model", "prior", "ground") if k in kinds]
+        hints = [prior_hint if k == "prior" else HINTS[k]
+                 for k in ("gps_correlated", "gps_model", "prior", "ground", "pessimistic") if k in kinds]
         if hints:
             line += " (" + "; ".join(hints) + ")"
     return Adequacy(not reasons, line, tuple(reasons), tuple(tests), deviations, z_limit, nees, ground, alpha, n_tests,

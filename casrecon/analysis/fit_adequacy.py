@@ -9,6 +9,7 @@ import numpy as np
 
 from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
 from casrecon.estimation import diagnostics as dg
+from casrecon.estimation.kinematic_terms import INTERVAL_RESIDUALS
 
 #: Accepted distance (m) between the fitted height at impact and the site's ground altitude, on top
 #: of 3 sigma of the fitted height: terrain relief over a landing area of a few kilometres, the
@@ -131,6 +132,12 @@ def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
                   result.config.gps_errors.enabled)
 
 
+#: Why IMU parameters far from their priors matter in a kinematic fit.
+KINEMATIC_PRIOR_HINT = ("the IMU error model or its priors do not describe this IMU, or its samples miss motion "
+                        "between them (a fast rotation sampled too slowly): the fit bent the IMU parameters to "
+                        "make up for it")
+
+
 def kinematic_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
     """Verdict of a kinematic reconstruction
     (:class:`~casrecon.estimation.kinematic_fit.KinematicResult`): the six GPS components, the
@@ -153,10 +160,12 @@ def kinematic_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
     channels = {name: gps[:, i] for i, name in enumerate(GPS_NAMES.values())}
     if "baro" in groups:
         channels["barometer"] = r[groups["baro"]]
+    per_channel = np.mean(r[groups["imu"]].reshape(-1, len(INTERVAL_RESIDUALS)) ** 2, axis=0)
     notes = (f"the whitened preintegration residuals are not tested (the node states absorb them; their "
-             f"reduced chi-square is {result.group_reduced_chi2()['imu']:.3g} on {result.n_measurements['imu']})",)
+             f"reduced chi-square is {result.group_reduced_chi2()['imu']:.3g} on {result.n_measurements['imu']}; "
+             "per channel " + ", ".join(f"{n} {v:.2g}" for n, v in zip(INTERVAL_RESIDUALS, per_channel)) + ")",)
     return assess(channels, names, values, prior_sigma, post, units, None, alpha, notes,
-                  result.options.gps_errors.enabled)
+                  result.options.gps_errors.enabled, KINEMATIC_PRIOR_HINT)
 
 
 @dataclass(frozen=True)

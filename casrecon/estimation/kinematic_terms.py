@@ -37,6 +37,9 @@ from casrecon.physics.preintegration import N_IMU_PARAMETERS, quat_conj, quat_ex
 from casrecon.physics.rotations import dcm_body_to_ned, quat_multiply
 
 #: Scale of each node state entry (m, m/s, -): Ipopt sees state / scale.
+#: The nine whitened residuals of a preintegrated interval, in order: rotation (NED axes), velocity
+#: and position (IMU body axes at the interval's start); whitening mixes each with the ones before it.
+INTERVAL_RESIDUALS = ("rot_n", "rot_e", "rot_d", "vel_x", "vel_y", "vel_z", "pos_x", "pos_y", "pos_z")
 KINEMATIC_SCALE = np.array([100.0, 100.0, 100.0, 10.0, 10.0, 10.0, 1.0, 1.0, 1.0, 1.0])
 N_STATE = KINEMATIC_SCALE.size
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from casrecon.estimation.kinematic_terms import INTERVAL_RESIDUALS
 from casrecon.io.gps_rules import ned_to_geodetic
 from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, utc_text
 from casrecon.output.columns import write_table
@@ -26,7 +27,6 @@ from casrecon.output.results import write_json
 #: Clock values above this are UTC seconds since 1970 (a flight computer's clock counts from boot).
 UTC_CLOCK_MIN_S = 1e8
 STATE_COLUMNS = ("pos_n_m", "pos_e_m", "pos_d_m", "vel_n_mps", "vel_e_mps", "vel_d_mps")
-INTERVAL_COLUMNS = ("rot_n", "rot_e", "rot_d", "vel_x", "vel_y", "vel_z", "pos_x", "pos_y", "pos_z")
 
 
 def euler_deg(quaternions: np.ndarray) -> np.ndarray:
@@ -75,7 +75,7 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
     r = result.nlp.residual_vector(result.z)
     interval = r[result.nlp.groups["imu"]].reshape(-1, 9)
     write_table(out / "residuals_imu.csv", {"time_s": result.node_time_s[:-1],
-                                            **{f"{n}_z": interval[:, i] for i, n in enumerate(INTERVAL_COLUMNS)}})
+                                            **{f"{n}_z": interval[:, i] for i, n in enumerate(INTERVAL_RESIDUALS)}})
     gps = r[result.nlp.groups["gps"]].reshape(-1, 6)
     names = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
     write_table(out / "residuals_gps.csv", {f"{n}_z": gps[:, i] for i, n in enumerate(names)})

@@ -146,3 +146,15 @@ def test_round_trip_through_json():
                ground=GroundCheck("impact", 1.0, 30.0, "ok"), notes=("a note",))
     again = Adequacy.from_dict(json.loads(json.dumps(a.to_dict())))
     assert again == a
+
+
+def test_residuals_smaller_than_their_sigmas_are_called_pessimistic_not_overconfident():
+    rng = np.random.default_rng(8)
+    channels = white_channels(rng)
+    channels["GPS pos n"] = 0.2 * channels["GPS pos n"]
+    a = assess(channels, [], np.zeros(0), np.zeros(0), np.zeros((0, 0)))
+    assert not a.trusted
+    assert "GPS pos n 0.0" in a.line and "sigmas are pessimistic" in a.line
+    channels["GPS pos n"] = 3.0 * channels["GPS pos n"] / 0.2
+    a = assess(channels, [], np.zeros(0), np.zeros(0), np.zeros((0, 0)))
+    assert "reduced chi-square outside its interval: GPS pos n" in a.line and "pessimistic" not in a.line
