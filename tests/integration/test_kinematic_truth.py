@@ -5,6 +5,7 @@ default suite; the 10-case study at three IMU rates is tests/slow/test_kinematic
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from casrecon.analysis.estimator_mc import chi2_interval
@@ -32,17 +33,22 @@ def test_kinematic_fit_recovers_a_drawn_truth_at_100_hz():
     assert 0.7 < case["reduced_chi2"] < 1.3
 
 
-@pytest.mark.slow
 def test_cli_fits_the_chicago_skydive_kinematically(tmp_path):
-    """The real FlySight 2 jump reconstructed from its own 13 Hz IMU: converges, writes the folder,
-    and the report names the IMU parameters the data push beyond their priors."""
+    """The real FlySight 2 jump reconstructed from its own 13 Hz IMU: converges with the IMU, GPS
+    and GPS error process residuals below their stated noise (reduced chi-square below 2), writes
+    the folder, and the report names the IMU parameters the data push beyond their priors (the gyro
+    scale factors, through the pull-out and the canopy opening) and does not call the bands
+    trustworthy."""
     out = tmp_path / "out"
     assert main(["fit", "problems/realdata-fs2-chicago-kinematic", "--out", str(out), "--quiet"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["converged"] and summary["kind"] == "kinematic"
+    by_group = summary["reduced_chi2_by_group"]
+    for group in ("imu", "gps", "gps_error"):
+        assert by_group[group] < 2.0, (group, by_group)
+    assert not summary["adequacy"]["trusted"]
+    assert "gyro_scale_z" in (out / "report.txt").read_text().split("parameters beyond 3 sigma of their prior:")[1]
     assert (out / "figures" / "kinematic.png").exists()
-    import pandas as pd
-
     tr = pd.read_csv(out / "trajectory.csv")
     assert np.all(np.isfinite(tr["vel_d_mps_3sigma"])) and tr["vel_d_mps"].max() > 120  # a 132 m/s dive
 
@@ -61,8 +67,6 @@ def test_cli_fits_the_rocket_drogue_descent_kinematically(tmp_path):
     for group in ("imu", "gps", "baro"):
         assert by_group[group] < 2.0, (group, by_group)
     assert summary["reduced_chi2"] < 2.0
-    import pandas as pd
-
     tr = pd.read_csv(out / "trajectory.csv")
     late = tr[tr["time_s"] > 70.0]
     assert late["vel_d_mps"].between(20.0, 30.0).all()
