@@ -157,3 +157,39 @@ class KinematicData:
                     v[~ok, c] = np.interp(self.imu_time_s[~ok], self.imu_time_s[ok], values[ok, c])
             out.append(v)
         return out[0], out[1]
+
+
+#: Half-width of the local line fitted to the IMU samples around a fix's node, s (at least 1.5
+#: sample spacings): long enough to average the noise out of the slope, short against a capsule's
+#: oscillation.
+LOCAL_FIT_HALF_WIDTH_S = 0.05
+
+
+def local_line(at_s: np.ndarray, sample_t_s: np.ndarray, values: np.ndarray,
+               half_width_s: float = LOCAL_FIT_HALF_WIDTH_S) -> tuple[np.ndarray, np.ndarray]:
+    """(value, slope per second) at each of ``at_s`` of the least-squares line through the samples
+    ``values`` (n, m) within ``half_width_s`` (widened to 1.5 sample spacings) of it; the linear
+    interpolation and a zero slope where fewer than two samples are that close."""
+    spacing = float(np.median(np.diff(sample_t_s))) if sample_t_s.size > 1 else 1.0
+    h = max(half_width_s, 1.5 * spacing)
+    lo = np.searchsorted(sample_t_s, at_s - h, side="left")
+    hi = np.searchsorted(sample_t_s, at_s + h, side="right")
+
+    def window_sums(x: np.ndarray) -> np.ndarray:
+        c = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x, axis=0)])
+        return c[hi] - c[lo]
+
+    t = sample_t_s - at_s.mean()          # centred: the sums stay well conditioned
+    tk = at_s - at_s.mean()
+    n = (hi - lo).astype(float)
+    s1 = window_sums(t) - n * tk
+    s2 = window_sums(t * t) - 2 * tk * window_sums(t) + n * tk * tk
+    sy = window_sums(values)
+    sty = window_sums(t[:, None] * values) - tk[:, None] * sy
+    det = n * s2 - s1 * s1
+    ok = (n >= 2) & (det > 1e-12 * np.maximum(n * s2, 1e-300))
+    safe = np.where(ok, det, 1.0)[:, None]
+    slope = np.where(ok[:, None], (n[:, None] * sty - s1[:, None] * sy) / safe, 0.0)
+    value = np.where(ok[:, None], (s2[:, None] * sy - s1[:, None] * sty) / safe,
+                     np.column_stack([np.interp(at_s, sample_t_s, values[:, i]) for i in range(values.shape[1])]))
+    return value, slope

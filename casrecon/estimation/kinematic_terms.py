@@ -17,8 +17,9 @@ Fix near node k (antenna lever l in IMU axes; measured rate w and specific force
 fix happened d = t_fix - t_k + clock_guess - clock later on the IMU clock than the node, t_fix
 its time with the guessed clock offset applied)::
 
-    p_ant = p_k + C l,   v_ant = v_k + C (w x l),   a = C f + g
-    y_pred = (p_ant + v_ant d + a d^2 / 2,  v_ant + a d)
+    p_ant = p_k + C l,   v_ant = v_k + C (w x l),   a = C (f + w x (w x l)) + g,   j = C (w x f + df/dt)
+    (w, f, df/dt corrected by the IMU error parameters as in the preintegration)
+    y_pred = (p_ant + v_ant d + a d^2 / 2 + j d^3 / 6,  v_ant + a d + j d^2 / 2)
 
 Barometer sample at fraction tau of an interval: the cubic Hermite altitude through (p_d, v_d) of
 the two nodes, its height above the ground scaled by (1 + k), the atmosphere's pressure there plus
@@ -33,7 +34,7 @@ import numpy as np
 from casrecon.estimation.engine.blocks import BlockKind
 from casrecon.estimation.transcription import hermite
 from casrecon.physics.earth import EARTH_RATE, normal_gravity
-from casrecon.physics.preintegration import N_IMU_PARAMETERS, quat_conj, quat_exp
+from casrecon.physics.preintegration import N_IMU_PARAMETERS, imu_gains, quat_conj, quat_exp
 from casrecon.physics.rotations import dcm_body_to_ned, quat_multiply
 
 #: Scale of each node state entry (m, m/s, -): Ipopt sees state / scale.
@@ -92,26 +93,42 @@ def interval_kind(options, imu_scales: np.ndarray, estimated: np.ndarray) -> Blo
     return BlockKind("kinematic_interval", ca.vertcat(xk_s, xk1_s, th_s), [dur, delta, jac, white, lin], r, None)
 
 
-def fix_kind(options, with_clock: bool, clock_scale: float, n_errors: int, active: np.ndarray) -> BlockKind:
-    """Block of one fix: local (x_k, [clock], [correlated error values]); data y (6), 1 / sigma of
-    the white part (6; 0 where missing), w (3), f (3) at the node, the fix time minus the node time
-    (s), [error amplitudes]."""
+def fix_kind(options, with_clock: bool, clock_scale: float, n_errors: int, active: np.ndarray,
+             imu_scales: np.ndarray, estimated: np.ndarray) -> BlockKind:
+    """Block of one fix: local (x_k, estimated IMU parameters (scaled), [clock], [correlated error
+    values]); data y (6), 1 / sigma of the white part (6; 0 where missing), the measured w (3), f
+    (3) and df/dt (3, per second) at the node (a local line through the IMU samples), the fix time
+    minus the node time (s), [error amplitudes]. The rate and specific force that carry the state
+    to the fix's time are corrected by the IMU parameters, as in the preintegration, and the
+    change of C f over that time is kept to second order (module docstring)."""
     x_s = ca.SX.sym("x", N_STATE)
+    th_s = ca.SX.sym("theta", estimated.size)
     clock = ca.SX.sym("clock", 1 if with_clock else 0)
     errors = ca.SX.sym("e", n_errors)
-    y, inv, w, f = ca.SX.sym("y", 6), ca.SX.sym("inv", 6), ca.SX.sym("w", 3), ca.SX.sym("f", 3)
+    y, inv, w_raw, f_raw = ca.SX.sym("y", 6), ca.SX.sym("inv", 6), ca.SX.sym("w", 3), ca.SX.sym("f", 3)
+    f_slope_raw = ca.SX.sym("f_slope", 3)
     shift = ca.SX.sym("shift")
     amp = ca.SX.sym("amp", n_errors)
+    theta = ca.SX(N_IMU_PARAMETERS, 1)
+    for j, i in enumerate(estimated):
+        theta[int(i)] = th_s[j] * imu_scales[j]
+    gyro_gain, accel_gain = imu_gains(theta)
+    w, f = gyro_gain @ w_raw - theta[0:3], accel_gain @ f_raw - theta[3:6]
     x = unscale_state(x_s)
     c = dcm_body_to_ned(x[6:10])
     lever = ca.DM(options.gps_lever_m)
     p_ant = x[0:3] + c @ lever
     v_ant = x[3:6] + c @ ca.cross(w, lever)
-    data = [y, inv, w, f, shift]
+    data = [y, inv, w_raw, f_raw, f_slope_raw, shift]
     d = shift + (options.clock_guess_s - clock[0] * clock_scale if with_clock else 0.0)
-    accel = c @ f + gravity_ned(options, options.ground_alt_msl_m - x[2])
-    p_ant = p_ant + v_ant * d + accel * (d * d / 2)
-    v_ant = v_ant + accel * d
+    # the antenna's acceleration: the IMU's plus the lever's centripetal part (its angular
+    # acceleration part is left out: it needs the rate's derivative)
+    accel = c @ (f + ca.cross(w, ca.cross(w, lever))) + gravity_ned(options, options.ground_alt_msl_m - x[2])
+    # and its rate of change, the turning of the specific force and its own change (a capsule's
+    # oscillation turns C f by tens of m/s^3: over a 0.1 s clock offset 0.1 m/s of velocity)
+    jerk = c @ (ca.cross(w, f) + accel_gain @ f_slope_raw)
+    p_ant = p_ant + v_ant * d + accel * (d * d / 2) + jerk * (d * d * d / 6)
+    v_ant = v_ant + accel * d + jerk * (d * d / 2)
     pred = ca.vertcat(p_ant, v_ant)
     if n_errors:
         sel = ca.DM.zeros(6, n_errors)
@@ -120,7 +137,7 @@ def fix_kind(options, with_clock: bool, clock_scale: float, n_errors: int, activ
         pred = pred + sel @ (amp * errors)
         data.append(amp)
     r = (y - pred) * inv
-    return BlockKind("kinematic_fix", ca.vertcat(x_s, clock, errors), data, r, None)
+    return BlockKind("kinematic_fix", ca.vertcat(x_s, th_s, clock, errors), data, r, None)
 
 
 def baro_kind(atmosphere, options, bias_scale: float, height_scale_scale: float) -> BlockKind:
