@@ -180,6 +180,18 @@ def _at_nodes(t: np.ndarray, samples_t: np.ndarray, values: np.ndarray) -> np.nd
     return np.column_stack([np.interp(t, samples_t, values[:, i]) for i in range(values.shape[1])])
 
 
+def carried_states(previous: KinematicResult, nodes: np.ndarray) -> np.ndarray:
+    """(K, 10) states of ``previous`` at the times ``nodes``: positions and velocities interpolated
+    linearly, quaternions component-wise between sign-aligned neighbours, renormalised."""
+    q = previous.states[:, 6:10].copy()
+    flips = np.cumsum(np.r_[0, np.sum(q[1:] * q[:-1], axis=1) < 0]) % 2
+    q[flips == 1] *= -1.0
+    states = np.column_stack([previous.states[:, :6], q])
+    out = np.column_stack([np.interp(nodes, previous.node_time_s, states[:, i]) for i in range(10)])
+    out[:, 6:10] /= np.linalg.norm(out[:, 6:10], axis=1, keepdims=True)
+    return out
+
+
 def initial_guess(data: KinematicData, nodes: np.ndarray, pre: Preintegrated, options: KinematicOptions,
                   gyro: np.ndarray, accel: np.ndarray) -> np.ndarray:
     """(K, 10) node states: positions and velocities interpolated from the fixes (velocity from the
@@ -273,7 +285,7 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
         earlier = result.timings["earlier_iterations"] + result.solver.iterations
         data = replace(data, fix_time_s=data.fix_time_s + options.clock_guess_s - clock)
         options = replace(options, clock_guess_s=clock)
-        result = _fit_placed(data, options, print_level)
+        result = _fit_placed(data, options, print_level, previous=result)
         result.timings["earlier_iterations"] += earlier
         result.notes = result.notes + (f"fixes placed again at the estimated clock offset {clock:+.4f} s "
                                        f"(placement {placement + 1})",)
@@ -281,8 +293,11 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
     return result
 
 
-def _fit_placed(data: KinematicData, options: KinematicOptions, print_level: int) -> KinematicResult:
-    """:func:`fit_kinematic` with the fixes where ``data`` and ``options.clock_guess_s`` put them."""
+def _fit_placed(data: KinematicData, options: KinematicOptions, print_level: int,
+                previous: KinematicResult | None = None) -> KinematicResult:
+    """:func:`fit_kinematic` with the fixes where ``data`` and ``options.clock_guess_s`` put them;
+    from ``previous`` (its states interpolated to the new nodes, its parameters), without the
+    inflated-noise starts, when given."""
     t_start = time.perf_counter()
     nodes = node_times(data, options.max_node_spacing_s)
     gyro, accel = data.bridged()
@@ -314,17 +329,21 @@ def _fit_placed(data: KinematicData, options: KinematicOptions, print_level: int
                             parameter_names=dict(zip(theta_cols.tolist(), params.names)), latent=True,
                             eliminated=e_cols)
 
-    x0 = initial_guess(data, nodes, pre, options, gyro, accel)
+    x0 = initial_guess(data, nodes, pre, options, gyro, accel) if previous is None else carried_states(previous, nodes)
     z0 = np.zeros(n_z)
     z0[state_cols.ravel()] = (x0 / KINEMATIC_SCALE).ravel()
-    if CLOCK in params.names:
+    if previous is not None:
+        z0[theta_cols] = previous.values / params.scales
+    elif CLOCK in params.names:
         z0[theta_cols[params.index(CLOCK)]] = options.clock_guess_s / params.specs[params.index(CLOCK)].scale
     # continuation: the IMU noise inflated first, so the fixes place the trajectory and the attitude
     # before the IMU's full weight binds them (the guess's attitude can be far off)
     t_guess = time.perf_counter()
     prior = params.scales[:estimated.size]
     earlier_iterations = 0   # of the starts and of the solves before a relinearisation
-    for inflation in START_INFLATIONS:
+    if previous is not None:
+        pre = _relinearised(pre, z0[imu_cols] * prior, estimated, prior, data, gyro, accel, nodes, options)
+    for inflation in START_INFLATIONS if previous is None else ():
         start = levenberg_marquardt(assemble(inflation, pre), z0, state_cols[:, 6:10], START_MAX_ITER,
                                     label=f"kinematic start (IMU noise x {inflation:g})")
         z0, earlier_iterations = start.z, earlier_iterations + start.iterations
