@@ -21,11 +21,12 @@ def kinematic_report(result, name: str = "", adequacy=None) -> str:
              f"span {t[-1] - t[0]:.2f} s ({t.size} nodes), clock {result.data.time_ref_s + t[0]:.3f} to "
              f"{result.data.time_ref_s + t[-1]:.3f} s",
              f"converged: {result.solver.converged} ({result.solver.status}), {result.solver.iterations} iterations "
-             f"(after {result.timings.get('earlier_iterations', 0)} from the inflated-noise starts and earlier "
-             "linearisations)",
-             "timings: " + ", ".join(f"{what} {result.timings.get(key, 0):.2f} s" for what, key in (
-                 ("build", "build_s"), ("starts", "start_solve_s"), ("solve", "solve_s"),
-                 ("covariance", "covariance_s"))),
+             f"(after {result.timings.get('earlier_iterations', 0)} from the inflated-noise starts, earlier "
+             "linearisations and fix placements)",
+             f"whole fit {result.timings.get('total_s', 0):.2f} s; its last placement: " + ", ".join(
+                 f"{what} {result.timings.get(key, 0):.2f} s" for what, key in (
+                     ("build", "build_s"), ("starts", "start_solve_s"), ("solve", "solve_s"),
+                     ("covariance", "covariance_s"))),
              f"reduced chi-square {result.reduced_chi2:.3f}", "", "chi-square per residual group (per measurement):"]
     for group, value in result.chi2.items():
         n = result.n_measurements.get(group, 0)
