@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from casrecon.io.pointmass_problem import PointMassConfig
     from casrecon.output.drop_fit import DropFit
     from casrecon.output.joint_fit import JointFit
+    from casrecon.output.kinematic_fit_result import KinematicFit
     from casrecon.output.parameter_records import Parameter, Parameters
     from casrecon.output.pointmass_result import PointMassFit
     from casrecon.report.result_figures import (
@@ -72,6 +73,7 @@ __all__ = [
     "DropFit",
     "JointFit",
     "PointMassFit",
+    "KinematicFit",
     "Parameter",
     "Parameters",
     "plot_trajectory",
@@ -104,6 +106,7 @@ _LAZY = {
     "DropFit": ("casrecon.output.drop_fit", "DropFit"),
     "JointFit": ("casrecon.output.joint_fit", "JointFit"),
     "PointMassFit": ("casrecon.output.pointmass_result", "PointMassFit"),
+    "KinematicFit": ("casrecon.output.kinematic_fit_result", "KinematicFit"),
     "Parameter": ("casrecon.output.parameter_records", "Parameter"),
     "Parameters": ("casrecon.output.parameter_records", "Parameters"),
     "Dispersions": ("casrecon.io.montecarlo_config", "Dispersions"),
@@ -169,12 +172,11 @@ def load_problem(path: str | Path) -> Scenario | PointMassConfig:
 
 
 def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-        print_level: int = 0) -> DropFit | PointMassFit:
+        print_level: int = 0) -> DropFit | PointMassFit | KinematicFit:
     """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
     simulations (for a ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`;
-    for a ``kind = "kinematic"`` problem the IMU-driven reconstruction, a
-    :class:`~casrecon.estimation.kinematic_fit.KinematicResult`; ``linear_solver`` and ``hessian``
-    do not apply to them).
+    for a ``kind = "kinematic"`` problem the IMU-driven reconstruction, a :class:`KinematicFit`;
+    ``linear_solver`` and ``hessian`` do not apply to them).
 
     Parameters
     ----------
@@ -189,7 +191,7 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
 
     Returns
     -------
-    DropFit or PointMassFit
+    DropFit, PointMassFit or KinematicFit
 
     Raises
     ------
@@ -208,10 +210,7 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
     t0 = time.perf_counter()
     scenario = problem if hasattr(problem, "config") and hasattr(problem, "model") else load_problem(problem)
     if hasattr(scenario, "imu") and not hasattr(scenario, "model"):  # a kinematic problem
-        from casrecon.estimation.kinematic_fit import fit_kinematic
-        from casrecon.estimation.kinematic_inputs import inputs_from_config
-
-        return fit_kinematic(*inputs_from_config(scenario), print_level=print_level)
+        return _fit_kinematic(scenario, print_level)
     if not hasattr(scenario, "model"):
         return _fit_point_mass(scenario, print_level)
     result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level)
@@ -219,6 +218,20 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
     report = fit_report(result, products.adequacy)
     result.timings["total_s"] = time.perf_counter() - t0
     return DropFit.from_fit(result, products, report)
+
+
+def _fit_kinematic(cfg, print_level: int) -> KinematicFit:
+    """The IMU-driven reconstruction of ``casrecon fit`` on a kinematic problem, with its verdict."""
+    from casrecon.analysis.fit_adequacy import kinematic_adequacy
+    from casrecon.estimation.kinematic_fit import fit_kinematic
+    from casrecon.estimation.kinematic_inputs import inputs_from_config
+    from casrecon.output.kinematic_fit_result import KinematicFit
+    from casrecon.report.kinematic_report import kinematic_report
+
+    result = fit_kinematic(*inputs_from_config(cfg), print_level=print_level)
+    adequacy = kinematic_adequacy(result)
+    report = kinematic_report(result, cfg.name, adequacy)
+    return KinematicFit.from_fit(result, report, cfg.site, cfg.path, cfg.name, adequacy.to_dict())
 
 
 def _fit_point_mass(cfg: PointMassConfig, print_level: int) -> PointMassFit:
@@ -323,7 +336,7 @@ def montecarlo(problem: str | Path, cases: int | None = None, *, seed: int | Non
     return run_montecarlo(problem, cases, seed, dispersions, workers=workers, scheduler=scheduler, progress=progress)
 
 
-def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit:
+def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit | KinematicFit:
     """Read a results folder written by ``casrecon fit --out``, ``casrecon joint --out`` or a result's
     ``save``: a :class:`DropFit`, a :class:`JointFit` for a folder with ``drops/``, or a
     :class:`PointMassFit` for a point-mass fit's folder.
@@ -344,6 +357,11 @@ def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit:
     if (folder / "drops").is_dir():
         return JointFit.load(folder)
     summary = folder / "summary.json"
-    if summary.is_file() and read_document(summary).get("kind") == "point-mass":
+    kind = read_document(summary).get("kind") if summary.is_file() else None
+    if kind == "point-mass":
         return PointMassFit.load(folder)
+    if kind == "kinematic":
+        from casrecon.output.kinematic_fit_result import KinematicFit
+
+        return KinematicFit.load(folder)
     return DropFit.load(folder)

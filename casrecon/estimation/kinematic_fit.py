@@ -92,7 +92,7 @@ class KinematicResult:
         1-sigma of p, v and of the attitude error as a NED rotation vector (rad).
     params : ParameterSet
     values, sigma : arrays
-        Parameter estimates and 1-sigma (SI).
+        Parameter estimates and 1-sigma (SI); ``parameter_covariance`` their covariance (SI).
     chi2 : dict
         Per residual group.
     n_measurements : dict
@@ -117,6 +117,7 @@ class KinematicResult:
     options: KinematicOptions
     timings: dict[str, float]
     notes: tuple[str, ...] = ()
+    parameter_covariance: np.ndarray | None = None
 
     @property
     def state_columns(self) -> np.ndarray:
@@ -486,4 +487,5 @@ def _result(data, options, nodes, pre, params, estimated, nlp, sol, cov, r, stat
     notes = data.notes + (f"{nodes.size} nodes, {nodes.size - 1} preintegrated intervals over "
                           f"{nodes[-1] - nodes[0]:.1f} s",)
     return KinematicResult(nodes, states, sigma, params, values, np.sqrt(np.diag(cov_p)), chi2, counts,
-                           sum(chi2.values()) / max(dof, 1), nlp, sol.z, cov, sol, pre, data, options, {}, notes)
+                           sum(chi2.values()) / max(dof, 1), nlp, sol.z, cov, sol, pre, data, options, {}, notes,
+                           parameter_covariance=cov_p)

@@ -82,7 +82,12 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
     params = {s.name: {"value": float(v), "sigma": float(sg), "three_sigma": 3 * float(sg), "unit": s.unit,
                        "prior_sigma": s.prior_sigma}
               for s, v, sg in zip(result.params.specs, result.values, result.sigma)}
-    write_json(out / "parameters.json", {"parameters": params})
+    doc = {"parameters": params}
+    if result.parameter_covariance is not None:
+        sd = np.sqrt(np.diag(result.parameter_covariance))
+        doc["correlation"] = {"names": list(params),
+                              "matrix": (result.parameter_covariance / np.outer(sd, sd)).tolist()}
+    write_json(out / "parameters.json", doc)
     write_json(out / "summary.json", {
         "problem": name, "kind": "kinematic", "converged": result.solver.converged, "status": result.solver.status,
         "iterations": result.solver.iterations, "chi2": result.chi2, "n_measurements": result.n_measurements,

@@ -58,3 +58,32 @@ def test_point_mass_fit_saves_and_loads(tmp_path):
     assert isinstance(again, casrecon.PointMassFit)
     assert again.params == result.params and again.trajectory.equals(result.trajectory)
     assert again.report() == result.report() and set(again.residuals) == {"gps"}
+
+
+def test_kinematic_fit_saves_and_loads(tmp_path):
+    """The IMU-driven reconstruction through the API (15 s of the real Chicago jump): records with
+    correlations, sampling with the Euler angles unwrapped, save and load back unchanged."""
+    src = ROOT / "problems" / "realdata-fs2-chicago-kinematic" / "problem.toml"
+    data = (ROOT / "problems" / "realdata-fs2-chicago").as_posix()
+    text = src.read_text().replace("../realdata-fs2-chicago", data).replace("end_s = 1726601170.0",
+                                                                              "end_s = 1726601135.0")
+    assert data in text and "1726601135.0" in text
+    problem = tmp_path / "chicago-15s"
+    problem.mkdir()
+    (problem / "problem.toml").write_text(text)
+    result = casrecon.fit(problem)
+    assert isinstance(result, casrecon.KinematicFit) and result.converged
+    assert result.adequacy is not None and "gps" in result.chi2
+    bias = result.params["gyro_bias_z"]
+    assert bias.stderr > 0 and bias.correl and abs(bias.correl["gyro_scale_z"]) <= 1.0
+    s = result.sample(["vel_d_mps", "yaw_deg"], [1.0, 5.0])
+    assert list(s.columns) == ["time_s", "vel_d_mps", "vel_d_mps_3sigma", "yaw_deg"]
+    assert np.all(s["vel_d_mps_3sigma"] > 0) and np.all(np.abs(s["yaw_deg"]) <= 180.0)
+    with pytest.raises(ValueError, match="available: "):
+        result.sample("alpha_t_deg", 1.0)
+    folder = result.save(tmp_path / "kin")
+    again = casrecon.load_results(folder)
+    assert isinstance(again, casrecon.KinematicFit) and again.fit is None
+    assert again.params == result.params and again.trajectory.equals(result.trajectory)
+    assert again.report() == result.report() and set(again.residuals) == {"imu", "gps"}
+    assert again.save(tmp_path / "kin-copy") and (tmp_path / "kin-copy" / "summary.json").is_file()

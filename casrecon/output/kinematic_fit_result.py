@@ -1,0 +1,178 @@
+"""The kinematic (IMU-driven) result of the public API: ``casrecon.fit`` on a ``kind = "kinematic"``
+problem, or ``casrecon.load_results`` on its folder. It holds the files of the results folder that
+``casrecon fit --out`` writes (:mod:`casrecon.output.kinematic_results`) as DataFrames and records,
+and the estimator's own result when freshly fitted.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from casrecon.analysis.adequacy import Adequacy
+from casrecon.io.errors import InputError
+from casrecon.io.units import TIME_UNIX
+from casrecon.output.drop_fit import adequacy_of, history_columns, read_document, read_frame, sample_frame
+from casrecon.output.kinematic_results import write_kinematic_results
+from casrecon.output.out_folder import input_paths
+from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.output.results import save_results_folder
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from casrecon.estimation.kinematic_fit import KinematicResult
+    from casrecon.physics.dynamics import Site
+
+#: Time columns of ``trajectory`` (s): UTC (Unix seconds; only when the clock is UTC) and time since the span's start.
+TIME_COLUMNS = (TIME_UNIX, "time_s")
+#: Attitude columns (deg), unwrapped before :meth:`KinematicFit.sample` interpolates them.
+ANGLE_COLUMNS = ("roll_deg", "pitch_deg", "yaw_deg")
+REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class KinematicFit:
+    """An IMU-driven reconstruction: the IMU's position, velocity and attitude with 3-sigma, and the
+    IMU error parameters.
+
+    Attributes
+    ----------
+    name : str
+    params : Parameters
+        IMU biases (rad/s, m/s^2), scale factors (-) and misalignments (rad), and the clock offset
+        (s) and barometer bias (Pa) and height scale (-) when estimated, with their correlations.
+    trajectory : pandas.DataFrame
+        ``time_unix_s`` and ``utc`` (when the clock is UTC), ``time_s`` (s since the span's
+        start), ``latitude_deg``, ``longitude_deg``, ``h_msl_m``, NED position (m) and velocity
+        (m/s) of the IMU, roll, pitch and yaw of the IMU axes (deg), each with ``_3sigma`` (the
+        attitude's as NED rotation-vector components ``att_n_deg_3sigma``...).
+    residuals : dict of str to pandas.DataFrame
+        ``{"imu": ..., "gps": ...}``: whitened preintegration and fix residuals (-).
+    summary : dict
+        ``summary.json``: convergence, chi-square per group, timings, the adequacy verdict.
+    report_text : str
+    fit : KinematicResult or None
+        The estimator's result (None when loaded).
+    source : Path or None
+        The folder a loaded result came from.
+    """
+
+    name: str
+    params: Parameters
+    trajectory: pd.DataFrame
+    residuals: dict[str, pd.DataFrame]
+    summary: dict
+    report_text: str
+    fit: KinematicResult | None = None
+    source: Path | None = None
+    problem_path: Path | None = None
+    site: Site | None = None
+
+    @classmethod
+    def from_fit(cls, result: KinematicResult, report_text: str, site: Site, problem_path: Path | None,
+                 name: str, adequacy: dict | None) -> KinematicFit:
+        """Wrap a fresh result (through its results files, so a fresh and a loaded result hold the
+        same tables)."""
+        with tempfile.TemporaryDirectory(prefix="casrecon-kin-") as tmp:
+            write_kinematic_results(Path(tmp), result, report_text, site, problem_path, name, adequacy)
+            loaded = cls.load(tmp)
+        return cls(name=loaded.name, params=loaded.params, trajectory=loaded.trajectory,
+                   residuals=loaded.residuals, summary=loaded.summary, report_text=loaded.report_text,
+                   fit=result, problem_path=problem_path, site=site)
+
+    @classmethod
+    def load(cls, folder: str | Path) -> KinematicFit:
+        """Read a kinematic results folder; InputError naming the folder and what is missing."""
+        folder = Path(folder)
+        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
+        if missing:
+            raise InputError(folder, f"not a casrecon kinematic results folder: {', '.join(missing)} missing")
+        summary = read_document(folder / "summary.json")
+        try:
+            params = from_document(read_document(folder / "parameters.json"), summary.get("reduced_chi2"))
+        except (KeyError, TypeError, ValueError) as err:
+            raise InputError(folder / "parameters.json", f"expected parameters {{name: {{value, sigma}}}} "
+                                                         f"({type(err).__name__}: {err})") from None
+        residuals = {kind: read_frame(folder / f"residuals_{kind}.csv") for kind in ("imu", "gps")
+                     if (folder / f"residuals_{kind}.csv").is_file()}
+        report = folder / "report.txt"
+        return cls(name=str(summary.get("problem") or folder.name), params=params,
+                   trajectory=read_frame(folder / "trajectory.csv"), residuals=residuals, summary=summary,
+                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
+                   source=Path(folder).resolve())
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.summary.get("converged"))
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Reduced chi-square of the whole fit, -."""
+        return float(self.summary.get("reduced_chi2", np.nan))
+
+    @property
+    def chi2(self) -> dict[str, float]:
+        """Chi-square per residual group, -."""
+        return dict(self.summary.get("chi2", {}))
+
+    @property
+    def adequacy(self) -> Adequacy | None:
+        """The model-adequacy verdict (``summary.json`` ``adequacy``); None for an older folder."""
+        return adequacy_of(self.summary, self.source, Adequacy.from_dict)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Columns :meth:`sample` accepts."""
+        return history_columns(self.trajectory, TIME_COLUMNS)
+
+    def report(self) -> str:
+        return self.report_text
+
+    def __repr__(self) -> str:
+        state = "converged" if self.converged else "NOT converged"
+        return (f"<KinematicFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
+                f"{len(self.params)} parameters, {len(self.trajectory)} nodes>")
+
+    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
+               time: str = "time_s") -> pd.DataFrame:
+        """Columns (e.g. ``"vel_d_mps"``, ``"yaw_deg"``) and their 3-sigma interpolated linearly at
+        ``times_s`` (s since the span's start, or UTC Unix seconds with ``time="time_unix_s"``);
+        the Euler angles are unwrapped first and returned in (-180, 180] deg. ValueError for an
+        unknown column (listing the available ones) or a time outside the span."""
+        frame = self.trajectory.copy()
+        for col in ANGLE_COLUMNS:
+            if col in frame:
+                frame[col] = np.rad2deg(np.unwrap(np.deg2rad(frame[col].to_numpy(float))))
+        out = sample_frame(self.name, frame, TIME_COLUMNS, columns, times_s, time)
+        for col in ANGLE_COLUMNS:
+            if col in out:
+                out[col] = 180.0 - np.mod(180.0 - out[col].to_numpy(float), 360.0)
+        return out
+
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
+        """Write the folder ``casrecon fit --out folder`` writes for a kinematic problem, atomically;
+        a foreign existing folder or a file is replaced only with ``force``, a folder holding inputs
+        never."""
+        write = None
+        if self.fit is not None and self.site is not None:
+            fit, site = self.fit, self.site
+            adequacy = self.summary.get("adequacy")
+
+            def write(out: Path) -> None:
+                write_kinematic_results(out, fit, self.report_text, site, self.problem_path, self.name, adequacy)
+
+        inputs = input_paths([self.problem_path] if self.problem_path is not None else [])
+        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+                                   kind="fit", force=force, inputs=inputs)
+
+
+def _draw_figures(out: Path) -> None:
+    from casrecon.report.kinematic_plots import plot_kinematic  # matplotlib only when figures are asked for
+
+    plot_kinematic(out)
