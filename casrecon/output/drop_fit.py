@@ -71,8 +71,48 @@ def read_document(path: Path) -> dict:
         raise InputError(path, f"not valid JSON ({err.msg})", line=err.lineno) from None
 
 
+class FolderViews:
+    """What every result held as its results folder's files answers alike: ``converged``,
+    ``reduced_chi2``, ``chi2``, ``adequacy``, ``columns`` and ``report()``. Needs the attributes
+    ``summary``, ``source``, ``trajectory`` and ``report_text``, and the class attribute
+    ``time_columns``."""
+
+    time_columns: tuple[str, ...] = ()
+
+    @property
+    def converged(self) -> bool:
+        """Whether the solver converged (always True for a fit that returned)."""
+        return bool(self.summary.get("converged"))
+
+    @property
+    def reduced_chi2(self) -> float:
+        """Chi-square over degrees of freedom, - (NaN when the summary lacks it)."""
+        return float(self.summary.get("reduced_chi2", float("nan")))
+
+    @property
+    def chi2(self) -> dict[str, float]:
+        """Chi-square per residual group (``imu``, ``gps``, ``prior_aero``, ...), -."""
+        return dict(self.summary.get("chi2", {}))
+
+    @property
+    def adequacy(self) -> Adequacy | None:
+        """The model-adequacy verdict (``summary.json`` ``adequacy``): ``.trusted``, ``.line``, per-channel
+        tests, parameters beyond 3 sigma of their prior, prior NEES, ground check; None for a folder
+        written before it existed."""
+        return adequacy_of(self.summary, self.source, Adequacy.from_dict)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Time-history columns that ``sample`` accepts (the trajectory's, without time and 3-sigma)."""
+        return history_columns(self.trajectory, self.time_columns)
+
+    def report(self) -> str:
+        """The text report of ``casrecon fit``."""
+        return self.report_text
+
+
 @dataclass(frozen=True, eq=False, repr=False)
-class DropFit:
+class DropFit(FolderViews):
     """One drop's reconstruction, from :func:`casrecon.fit` or loaded from a results folder.
 
     Attributes
@@ -175,37 +215,7 @@ class DropFit:
                    report_text=report.read_text().rstrip("\n") if report.is_file() else "",
                    tables=tables, documents=documents, source=folder.resolve())
 
-    # ---- what a user asks for -----------------------------------------------------------------
-    @property
-    def converged(self) -> bool:
-        """Whether the solver converged (always True for a fit that returned)."""
-        return bool(self.summary.get("converged"))
-
-    @property
-    def reduced_chi2(self) -> float:
-        """Chi-square over degrees of freedom, - (NaN when the summary lacks it)."""
-        return float(self.summary.get("reduced_chi2", float("nan")))
-
-    @property
-    def chi2(self) -> dict[str, float]:
-        """Chi-square per residual group (``imu``, ``gps``, ``prior_aero``, ...), -."""
-        return dict(self.summary.get("chi2", {}))
-
-    @property
-    def adequacy(self) -> Adequacy | None:
-        """The model-adequacy verdict (``summary.json`` ``adequacy``): ``.trusted``, ``.line``, per-channel
-        tests, parameters beyond 3 sigma of their prior, prior NEES, ground check; None for a folder
-        written before it existed."""
-        return adequacy_of(self.summary, self.source, Adequacy.from_dict)
-
-    @property
-    def columns(self) -> tuple[str, ...]:
-        """Time-history columns that :meth:`sample` accepts (the trajectory's, without time and 3-sigma)."""
-        return history_columns(self.trajectory, TIME_COLUMNS)
-
-    def report(self) -> str:
-        """The text report: status, chi-square, parameters with 3-sigma, largest correlations."""
-        return self.report_text
+    time_columns = TIME_COLUMNS
 
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"

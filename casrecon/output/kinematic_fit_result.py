@@ -14,10 +14,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from casrecon.analysis.adequacy import Adequacy
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
-from casrecon.output.drop_fit import adequacy_of, history_columns, read_document, read_frame, sample_frame
+from casrecon.output.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.kinematic_results import write_kinematic_results
 from casrecon.output.out_folder import input_paths
 from casrecon.output.parameter_records import Parameters, from_document
@@ -37,7 +36,7 @@ REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class KinematicFit:
+class KinematicFit(FolderViews):
     """An IMU-driven reconstruction: the IMU's position, velocity and attitude with 3-sigma, and the
     IMU error parameters.
 
@@ -107,32 +106,7 @@ class KinematicFit:
                    report_text=report.read_text().rstrip("\n") if report.is_file() else "",
                    source=Path(folder).resolve())
 
-    @property
-    def converged(self) -> bool:
-        return bool(self.summary.get("converged"))
-
-    @property
-    def reduced_chi2(self) -> float:
-        """Reduced chi-square of the whole fit, -."""
-        return float(self.summary.get("reduced_chi2", np.nan))
-
-    @property
-    def chi2(self) -> dict[str, float]:
-        """Chi-square per residual group, -."""
-        return dict(self.summary.get("chi2", {}))
-
-    @property
-    def adequacy(self) -> Adequacy | None:
-        """The model-adequacy verdict (``summary.json`` ``adequacy``); None for an older folder."""
-        return adequacy_of(self.summary, self.source, Adequacy.from_dict)
-
-    @property
-    def columns(self) -> tuple[str, ...]:
-        """Columns :meth:`sample` accepts."""
-        return history_columns(self.trajectory, TIME_COLUMNS)
-
-    def report(self) -> str:
-        return self.report_text
+    time_columns = TIME_COLUMNS
 
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"

@@ -13,10 +13,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from casrecon.analysis.adequacy import Adequacy
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
-from casrecon.output.drop_fit import adequacy_of, history_columns, read_document, read_frame, sample_frame
+from casrecon.output.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.out_folder import input_paths
 from casrecon.output.parameter_records import Parameters, from_document
 from casrecon.output.pointmass_results import write_pointmass_results
@@ -33,7 +32,7 @@ REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class PointMassFit:
+class PointMassFit(FolderViews):
     """A GPS-only fit: antenna track and drag area with 3-sigma, and the constant-drag comparison.
 
     Attributes
@@ -103,9 +102,7 @@ class PointMassFit:
                    report_text=report.read_text().rstrip("\n") if report.is_file() else "",
                    source=Path(folder).resolve())
 
-    @property
-    def converged(self) -> bool:
-        return bool(self.summary.get("converged"))
+    time_columns = TIME_COLUMNS
 
     @property
     def reduced_chi2(self) -> float:
@@ -116,19 +113,6 @@ class PointMassFit:
     def chi2(self) -> dict[str, float]:
         """Chi-square per residual group of the fitted model, -."""
         return dict((self.summary.get("fit") or {}).get("chi2", {}))
-
-    @property
-    def adequacy(self) -> Adequacy | None:
-        """The fitted model's model-adequacy verdict (``summary.json`` ``adequacy``); None for an older folder."""
-        return adequacy_of(self.summary, self.source, Adequacy.from_dict)
-
-    @property
-    def columns(self) -> tuple[str, ...]:
-        """Columns :meth:`sample` accepts."""
-        return history_columns(self.trajectory, TIME_COLUMNS)
-
-    def report(self) -> str:
-        return self.report_text
 
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"
