@@ -23,8 +23,9 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from functools import partial
 from typing import Any
 
@@ -115,12 +116,38 @@ def apply_to_chunk(fn: Callable, chunk: Sequence, key: int = -1) -> list:
     return [fn(item) for item in chunk]
 
 
+#: The signals that stop a run (held while workers are being started, see :func:`interrupts_deferred`).
+INTERRUPTS = (signal.SIGINT, signal.SIGTERM)
+
+
+@contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM (delivered, not lost, when the block ends) in this thread, in the
+    threads it starts and in the processes it spawns, while the block runs. Workers are spawned
+    inside it: a signal handled in the middle of a spawn (the parent's handler raises) would cut
+    the child's start-up data short and the child would print an ``EOFError`` traceback. The
+    workers unblock the signals in their initializer (:func:`ignore_interrupts`). A no-op where
+    ``signal.pthread_sigmask`` does not exist."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, INTERRUPTS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def ignore_interrupts(counts: Any = None) -> None:
     """Worker initializer: Ctrl-C reaches the whole process group, but only the parent acts on it
-    (it stops the workers; no worker prints a KeyboardInterrupt traceback). ``counts``: the
-    multiprocessing queue :func:`report_progress` puts ``(chunk key, units)`` on."""
+    (it stops the workers; no worker prints a KeyboardInterrupt traceback); the signals held while
+    the worker was spawned (:func:`interrupts_deferred`) are let through again (a SIGTERM from
+    :func:`stop_pool` then ends it). ``counts``: the multiprocessing queue :func:`report_progress`
+    puts ``(chunk key, units)`` on."""
     global _REPORTER
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, INTERRUPTS)
     if counts is not None:
         counts.cancel_join_thread()  # a count not yet sent when the worker exits is not waited for
         _REPORTER = lambda key, n: counts.put((key, n))  # noqa: E731
@@ -262,10 +289,11 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
         reader = threading.Thread(target=drain, args=(counts, counter, stop), daemon=True) if counts else None
         with ProcessPoolExecutor(max_workers=min(workers, len(chunks)), mp_context=ctx,
                                  initializer=ignore_interrupts, initargs=(counts,)) as pool:
-            if reader is not None:
-                reader.start()
             try:
-                futs = {pool.submit(apply_to_chunk, fn, chunk, k): k for k, chunk in enumerate(chunks)}
+                with interrupts_deferred():  # the reader and the workers start with the signals held
+                    if reader is not None:
+                        reader.start()
+                    futs = {pool.submit(apply_to_chunk, fn, chunk, k): k for k, chunk in enumerate(chunks)}
                 for fut in as_completed(futs):
                     done(futs[fut], fut.result())
             except BaseException:
@@ -273,7 +301,7 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
                 raise
             finally:
                 stop.set()
-                if reader is not None:
+                if reader is not None and reader.ident is not None:  # started
                     reader.join()
         if counts is not None:
             counts.close()
