@@ -129,7 +129,23 @@ class GaugeCovariance:
         """Covariance of z[idx] for each idx of ``index_sets``, followed by the columns ``shared``
         (e.g. the IMU parameters) when given (scaled units)."""
         tail = np.zeros(0, np.int64) if shared is None else np.asarray(shared, np.int64)
-        return [self.covariance_of(np.r_[np.asarray(s, np.int64), tail]) for s in index_sets]
+        sets = [np.r_[np.asarray(s, np.int64), tail] for s in index_sets]
+        if self._selected is not None:
+            return [self.covariance_of(s) for s in sets]
+        out: list[np.ndarray] = []   # no selected inverse (a band too wide): column solves, in batches
+        i = 0
+        while i < len(sets):
+            batch = [sets[i]]
+            while i + len(batch) < len(sets) and sum(s.size for s in batch) < self.BATCH:
+                batch.append(sets[i + len(batch)])
+            x = self._columns(np.concatenate(batch))
+            start = 0
+            for s in batch:
+                c = x[s, start:start + s.size]
+                out.append(0.5 * (c + c.T))
+                start += s.size
+            i += len(batch)
+        return out
 
     def variance_of_combination(self, idx, weights) -> float:
         """Variance of sum_j weights[j] z[idx[j]] (scaled z units)."""

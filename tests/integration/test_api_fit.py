@@ -81,6 +81,13 @@ def test_kinematic_fit_saves_and_loads(tmp_path):
     assert np.all(s["vel_d_mps_3sigma"] > 0) and np.all(np.abs(s["yaw_deg"]) <= 180.0)
     with pytest.raises(ValueError, match="available: "):
         result.sample("alpha_t_deg", 1.0)
+    # the node blocks of the selected inverse equal those of column solves (a pair of nodes far
+    # apart is outside the band, so covariance_of solves for it)
+    cov, cols = result.fit.covariance, result.fit.state_columns
+    far = cov.covariance_of(np.r_[cols[0], cols[-1]])
+    near = cov.blocks([cols[0], cols[-1]])
+    for block, ref in zip(near, (far[:10, :10], far[10:, 10:])):
+        assert np.abs(block - ref).max() <= 1e-6 * np.abs(ref).max()
     folder = result.save(tmp_path / "kin")
     again = casrecon.load_results(folder)
     assert isinstance(again, casrecon.KinematicFit) and again.fit is None
