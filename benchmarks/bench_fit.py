@@ -5,8 +5,9 @@ Medians (min, max) over --runs runs of, for ees-drop-1 (40 s drop, every 500 Hz 
 - import: ``import casrecon.cli`` plus what ``fit`` imports, in a fresh interpreter, minus a bare
   interpreter's start;
 - the fit's parts, in-process, as ``casrecon fit`` runs them: reading the data, initial guess,
-  NLP build, Ipopt solve (iterations; of the solve, the block evaluations, the convergence test and
-  the rest, which is Ipopt's own work, mostly the KKT factorisations), covariance and bands;
+  NLP build, solve (iterations and solver; of the solve, the block evaluations, the Gauss-Newton
+  solver's reduced systems, Ipopt's convergence test, and the rest, which with Ipopt is its own
+  work, mostly the KKT factorisations), covariance and bands;
   products (residuals, pitching moment, aerodynamic coefficients, the two reconciled simulations,
   one of them in a forked child) and the report; writing the results folder; figures (drawn by two
   forked workers; in the command they are forked before the fit, so matplotlib's import is off the
@@ -68,16 +69,17 @@ def parts(problem: Path, runs: int, figures: bool) -> dict[str, list[float]]:
     from casrecon.scenario import Scenario
 
     keys = ("data_s", "initial_guess_s", "build_s", "solve_s", "solve_evaluation_s", "solve_stop_test_s",
-            "covariance_s")
-    out: dict[str, list[float]] = {k: [] for k in (*keys, "iterations", "ipopt_own_s", "products_s", "writing_s",
-                                                   "figures_s")}
+            "solve_linear_algebra_s", "covariance_s")
+    out: dict[str, list] = {k: [] for k in (*keys, "iterations", "ipopt_own_s", "products_s", "writing_s",
+                                            "figures_s", "method")}
     for _ in range(runs):
         result = fit_drop(Scenario.load(problem))
         for k in keys:
             out[k].append(result.timings[k])
         out["iterations"].append(result.solver.iterations)
+        out["method"].append(result.solver.method)
         out["ipopt_own_s"].append(result.timings["solve_s"] - result.timings["solve_evaluation_s"]
-                                  - result.timings["solve_stop_test_s"])
+                                  - result.timings["solve_stop_test_s"] - result.timings["solve_linear_algebra_s"])
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
             products = fit_products(result, concurrent=True)
@@ -149,10 +151,10 @@ def main() -> None:
     for k in ("data_s", "initial_guess_s", "build_s", "solve_s"):
         print(f"  {k[:-2]:19s} {median(p[k])}")
     n_it = statistics.median(p["iterations"])
-    for k, label in (("solve_evaluation_s", "evaluations"), ("solve_stop_test_s", "convergence test"),
-                     ("ipopt_own_s", "Ipopt (KKT)")):
+    for k, label in (("solve_evaluation_s", "evaluations"), ("solve_linear_algebra_s", "reduced systems"),
+                     ("solve_stop_test_s", "convergence test"), ("ipopt_own_s", "rest (Ipopt's KKT)")):
         print(f"    {label:17s} {median(p[k])}; per iteration {statistics.median(p[k]) / max(n_it, 1):.3f} s")
-    print(f"    iterations        {n_it:g}")
+    print(f"    iterations        {n_it:g} ({', '.join(sorted(set(p['method'])))})")
     for k in ("covariance_s", "products_s", "writing_s", "figures_s"):
         print(f"  {k[:-2]:19s} {median(p[k])}")
     for label, extra in (("casrecon fit --no-figures", ["--no-figures"]), ("casrecon fit", [])):

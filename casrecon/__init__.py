@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from casrecon.io.errors import InputError
+from casrecon.parallel import single_threaded_blas
 
 if TYPE_CHECKING:
     from casrecon.analysis.montecarlo import MonteCarloResult
@@ -171,12 +172,13 @@ def load_problem(path: str | Path) -> Scenario | PointMassConfig:
     return Scenario.load(path)
 
 
+@single_threaded_blas()
 def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-        print_level: int = 0) -> DropFit | PointMassFit | KinematicFit:
+        print_level: int = 0, solver: str | None = None) -> DropFit | PointMassFit | KinematicFit:
     """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
     simulations (for a ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`;
     for a ``kind = "kinematic"`` problem the IMU-driven reconstruction, a :class:`KinematicFit`;
-    ``linear_solver`` and ``hessian`` do not apply to them).
+    ``linear_solver``, ``hessian`` and ``solver`` do not apply to them).
 
     Parameters
     ----------
@@ -188,6 +190,9 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
         Overrides ``[estimation] hessian``.
     print_level : int
         Ipopt's print level (0 silent, 5 every iteration).
+    solver : {"auto", "ipopt"}, optional
+        Overrides ``[estimation] solver``: "auto" solves with the null-space Gauss-Newton solver
+        where it applies (no disturbance states), else with Ipopt.
 
     Returns
     -------
@@ -213,7 +218,7 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
         return _fit_kinematic(scenario, print_level)
     if not hasattr(scenario, "model"):
         return _fit_point_mass(scenario, print_level)
-    result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level)
+    result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level, solver=solver)
     products = fit_products(result)
     report = fit_report(result, products.adequacy)
     result.timings["total_s"] = time.perf_counter() - t0

@@ -37,6 +37,7 @@ from casrecon.cli_guard import (
 )
 from casrecon.cli_montecarlo import montecarlo_command
 from casrecon.cli_options import HelpFormatter, add_verbosity_arguments, configure_logging, log_level, version_text
+from casrecon.parallel import single_threaded_blas
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -129,7 +130,7 @@ def _fit_drop(args: argparse.Namespace, t0: float, figures) -> int:
 
     scenario = Scenario.load(args.problem)
     try:
-        result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian,
+        result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian, solver=args.solver,
                           print_level=5 if args.verbose else 0)
     except FitError as err:
         return fit_failed(f"fit of {scenario.config.name}", err)
@@ -190,7 +191,7 @@ def _joint(args: argparse.Namespace) -> int:
     args.where = out_folder_arguments(args, *args.problems, *cfg.drops)  # the drops' inputs too
     try:
         result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
-                           print_level=5 if args.verbose else 0)
+                           solver=args.solver, print_level=5 if args.verbose else 0)
     except FitError as err:
         return fit_failed(f"joint fit {cfg.name}", err)
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
@@ -366,6 +367,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Ipopt linear solver (default: [estimation] linear_solver)")
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: [estimation] hessian)")
+    p.add_argument("--solver", choices=("auto", "ipopt"), default=None,
+                   help="auto: the null-space Gauss-Newton solver where it applies, else Ipopt; ipopt: always "
+                        "Ipopt (default: [estimation] solver)")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
     p.add_argument("--kinematic-check", action="store_true",
                    help="also reconstruct the drop from its IMU without the aero model and compare the aero "
@@ -386,6 +390,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="Ipopt linear solver (default: each problem's [estimation] linear_solver)")
     p.add_argument("--hessian", choices=("gauss-newton", "exact"), default=None,
                    help="Hessian for Ipopt (default: each problem's [estimation] hessian)")
+    p.add_argument("--solver", choices=("auto", "ipopt"), default=None,
+                   help="auto: the null-space Gauss-Newton solver where it applies, else Ipopt; ipopt: always "
+                        "Ipopt (default: each problem's [estimation] solver)")
     add_format_argument(p)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_joint)
@@ -430,6 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@single_threaded_blas()
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; returns its exit status (module docstring), one line on stderr on failure."""
     args = build_parser().parse_args(argv)

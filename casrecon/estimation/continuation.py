@@ -65,7 +65,7 @@ def solve_fit(build: Callable[[dict[str, float]], FitNlp], start: Callable[[FitN
             check_determined(nlp, z0)
         bounds = clock_bounds(fit_nlp.parts, nlp.n_z)
         sol = solve(nlp, z0, linear_solver=settings.linear_solver, max_iter=settings.max_iter, tol=settings.tol,
-                    print_level=settings.print_level, bounds=bounds)
+                    print_level=settings.print_level, bounds=bounds, method=settings.solver)
         build_s += sol.build_s
         check_converged(sol, nlp)
         moved = clocks_at_bound(sol, fit_nlp, bounds)

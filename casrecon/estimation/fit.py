@@ -177,14 +177,14 @@ def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
 
 
 def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-             print_level: int = 0) -> FitResult:
+             print_level: int = 0, solver: str | None = None) -> FitResult:
     """Reconstruct one drop (see docs/design.md). Raises FitError when the result is not usable.
 
-    ``linear_solver`` and ``hessian`` override the problem's ``[estimation]`` settings.
+    ``linear_solver``, ``hessian`` and ``solver`` override the problem's ``[estimation]`` settings.
     """
     cfg = scenario.config
     settings = FitSettings.from_estimation(cfg.estimation, linear_solver=linear_solver, hessian=hessian,
-                                           print_level=print_level)
+                                           print_level=print_level, solver=solver)
     t0 = time.perf_counter()
     data, mesh = prepare_drop(scenario)
     params = parameter_set(cfg)
@@ -204,7 +204,8 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     r = fit_nlp.nlp.residual_vector(sol.z)
     cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced)
     timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
-               "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s}
+               "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s,
+               "solve_linear_algebra_s": sol.linear_algebra_s}
     result = drop_result(scenario, data, fit_nlp, 0, sol, cov, r, timings)
     t4 = time.perf_counter()
     timings.update(covariance_s=t4 - t3, total_s=t4 - t0)

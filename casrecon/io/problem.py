@@ -148,8 +148,14 @@ class EstimationConfig:
         with gust states; exact: 27).
     linear_solver : {"mumps", "spral"}
         Ipopt's linear solver.
+    solver : {"auto", "ipopt"}
+        "auto": the null-space constrained Gauss-Newton solver for fits without disturbance
+        states (its iteration never factorises the whole KKT matrix; 2 to 3 times faster than Ipopt
+        on the EES drops, same estimate), Ipopt for the others and to finish a Gauss-Newton run
+        that stops unconverged; "ipopt": always Ipopt.
     max_iter : int
-        Ipopt iteration limit.
+        Iteration limit (Ipopt's; the Gauss-Newton solver stops at the smaller of this and 50
+        and hands its iterate to Ipopt).
     tol : float
         Ipopt convergence tolerance (scaled optimality error). A dual infeasibility d moves a
         scaled unknown of standard deviation s by about s^2 d, so 1e-6 is far inside every sigma;
@@ -191,6 +197,7 @@ class EstimationConfig:
     samples_per_interval: int | None = None
     hessian: str = "auto"
     linear_solver: str = "mumps"
+    solver: str = "auto"
     max_iter: int = 200
     tol: float = 1e-6
     saturation: str = "mask"
@@ -464,6 +471,7 @@ def _estimation(t: Fields) -> EstimationConfig:
         samples_per_interval=_samples_per_interval(t),
         hessian=t.string("hessian", d.hessian, choices=("auto", "gauss-newton", "exact")),
         linear_solver=t.string("linear_solver", d.linear_solver, choices=("mumps", "spral")),
+        solver=t.string("solver", d.solver, choices=("auto", "ipopt")),
         max_iter=t.integer("max_iter", d.max_iter, 1), tol=t.number("tol", d.tol, positive=True),
         saturation=t.string("saturation", d.saturation, choices=("mask", "polynomial")), estimate=estimate,
         dispersion_prior=t.boolean("dispersion_prior", True), atmosphere_prior=t.boolean("atmosphere_prior", True),

@@ -70,7 +70,7 @@ def clock_document(result) -> dict:
 def summary_document(result) -> dict:
     sol, d = result.solver, result.data
     return {"problem": result.scenario.config.name, "converged": sol.converged, "status": sol.status,
-            "iterations": sol.iterations, "objective": sol.objective, "hessian": sol.hessian,
+            "iterations": sol.iterations, "objective": sol.objective, "solver": sol.method, "hessian": sol.hessian,
             "linear_solver": sol.linear_solver, "chi2": result.chi2, "n_measurements": result.n_measurements,
             "dof": result.dof, "reduced_chi2": result.reduced_chi2, "condition": result.condition,
             "timings": result.timings, **{k: result.timings[k] for k in ("build_s", "solve_s", "covariance_s",

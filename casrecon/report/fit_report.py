@@ -50,7 +50,7 @@ def fit_report(result, adequacy: Adequacy | None = None) -> str:
     chi2 = sum(result.chi2.values())
     t = result.timings
     lines = [f"[[Fit: {cfg.name}]]",
-             f"    {sol.status} in {sol.iterations} iterations; Hessian {sol.hessian}, linear solver "
+             f"    {sol.status} in {sol.iterations} iterations ({sol.method}); Hessian {sol.hessian}, linear solver "
              f"{sol.linear_solver}; covariance from the KKT matrix with J^T J",
              f"    window {d.window[0]:.3f} to {d.window[1]:.3f} s IMU clock "
              f"({d.window[0] - d.release_imu_s:.2f} s after release to "

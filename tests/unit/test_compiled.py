@@ -1,4 +1,4 @@
-"""Compiled block functions (casrecon.estimation.engine.compiled): same numbers as the interpreter,
+"""Compiled block functions (casrecon.physics.compiled): same numbers as the interpreter,
 built once and then loaded from the disk cache, and an interpreted fallback whenever compiling is
 off or fails."""
 
@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from casrecon.estimation.engine import compiled as cg
+from casrecon.physics import compiled as cg
 
 pytestmark = pytest.mark.skipif(cg.compiler() is None, reason="no C compiler on this machine")
 

@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sps
 
-from casrecon.estimation.engine.compiled import compiled
+from casrecon.physics.compiled import compiled
 
 
 class SparseTarget:
@@ -100,7 +100,7 @@ class BlockKind:
             outs += [ca.vec(jg.nz[:]), constraint]
             plain.append(constraint)
             self.patterns["jg"] = _triplet(jg)
-        self.values = ca.Function(f"{name}_values", [local, *data], plain)
+        self.values = ca.Function(f"{name}_values", [local, *data], [ca.densify(p) for p in plain])
         self.residual_values = ca.Function(f"{name}_residuals", [local, *data], [ca.densify(residual)])
         self.derivatives = ca.Function(f"{name}_derivatives", [local, *data], [ca.densify(o) for o in outs])
         self.n_local = local.numel()
@@ -180,6 +180,11 @@ class BlockSet:
     def residual_function(self) -> ca.Function:
         """The kind's residual function (no derivatives) over all blocks (built at first use)."""
         return self.mapped(self.kind.residual_values)
+
+    @cached_property
+    def value_function(self) -> ca.Function:
+        """The kind's value function (residuals[, constraints], no derivatives) over all blocks."""
+        return self.mapped(self.kind.values)
 
     @cached_property
     def hess(self) -> ca.Function:

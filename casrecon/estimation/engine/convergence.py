@@ -65,6 +65,20 @@ def iteration_logging(level: int | None = None, label: str | None = None) -> Ite
         _ITERATION_LOG.reset(token)
 
 
+def iteration_log_settings() -> tuple[int, str]:
+    """(logging level, label) of the iteration lines of a solve started now (see
+    :func:`iteration_logging`)."""
+    return _ITERATION_LOG.get()
+
+
+def log_iteration(level: int, label: str, iteration: int, chi2: float, violation: float) -> None:
+    """Log one iterate's line ``iteration K: chi-square X, constraint violation Y`` at ``level``
+    (logger ``casrecon.estimation.engine.convergence``), prefixed with ``label + ": "`` if any."""
+    if LOG.isEnabledFor(level):
+        LOG.log(level, "%siteration %d: chi-square %.6g, constraint violation %.2g",
+                f"{label}: " if label else "", iteration, chi2, violation)
+
+
 def applies(nlp: Nlp) -> bool:
     """Whether the decrement test is made for ``nlp`` (no latent process values)."""
     return not nlp.latent
@@ -280,6 +294,5 @@ class DecrementStop(ca.Callback):
         if LOG.isEnabledFor(self.log_level):
             g = np.asarray(g).ravel()
             violation = float(np.abs(g).max()) if g.size else 0.0
-            LOG.log(self.log_level, "%siteration %d: chi-square %.6g, constraint violation %.2g",
-                    f"{self.label}: " if self.label else "", self.iteration, 2.0 * f + self.const_chi2, violation)
+            log_iteration(self.log_level, self.label, self.iteration, 2.0 * f + self.const_chi2, violation)
         self.iteration += 1

@@ -37,6 +37,7 @@ from scipy.linalg import null_space
 from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.nlp import Nlp
+from casrecon.parallel import single_threaded_blas
 
 #: A reduced Hessian with condition number above this is reported as singular.
 MAX_CONDITION = 1e13
@@ -85,6 +86,7 @@ class ReducedSystem:
     hessian: np.ndarray
     elimination: Elimination | None = None
     coupling: np.ndarray | None = None   # M = H_EE^-1 B, (n_E, n_w)
+    split: ConstraintSplit | None = None  # the constraint Jacobian's split it was formed with
 
 
 @dataclass(frozen=True)
@@ -261,22 +263,73 @@ class KktCovariance:
         return out
 
 
-def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
-                     excluded: np.ndarray = ()) -> np.ndarray:
-    """Z with A Z = 0 for a constraint Jacobian whose first ``n_determining`` rows fix the
-    columns ``dep`` given the others (the rest are side constraints, e.g. unit norms); the
-    ``excluded`` columns (in no constraint) get zero rows."""
+@dataclass(frozen=True)
+class ConstraintSplit:
+    """The constraint Jacobian A split as the module docstring describes: the determining rows'
+    sparse LU in the ``dependent`` columns, the side rows (e.g. unit norms, which must not touch the
+    dependent columns) in the independent ones, and the null-space basis Z they give.
+
+    Attributes
+    ----------
+    basis : (n_z, n_w) array
+        Z with A Z = 0 (zero rows for excluded columns).
+    lu : scipy SuperLU
+        LU of A_D (determining rows, dependent columns).
+    dep, indep : int arrays
+        Dependent columns; independent columns (excluded ones left out).
+    a_indep : sparse matrix
+        Determining rows in the independent columns, A_I.
+    a_side : (n_side, len(indep)) array
+        Side rows in the independent columns.
+    """
+
+    basis: np.ndarray
+    lu: object
+    dep: np.ndarray
+    indep: np.ndarray
+    a_indep: sps.csr_matrix
+    a_side: np.ndarray
+
+    def particular(self, c: np.ndarray) -> np.ndarray:
+        """A step dz with A dz = -c (to first order this zeroes the constraint values ``c``): the
+        least-norm change of the independent columns that zeroes the side rows, then the dependent
+        columns from the determining rows; zero in the excluded columns."""
+        n_det = self.dep.size
+        dz = np.zeros(self.basis.shape[0])
+        c_side = c[n_det:]
+        if c_side.size:
+            dz[self.indep] = -np.linalg.lstsq(self.a_side, c_side, rcond=None)[0]
+        dz[self.dep] = -self.lu.solve(c[:n_det] + self.a_indep @ dz[self.indep])
+        return dz
+
+
+def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
+                     excluded: np.ndarray = ()) -> ConstraintSplit:
+    """The :class:`ConstraintSplit` of a constraint Jacobian whose first ``n_determining`` rows fix
+    the columns ``dep`` given the others (the rest are side constraints, e.g. unit norms); the
+    ``excluded`` columns (in no constraint) get zero rows in Z."""
     n_z = a.shape[1]
     n_def = n_determining
+    dep = np.asarray(dep, np.int64)
     indep = np.setdiff1d(np.arange(n_z), np.union1d(dep, excluded))
     a_def = a[:n_def]
     a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].tocsr()
-    n_basis = null_space(a[n_def:, indep].toarray()) if a.shape[0] > n_def else np.eye(indep.size)
-    z_dep = -splu(a_d).solve(np.asarray(a_i @ n_basis))
+    a_side = a[n_def:]
+    if a_side.shape[0] and abs(a_side[:, dep]).sum() != 0:
+        raise ValueError("a side constraint involves a dependent column")
+    a_side_i = a_side[:, indep].toarray()
+    n_basis = null_space(a_side_i) if a_side.shape[0] else np.eye(indep.size)
+    lu = splu(a_d)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
-    basis[dep] = z_dep
-    return basis
+    basis[dep] = -lu.solve(np.asarray(a_i @ n_basis))
+    return ConstraintSplit(basis, lu, dep, indep, a_i, a_side_i)
+
+
+def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
+                     excluded: np.ndarray = ()) -> np.ndarray:
+    """Z with A Z = 0 (see :func:`constraint_split`)."""
+    return constraint_split(a, dep, n_determining, excluded).basis
 
 
 def fisher_and_jacobian(nlp: Nlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.csc_matrix]:
@@ -287,16 +340,20 @@ def fisher_and_jacobian(nlp: Nlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.cs
     return h_upper + sps.triu(h_upper, 1).T, a
 
 
+@single_threaded_blas()
 def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> ReducedSystem:
     """The null-space basis of the constraint Jacobian and the reduced Hessian, the eliminated
     columns' block taken out by its Schur complement (NLPs without latent process values at the
-    nodes: with them Z would have thousands of columns)."""
+    nodes: with them Z would have thousands of columns). Computed with BLAS on one thread,
+    whoever calls: the reduced Hessian's condition number reaches 1e10, at which the rounding of a
+    threaded product moves covariances by 1e-9 relative, so the same z must give the same bits."""
     elim = np.asarray(nlp.eliminated, np.int64)
-    basis = null_space_basis(a, nlp.dependent, nlp.n_determining, elim)
+    split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
+    basis = split.basis
     hz = h @ basis
     hr = basis.T @ hz
     if not elim.size:
-        return ReducedSystem(basis, 0.5 * (hr + hr.T))
+        return ReducedSystem(basis, 0.5 * (hr + hr.T), split=split)
     if abs(a[:, elim]).sum() != 0:
         raise ValueError("an eliminated column appears in a constraint")
     try:
@@ -307,7 +364,7 @@ def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> ReducedSy
     m = lu.solve(b)
     hr = hr - b.T @ m
     basis[elim] = -m
-    return ReducedSystem(basis, 0.5 * (hr + hr.T), Elimination(elim, lu), m)
+    return ReducedSystem(basis, 0.5 * (hr + hr.T), Elimination(elim, lu), m, split)
 
 
 def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,

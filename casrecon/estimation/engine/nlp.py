@@ -185,6 +185,25 @@ class BlockDerivatives:
             r[r_row:r_row + out[0].size] = out[0].ravel()
         return r
 
+    @cached_property
+    def value_evaluator(self) -> BlockEvaluator:
+        """Every set's mapped value function (residuals and constraints, no derivatives) at one z."""
+        return BlockEvaluator([bs.value_function for bs in self.sets], [bs.cols for bs in self.sets],
+                              [bs.data for bs in self.sets], self.n_z)
+
+    def values_only(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(whitened residuals, constraints) at ``z`` (new arrays): from the cache when ``evaluate``
+        last ran at z, else from the value functions alone (a line search's trial points)."""
+        z = np.asarray(z, float).ravel()
+        if self._z is not None and np.array_equal(z, self._z):
+            return self._r.copy(), self._g.copy()
+        r, g = np.zeros(self.n_r), np.zeros(self.n_g)
+        for g_rows, r_row, out in zip(self.g_rows, self.r_rows, self.value_evaluator(z)):
+            r[r_row:r_row + out[0].size] = out[0].ravel()
+            if len(out) > 1:
+                g[(g_rows[:, None] + np.arange(out[1].shape[1])[None, :]).ravel()] = out[1].ravel()
+        return r, g
+
     def _stack(self, key: str) -> tuple[np.ndarray, np.ndarray]:
         rows, cols = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
         for bs, g_rows in zip(self.sets, self.g_rows):

@@ -1,4 +1,5 @@
-"""Block functions compiled to machine code with the system C compiler, cached on disk.
+"""CasADi functions (the fit's block functions, the simulator's steps) compiled to machine code
+with the system C compiler, cached on disk.
 
 CasADi evaluates an SX function in its virtual machine; the same function generated as C and
 compiled runs several times faster, and the per-interval derivative function is most of a fit's
