@@ -3,7 +3,8 @@
 Each case draws a truth from the fit's own prior (see casrecon.analysis.estimator_mc), makes fresh
 synthetic IMU and GPS data, fits, and computes NEES = e^T C^-1 e over the estimated parameters. The
 sum over the cases must lie in its two-sided 95 % chi-square interval. Also printed: the RMS of
-the normalised errors per parameter, the worst case, and the wall time.
+the normalised errors per parameter, the worst case, the solvers used, and the wall time, whole
+and per case (its distribution and the slowest case against the median).
 
 Run: python benchmarks/estimator_consistency.py [--problem problems/ees-drop-3] [--cases 50]
      [--workers 2] [--seed 0] [--json out.json]
@@ -46,9 +47,17 @@ def main() -> None:
     print(f"NEES per case: mean {nees.mean():.2f} (expected {res.n_params}), max {nees.max():.1f} "
           f"(case {ok[int(nees.argmax())]['index']})")
     stops = Counter(c["status"].split(" (")[0] for c in ok)
+    solvers = Counter(c.get("solver", "ipopt") for c in ok)
     print("stopped by: " + ", ".join(f"{k} {v}" for k, v in stops.items())
-          + f"; Ipopt iterations median {np.median([c['iterations'] for c in ok]):.0f}, "
+          + "; solved by: " + ", ".join(f"{k} {v}" for k, v in solvers.items())
+          + f"; iterations median {np.median([c['iterations'] for c in ok]):.0f}, "
           f"max {max(c['iterations'] for c in ok)}")
+    seconds = np.array([c["case_s"] for c in res.cases])
+    slowest = res.cases[int(seconds.argmax())]
+    print(f"case wall time (simulate + fit, s): median {np.median(seconds):.1f}, p90 {np.percentile(seconds, 90):.1f}, "
+          f"max {seconds.max():.1f} (case {slowest['index']}, {slowest.get('iterations', '?')} iterations); "
+          f"max / median {seconds.max() / np.median(seconds):.2f} (acceptance: <= 3)")
+    print("  distribution: " + " ".join(f"{s:.0f}" for s in np.sort(seconds)))
     z = np.array([np.array(c["error"]) / np.array(c["sigma"]) for c in ok])
     print("RMS of (estimate - truth) / sigma per parameter:")
     for name, rms, mean in zip(ok[0]["names"], np.sqrt((z**2).mean(0)), z.mean(0)):

@@ -92,8 +92,8 @@ def run_case(problem: str, seed: int, index: int) -> dict:
     e, nees = parameter_errors(r, truth)
     return {"index": index, "names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(),
             "nees": nees, "chi2": float(sum(r.chi2.values())), "reduced_chi2": r.reduced_chi2,
-            "status": r.solver.status, "iterations": r.solver.iterations, "solve_s": r.solver.solve_s,
-            "case_s": time.perf_counter() - t0}
+            "status": r.solver.status, "iterations": r.solver.iterations, "solver": r.solver.method,
+            "solve_s": r.solver.solve_s, "case_s": time.perf_counter() - t0}
 
 
 class CaseLog:

@@ -8,6 +8,7 @@ redone from that solution, at most :func:`max_clock_shifts` times.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 
@@ -50,6 +51,7 @@ def solve_fit(build: Callable[[dict[str, float]], FitNlp], start: Callable[[FitN
     (FitNlp, SolveResult, build seconds)
     """
     guesses, z, build_s, attempt, limit = dict(guesses), None, 0.0, 0, 1
+    earlier: list[SolveResult] = []  # the solves before a clock shift
     while attempt <= limit:
         t = time.perf_counter()
         fit_nlp = build(guesses)
@@ -70,7 +72,8 @@ def solve_fit(build: Callable[[dict[str, float]], FitNlp], start: Callable[[FitN
         check_converged(sol, nlp)
         moved = clocks_at_bound(sol, fit_nlp, bounds)
         if not moved:
-            return fit_nlp, sol, build_s
+            return fit_nlp, with_earlier(sol, earlier), build_s
+        earlier.append(sol)
         _check_clock_plausible(fit_nlp, moved)
         guesses.update(moved)
         z = sol.z
@@ -78,6 +81,18 @@ def solve_fit(build: Callable[[dict[str, float]], FitNlp], start: Callable[[FitN
     raise FitError(f"the IMU-to-GPS clock offset kept reaching its bound after {limit} shifts "
                    f"({', '.join(f'{k} {v:+.3f} s' for k, v in moved.items())}); give [estimation] "
                    "clock_offset_guess_s")
+
+
+def with_earlier(sol: SolveResult, earlier: list[SolveResult]) -> SolveResult:
+    """``sol`` with the iterations and times of the solves before it (clock shifts) added, so the
+    report counts every iteration the fit took."""
+    if not earlier:
+        return sol
+    return dataclasses.replace(sol, iterations=sol.iterations + sum(s.iterations for s in earlier),
+                               solve_s=sol.solve_s + sum(s.solve_s for s in earlier),
+                               evaluation_s=sol.evaluation_s + sum(s.evaluation_s for s in earlier),
+                               stop_test_s=sol.stop_test_s + sum(s.stop_test_s for s in earlier),
+                               linear_algebra_s=sol.linear_algebra_s + sum(s.linear_algebra_s for s in earlier))
 
 
 def clock_bounds(parts, n_z: int) -> tuple[np.ndarray, np.ndarray]:
