@@ -37,11 +37,15 @@ class SparseTarget:
         lin = np.asarray(cols, np.int64) * shape[0] + np.asarray(rows, np.int64)
         unique, self.target = np.unique(lin, return_inverse=True)
         self.nnz, self.shape = unique.size, shape
-        self.sparsity = ca.Sparsity.triplet(shape[0], shape[1], (unique % shape[0]).tolist(),
-                                            (unique // shape[0]).tolist())
         # column-major order of the unique entries is CSC order
         self.row_index = np.asarray(unique % shape[0], np.int64)
         self.col_start = np.searchsorted(unique // shape[0], np.arange(shape[1] + 1)).astype(np.int64)
+
+    @cached_property
+    def sparsity(self) -> ca.Sparsity:
+        """The global matrix's CasADi sparsity (built at first use: only Ipopt's callbacks need it)."""
+        cols = np.repeat(np.arange(self.shape[1]), np.diff(self.col_start))
+        return ca.Sparsity.triplet(self.shape[0], self.shape[1], self.row_index.tolist(), cols.tolist())
 
     def values(self, source: np.ndarray) -> np.ndarray:
         """Nonzeros (in :attr:`sparsity`'s order) of the global matrix from the stacked source values."""

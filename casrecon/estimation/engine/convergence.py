@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 from scipy.linalg import null_space
 
-from casrecon.estimation.engine.covariance import fisher_and_jacobian, reduced_hessian
+from casrecon.estimation.engine.covariance import reduced_system_at
 from casrecon.estimation.engine.nlp import Nlp
 
 LOG = logging.getLogger(__name__)
@@ -120,8 +120,7 @@ class ReducedCache:
     def get(self, nlp: Nlp, z: np.ndarray, max_distance: float = 0.0):
         """The system formed at ``z``, or the cached one if formed within ``max_distance`` of it."""
         if self.z is None or np.max(np.abs(z - self.z)) > max_distance:
-            h, a = fisher_and_jacobian(nlp, z)
-            self.z, self.system = z.copy(), reduced_hessian(nlp, h, a)
+            self.z, self.system = z.copy(), reduced_system_at(nlp, z)
         return self.system
 
 

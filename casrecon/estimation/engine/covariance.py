@@ -263,6 +263,12 @@ class KktCovariance:
         return out
 
 
+#: Column ordering of the LU of A_D. The dependent columns run node by node and the defects interval
+#: by interval, so A_D is block-bidiagonal already: the natural order factorises it without fill
+#: beyond the band (ees-drop-1: 22 ms against COLAMD's 34, solves 22 ms against 25; residuals 3e-14).
+A_D_ORDERING = "NATURAL"
+
+
 @dataclass(frozen=True)
 class ConstraintSplit:
     """The constraint Jacobian A split as the module docstring describes: the determining rows'
@@ -319,7 +325,7 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
         raise ValueError("a side constraint involves a dependent column")
     a_side_i = a_side[:, indep].toarray()
     n_basis = null_space(a_side_i) if a_side.shape[0] else np.eye(indep.size)
-    lu = splu(a_d)
+    lu = splu(a_d, permc_spec=A_D_ORDERING)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
     basis[dep] = -lu.solve(np.asarray(a_i @ n_basis))
@@ -349,19 +355,41 @@ def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> ReducedSy
     threaded product moves covariances by 1e-9 relative, so the same z must give the same bits."""
     elim = np.asarray(nlp.eliminated, np.int64)
     split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
+    hz = h @ split.basis
+    return _reduced(split, split.basis.T @ hz, hz[elim], lambda: h[elim][:, elim].tocsc(), elim, a)
+
+
+@single_threaded_blas()
+def reduced_hessian_from_jacobian(nlp: Nlp, jr: sps.csc_matrix, a: sps.csc_matrix) -> ReducedSystem:
+    """:func:`reduced_hessian` of H = J_r^T J_r from the residual Jacobian ``jr`` itself, without
+    forming H: (J_r Z)^T (J_r Z), and J_E^T J_E for the eliminated columns."""
+    elim = np.asarray(nlp.eliminated, np.int64)
+    split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
+    jz = jr @ split.basis
+    je = jr[:, elim]
+    return _reduced(split, jz.T @ jz, je.T @ jz, lambda: (je.T @ je).tocsc(), elim, a)
+
+
+def reduced_system_at(nlp: Nlp, z: np.ndarray) -> ReducedSystem:
+    """The reduced system at ``z`` (scaled), from the residual Jacobian (the solver's way, so the
+    covariance recomputed at a solution is the reported one to the last bit)."""
+    d = nlp.derivatives
+    return reduced_hessian_from_jacobian(nlp, d.jacobian_r(z), d.jacobian_g(z))
+
+
+def _reduced(split: ConstraintSplit, hr: np.ndarray, b: np.ndarray, h_ee, elim: np.ndarray,
+             a: sps.csc_matrix) -> ReducedSystem:
+    """The reduced system from Z^T H Z (``hr``), B = H_Ec Z_c (``b``) and ``h_ee()`` (H_EE, sparse)."""
     basis = split.basis
-    hz = h @ basis
-    hr = basis.T @ hz
     if not elim.size:
         return ReducedSystem(basis, 0.5 * (hr + hr.T), split=split)
     if abs(a[:, elim]).sum() != 0:
         raise ValueError("an eliminated column appears in a constraint")
     try:
-        lu = splu(h[elim][:, elim].tocsc())
+        lu = splu(h_ee())
     except RuntimeError as err:
         raise SingularCovariance(f"the Hessian block of the latent sensor errors is singular ({err})") from None
-    b = hz[elim]
-    m = lu.solve(b)
+    m = lu.solve(np.asarray(b))
     hr = hr - b.T @ m
     basis[elim] = -m
     return ReducedSystem(basis, 0.5 * (hr + hr.T), Elimination(elim, lu), m, split)
@@ -374,7 +402,7 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,
     if nlp.latent:
         h, a = fisher_and_jacobian(nlp, z)
         return _kkt_covariance(nlp, h, a, chi2, dof)
-    system = reduced if reduced is not None else reduced_hessian(nlp, *fisher_and_jacobian(nlp, z))
+    system = reduced if reduced is not None else reduced_system_at(nlp, z)
     eig, vec = np.linalg.eigh(system.hessian)
     cond = float(eig[-1] / max(eig[0], 1e-300))
     if eig[0] <= 0 or cond > MAX_CONDITION:

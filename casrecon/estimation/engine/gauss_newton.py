@@ -34,12 +34,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from casrecon.estimation.engine import convergence
-from casrecon.estimation.engine.covariance import (
-    ReducedSystem,
-    SingularCovariance,
-    fisher_and_jacobian,
-    reduced_hessian,
-)
+from casrecon.estimation.engine.covariance import ReducedSystem, SingularCovariance, reduced_hessian_from_jacobian
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.parallel import single_threaded_blas
 
@@ -109,13 +104,14 @@ def _bounded(bounds, n_z: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return cols, lo[cols], hi[cols]
 
 
-def reduced_step(system: ReducedSystem, grad: np.ndarray, h: sps.csc_matrix, c: np.ndarray, z: np.ndarray,
+def reduced_step(system: ReducedSystem, grad: np.ndarray, jr: sps.csc_matrix, c: np.ndarray, z: np.ndarray,
                  bounded: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Step:
-    """The constrained Gauss-Newton step at ``z`` (see the module docstring): ``grad`` = J^T r, ``h``
-    = J^T J (full), ``c`` the constraint values, ``bounded`` = (columns, lower, upper) of the bounds."""
+    """The constrained Gauss-Newton step at ``z`` (see the module docstring): ``grad`` = J^T r, ``jr``
+    = J (the residuals' Jacobian), ``c`` the constraint values, ``bounded`` = (columns, lower,
+    upper) of the bounds."""
     split, basis = system.split, system.basis
     p = split.particular(c)
-    b = grad + h @ p
+    b = grad + jr.T @ (jr @ p)
     elim = system.elimination
     dz_e = np.zeros_like(p)
     if elim is not None:  # dz_E = -H_EE^-1 b_E - M w: the first part here, the second through basis rows
@@ -124,8 +120,8 @@ def reduced_step(system: ReducedSystem, grad: np.ndarray, h: sps.csc_matrix, c: 
     cols, lo, hi = bounded
     w = _bounded_reduced_solve(system.hessian, rhs, basis[cols], z[cols] + p[cols], lo, hi)
     dz = p + dz_e + basis @ w
-    hdz = h @ dz
-    predicted = -(2.0 * float(grad @ dz) + float(dz @ hdz))
+    jdz = jr @ dz
+    predicted = -(2.0 * float(grad @ dz) + float(jdz @ jdz))
     return Step(dz, predicted, system)
 
 
@@ -208,9 +204,9 @@ def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
         violation = float(np.abs(c).max()) if c.size else 0.0
         convergence.log_iteration(level, label, iteration, float(r @ r) + const_chi2, violation)
         try:
-            h, a = fisher_and_jacobian(nlp, z)
-            system = reduced_hessian(nlp, h, a)
-            step = reduced_step(system, grad, h, c, z, bounded)
+            jr = d.jacobian_r(z)
+            system = reduced_hessian_from_jacobian(nlp, jr, d.jacobian_g(z))
+            step = reduced_step(system, grad, jr, c, z, bounded)
         except (SingularCovariance, GaussNewtonFailure, RuntimeError) as err:
             eval_s += t1 - t0
             algebra_s += time.perf_counter() - t1
@@ -225,7 +221,7 @@ def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
                         step.predicted, eval_s, algebra_s, system, nlp)
         if iteration == max_iter:
             break
-        z_new, nu, trial_eval_s = _line_search(nlp, z, r, c, grad, h, step, nu, bounded)
+        z_new, nu, trial_eval_s = _line_search(nlp, z, r, c, grad, jr, step, nu, bounded)
         eval_s += trial_eval_s
         if z_new is None:
             status = "line search failed (no step length down to 1e-6 lowers the merit function)"
@@ -236,12 +232,13 @@ def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
                 None if step is None else step.predicted, eval_s, algebra_s, None, nlp)
 
 
-def _line_search(nlp: Nlp, z, r, c, grad, h, step: Step, nu: float, bounded):
+def _line_search(nlp: Nlp, z, r, c, grad, jr, step: Step, nu: float, bounded):
     """(accepted iterate or None, updated penalty, evaluation seconds)."""
     d = nlp.derivatives
     dz = step.dz
     c1 = float(np.abs(c).sum())
-    model = float(grad @ dz) + 0.5 * float(dz @ (h @ dz))
+    jdz = jr @ dz
+    model = float(grad @ dz) + 0.5 * float(jdz @ jdz)
     if c1 > 0.0 and model > 0.0:
         nu = max(nu, model / ((1.0 - PENALTY_RHO) * c1))
     slope = float(grad @ dz) - nu * c1

@@ -221,18 +221,44 @@ class BlockDerivatives:
         z = np.asarray(z, float).ravel()
         if self._z is not None and np.array_equal(z, self._z):
             return
-        grad, jtj, jg = np.zeros(self.n_z), [np.zeros(0)], [np.zeros(0)]
+        grad, jr, jg = np.zeros(self.n_z), [], [np.zeros(0)]
         r, g = np.zeros(self.n_r), np.zeros(self.n_g)
         for bs, g_rows, r_row, out in zip(self.sets, self.g_rows, self.r_rows, self.evaluator(z)):
             # out[k] has one row per block
             grad += np.bincount(bs.cols.ravel(), weights=out[0].ravel(), minlength=self.n_z)
-            jtj.append(bs.kind.jtj_values(out[1]).ravel())
+            jr.append(out[1])
             r[r_row:r_row + out[2].size] = out[2].ravel()
             if len(out) > 3:
                 jg.append(out[3].ravel())
                 g[(g_rows[:, None] + np.arange(out[4].shape[1])[None, :]).ravel()] = out[4].ravel()
-        self._z, self.grad, self._jtj, self._jg = z, grad, np.concatenate(jtj), np.concatenate(jg)
-        self._r, self._g = r, g
+        self._z, self.grad, self._jr, self._jg = z, grad, jr, np.concatenate(jg)
+        self._r, self._g, self._jtj_at = r, g, None
+
+    @property
+    def _jtj(self) -> np.ndarray:
+        """Every block's triu(J_r^T J_r) nonzeros at the last evaluated z, stacked (computed at
+        first use: the Gauss-Newton solver never needs them, it works with J_r itself)."""
+        if self._jtj_at is None:
+            self._jtj_at = np.concatenate([np.zeros(0)] + [bs.kind.jtj_values(jr).ravel()
+                                                           for bs, jr in zip(self.sets, self._jr)])
+        return self._jtj_at
+
+    @cached_property
+    def jr_target(self) -> SparseTarget:
+        """Where each block's J_r nonzeros land in the global (n_r, n_z) residual Jacobian."""
+        rows, cols = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        for bs, r_row in zip(self.sets, self.r_rows):
+            lr, lc = bs.kind.pattern("jr")
+            n_res = bs.kind.n_residuals
+            block_rows = r_row + n_res * np.arange(bs.n_blocks)
+            rows.append((block_rows[:, None] + lr[None, :]).ravel())
+            cols.append(bs.cols[:, lc].ravel())
+        return SparseTarget((self.n_r, self.n_z), np.concatenate(rows), np.concatenate(cols))
+
+    def jacobian_r(self, z) -> sps.csc_matrix:
+        """The whitened residuals' Jacobian J_r at z, (n_r, n_z)."""
+        self.evaluate(z)
+        return self.jr_target.assemble(np.concatenate([np.zeros(0)] + [jr.ravel() for jr in self._jr]))
 
     def residuals(self, z) -> np.ndarray:
         """Whitened residual vector at z."""
