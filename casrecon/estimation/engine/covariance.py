@@ -36,6 +36,7 @@ import scipy.sparse as sps
 from scipy.linalg import null_space
 from scipy.sparse.linalg import splu
 
+from casrecon.estimation.engine.block_lu import BlockLu
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.parallel import single_threaded_blas
 
@@ -279,8 +280,8 @@ class ConstraintSplit:
     ----------
     basis : (n_z, n_w) array
         Z with A Z = 0 (zero rows for excluded columns).
-    lu : scipy SuperLU
-        LU of A_D (determining rows, dependent columns).
+    lu : BlockLu
+        LU of A_D (determining rows, dependent columns), block by block (a joint fit's drops).
     dep, indep : int arrays
         Dependent columns; independent columns (excluded ones left out).
     a_indep : sparse matrix
@@ -325,7 +326,7 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
         raise ValueError("a side constraint involves a dependent column")
     a_side_i = a_side[:, indep].toarray()
     n_basis = null_space(a_side_i) if a_side.shape[0] else np.eye(indep.size)
-    lu = splu(a_d, permc_spec=A_D_ORDERING)
+    lu = BlockLu(a_d, permc_spec=A_D_ORDERING)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
     basis[dep] = -lu.solve(np.asarray(a_i @ n_basis))
@@ -365,9 +366,36 @@ def reduced_hessian_from_jacobian(nlp: Nlp, jr: sps.csc_matrix, a: sps.csc_matri
     forming H: (J_r Z)^T (J_r Z), and J_E^T J_E for the eliminated columns."""
     elim = np.asarray(nlp.eliminated, np.int64)
     split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
-    jz = jr @ split.basis
-    je = jr[:, elim]
-    return _reduced(split, jz.T @ jz, je.T @ jz, lambda: (je.T @ je).tocsc(), elim, a)
+    hr, b = projected_gram(jr, split.basis, jr[:, elim])
+    return _reduced(split, hr, b, lambda: (jr[:, elim].T @ jr[:, elim]).tocsc(), elim, a)
+
+
+#: Residual rows per chunk of :func:`projected_gram`.
+GRAM_CHUNK_ROWS = 4096
+
+
+def projected_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tuple[np.ndarray, np.ndarray]:
+    """((J Z)^T (J Z), J_E^T (J Z)) chunk by chunk of residual rows, each chunk multiplied only
+    with the columns of Z it can reach (a row of J sees a few z columns, whose Z rows are zero
+    outside their drop's directions and the shared ones in a joint fit): the cost of the per-drop
+    products' sum, not the number of drops times the whole."""
+    jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
+    n_w = basis.shape[1]
+    hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
+    for start in range(0, jr.shape[0], GRAM_CHUNK_ROWS):
+        block = jr[start:start + GRAM_CHUNK_ROWS]
+        cols = np.unique(block.indices)
+        if not cols.size:
+            continue
+        sub = basis[cols]
+        used = np.flatnonzero(np.any(sub != 0.0, axis=0))
+        local = sps.csr_matrix((block.data, np.searchsorted(cols, block.indices), block.indptr),
+                               shape=(block.shape[0], cols.size))
+        jz = local @ sub[:, used]
+        hr[np.ix_(used, used)] += jz.T @ jz
+        if je.shape[1]:
+            b[:, used] += je[start:start + GRAM_CHUNK_ROWS].T @ jz
+    return hr, b
 
 
 def reduced_system_at(nlp: Nlp, z: np.ndarray) -> ReducedSystem:
