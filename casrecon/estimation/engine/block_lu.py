@@ -15,6 +15,22 @@ import scipy.sparse as sps
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
+#: Components of the last few patterns seen (an iteration's defect Jacobian has the previous one's
+#: pattern): pattern key -> (number of blocks, labels of the rows then the columns).
+_COMPONENTS: dict[tuple, tuple[int, np.ndarray]] = {}
+
+
+def components(m: sps.csc_matrix) -> tuple[int, np.ndarray]:
+    """(number of blocks, block label of each row then each column) of the square matrix ``m``:
+    the connected components of its bipartite row-column graph, remembered by pattern."""
+    key = (m.shape, m.nnz, hash(m.indptr.tobytes()), hash(m.indices.tobytes()))
+    if key not in _COMPONENTS:
+        graph = sps.bmat([[None, m], [m.T, None]], format="csr")
+        if len(_COMPONENTS) >= 8:
+            _COMPONENTS.clear()
+        _COMPONENTS[key] = connected_components(graph, directed=False)
+    return _COMPONENTS[key]
+
 
 class BlockLu:
     """LU of a square sparse matrix by its independent diagonal blocks (one SuperLU each).
@@ -34,12 +50,15 @@ class BlockLu:
     def __init__(self, matrix: sps.spmatrix, permc_spec: str = "COLAMD") -> None:
         m = sps.csc_matrix(matrix)
         n = m.shape[0]
-        graph = sps.bmat([[None, m], [m.T, None]], format="csr")
-        n_blocks, labels = connected_components(graph, directed=False)
+        n_blocks, labels = components(m)
         rows_of, cols_of = labels[:n], labels[n:]
         self.n = n
         self.blocks: list[tuple[np.ndarray, np.ndarray, object]] = []
-        for b in np.unique(labels):
+        if n_blocks == 1:  # no copy of the matrix
+            every = np.arange(n)
+            self.blocks.append((every, every, splu(m, permc_spec=permc_spec)))
+            return
+        for b in range(n_blocks):
             rows, cols = np.flatnonzero(rows_of == b), np.flatnonzero(cols_of == b)
             if rows.size != cols.size:
                 raise RuntimeError(f"structurally singular: a block of {rows.size} rows and {cols.size} columns")

@@ -25,7 +25,8 @@ def check_determined(nlp: Nlp, z: np.ndarray) -> None:
     jg = nlp.derivatives.jacobian_g(z).tocoo()
     in_g = np.zeros(nlp.n_z, bool)
     in_g[jg.col[jg.data != 0.0]] = True
-    diag = nlp.derivatives.gauss_newton(z).diagonal()
+    jr = nlp.derivatives.jacobian_r(z)
+    diag = np.asarray(jr.multiply(jr).sum(axis=0)).ravel()  # the diagonal of J^T J
     dead = [name for col, name in nlp.parameter_names.items() if diag[col] == 0.0 and not in_g[col]]
     if dead:
         raise FitError(f"KKT matrix singular: {', '.join(dead)} affect(s) no residual or constraint and carry "

@@ -366,7 +366,11 @@ def reduced_hessian_from_jacobian(nlp: Nlp, jr: sps.csc_matrix, a: sps.csc_matri
     forming H: (J_r Z)^T (J_r Z), and J_E^T J_E for the eliminated columns."""
     elim = np.asarray(nlp.eliminated, np.int64)
     split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
-    hr, b = projected_gram(jr, split.basis, jr[:, elim])
+    if split.lu.n_blocks > 1:  # a joint fit: Z is block-sparse
+        hr, b = projected_gram(jr, split.basis, jr[:, elim])
+    else:  # one dense product is faster than chunks when every row reaches every column
+        jz = jr @ split.basis
+        hr, b = jz.T @ jz, jr[:, elim].T @ jz
     return _reduced(split, hr, b, lambda: (jr[:, elim].T @ jr[:, elim]).tocsc(), elim, a)
 
 
@@ -382,15 +386,18 @@ def projected_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tup
     jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
     n_w = basis.shape[1]
     hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
+    seen = np.zeros(basis.shape[0], bool)
     for start in range(0, jr.shape[0], GRAM_CHUNK_ROWS):
         block = jr[start:start + GRAM_CHUNK_ROWS]
-        cols = np.unique(block.indices)
+        seen[:] = False
+        seen[block.indices] = True
+        cols = np.flatnonzero(seen)
         if not cols.size:
             continue
         sub = basis[cols]
         used = np.flatnonzero(np.any(sub != 0.0, axis=0))
-        local = sps.csr_matrix((block.data, np.searchsorted(cols, block.indices), block.indptr),
-                               shape=(block.shape[0], cols.size))
+        position = np.cumsum(seen) - 1  # z column -> its place in cols
+        local = sps.csr_matrix((block.data, position[block.indices], block.indptr), shape=(block.shape[0], cols.size))
         jz = local @ sub[:, used]
         hr[np.ix_(used, used)] += jz.T @ jz
         if je.shape[1]:

@@ -149,18 +149,27 @@ class BlockDerivatives:
                  hessian: str):
         self.sets, self.g_rows, self.n_z, self.n_g, self.hessian = sets, g_rows, n_z, n_g, hessian
         self.r_rows, self.n_r = r_rows, n_r
-        key = "jtj" if hessian == "gauss-newton" else "hess"
-        h_rows, h_cols = self._stack(key)
-        # a block's upper triangle maps to the global upper triangle once each pair is ordered
-        self.hess_target = SparseTarget((n_z, n_z), np.minimum(h_rows, h_cols), np.maximum(h_rows, h_cols))
-        if hessian == "gauss-newton":
-            self.jtj_target = self.hess_target
-        else:  # the covariance always uses J^T J, whatever Hessian Ipopt was given
-            g_rows_, g_cols = self._stack("jtj")
-            self.jtj_target = SparseTarget((n_z, n_z), np.minimum(g_rows_, g_cols), np.maximum(g_rows_, g_cols))
         jg_rows, jg_cols = self._stack("jg")
         self.jac_target = SparseTarget((n_g, n_z), jg_rows, jg_cols)
         self._z = None
+
+    @cached_property
+    def jtj_target(self) -> SparseTarget:
+        """Where the blocks' triu(J_r^T J_r) nonzeros land in the global upper triangle (built at
+        first use: the Gauss-Newton solver never assembles J^T J)."""
+        rows, cols = self._stack("jtj")
+        # a block's upper triangle maps to the global upper triangle once each pair is ordered
+        return SparseTarget((self.n_z, self.n_z), np.minimum(rows, cols), np.maximum(rows, cols))
+
+    @cached_property
+    def hess_target(self) -> SparseTarget:
+        """Where the nonzeros of the Hessian given to Ipopt land: :attr:`jtj_target` for the
+        Gauss-Newton Hessian, the blocks' exact Hessians' pattern otherwise (the covariance always
+        uses J^T J, whatever Hessian Ipopt was given)."""
+        if self.hessian == "gauss-newton":
+            return self.jtj_target
+        rows, cols = self._stack("hess")
+        return SparseTarget((self.n_z, self.n_z), np.minimum(rows, cols), np.maximum(rows, cols))
 
     @cached_property
     def evaluator(self) -> BlockEvaluator:
@@ -244,8 +253,10 @@ class BlockDerivatives:
         return self._jtj_at
 
     @cached_property
-    def jr_target(self) -> SparseTarget:
-        """Where each block's J_r nonzeros land in the global (n_r, n_z) residual Jacobian."""
+    def jr_layout(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(order, column indices, row pointers) of the global (n_r, n_z) residual Jacobian in CSR
+        form: entry ``order[k]`` of the stacked block J_r nonzeros is the k-th stored entry (each
+        entry once: a residual row belongs to one block, so a stable sort by row is all it takes)."""
         rows, cols = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
         for bs, r_row in zip(self.sets, self.r_rows):
             lr, lc = bs.kind.pattern("jr")
@@ -253,12 +264,18 @@ class BlockDerivatives:
             block_rows = r_row + n_res * np.arange(bs.n_blocks)
             rows.append((block_rows[:, None] + lr[None, :]).ravel())
             cols.append(bs.cols[:, lc].ravel())
-        return SparseTarget((self.n_r, self.n_z), np.concatenate(rows), np.concatenate(cols))
+        row, col = np.concatenate(rows), np.concatenate(cols)
+        order = np.argsort(row, kind="stable")
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=self.n_r))])
+        return order, col[order], indptr
 
-    def jacobian_r(self, z) -> sps.csc_matrix:
-        """The whitened residuals' Jacobian J_r at z, (n_r, n_z)."""
+    def jacobian_r(self, z) -> sps.csr_matrix:
+        """The whitened residuals' Jacobian J_r at z, (n_r, n_z), CSR (column indices within a row
+        unsorted; see :attr:`jr_layout`)."""
         self.evaluate(z)
-        return self.jr_target.assemble(np.concatenate([np.zeros(0)] + [jr.ravel() for jr in self._jr]))
+        order, indices, indptr = self.jr_layout
+        values = np.concatenate([np.zeros(0)] + [jr.ravel() for jr in self._jr])[order]
+        return sps.csr_matrix((values, indices, indptr), shape=(self.n_r, self.n_z))
 
     def residuals(self, z) -> np.ndarray:
         """Whitened residual vector at z."""
