@@ -22,7 +22,7 @@ from casrecon.estimation.fitdata import FitData
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.gps_rules import interpolate_fixes
 from casrecon.physics.atmosphere import Atmosphere
-from casrecon.physics.rotations import dcm_body_to_ned, quat_derivative
+from casrecon.physics.rotations import dcm_body_to_ned_array, quat_derivative
 from casrecon.physics.vehicle import Vehicle
 
 
@@ -85,10 +85,9 @@ def initial_guess(data: FitData, mesh: Mesh, vehicle: Vehicle, atmosphere: Atmos
     idx = np.clip(idx, 0, t.size - 1)
     lever = vehicle.lever(vehicle.gps_position_m)
     states = np.zeros((mesh.t_nodes.size, 13))
-    for k, i in enumerate(idx):
-        c_nb = np.asarray(dcm_body_to_ned(quats[i]), float)
-        states[k, 0:3] = pos[i] - c_nb @ lever
-        states[k, 3:6] = vel[i]
-        states[k, 6:10] = quats[i]
-        states[k, 10:13] = gyro[i]
+    c_nb = dcm_body_to_ned_array(quats[idx])
+    states[:, 0:3] = pos[idx] - c_nb @ lever
+    states[:, 3:6] = vel[idx]
+    states[:, 6:10] = quats[idx]
+    states[:, 10:13] = gyro[idx]
     return states

@@ -39,6 +39,18 @@ def dcm_body_to_ned(q):
     return c / n2
 
 
+def dcm_body_to_ned_array(quats: np.ndarray) -> np.ndarray:
+    """Numeric, vectorised :func:`dcm_body_to_ned`: the (n, 3, 3) C_nb of quaternions (n, 4)."""
+    q = np.asarray(quats, float)
+    q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    c = np.stack([
+        np.stack([q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)], -1),
+        np.stack([2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)], -1),
+        np.stack([2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3], -1),
+    ], -2)
+    return c / np.sum(q * q, axis=1)[:, None, None]
+
+
 def quat_derivative(q, omega_body):
     """Kinematics ``dq/dt = q (x) (0, w) / 2`` with w the body angular rate (rad/s)."""
     return 0.5 * quat_multiply(q, ca.vertcat(0, omega_body))

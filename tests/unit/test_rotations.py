@@ -130,3 +130,12 @@ def test_body_rate_is_in_body_axes():
     # and a yaw rate (body z) of a level body turns the nose from north toward east
     q1 = exact_attitude(quat(0, 0, 0), np.array([0, 0, 0.1]), 1.0)
     assert (dcm(q1) @ [1, 0, 0])[1] == pytest.approx(np.sin(0.1), abs=1e-14)
+
+
+def test_vectorised_dcm_equals_the_casadi_one_also_for_unnormalised_quaternions():
+    from casrecon.physics.rotations import dcm_body_to_ned, dcm_body_to_ned_array
+
+    quats = np.random.default_rng(3).normal(size=(6, 4)) * 1.7  # norms far from 1
+    many = dcm_body_to_ned_array(quats)
+    for q, c in zip(quats, many):
+        assert c == pytest.approx(np.asarray(dcm_body_to_ned(q), float), abs=1e-14)
