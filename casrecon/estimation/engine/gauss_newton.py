@@ -104,7 +104,7 @@ def _bounded(bounds, n_z: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return cols, lo[cols], hi[cols]
 
 
-def reduced_step(system: ReducedSystem, grad: np.ndarray, jr: sps.csc_matrix, c: np.ndarray, z: np.ndarray,
+def reduced_step(system: ReducedSystem, grad: np.ndarray, jr: sps.spmatrix, c: np.ndarray, z: np.ndarray,
                  bounded: tuple[np.ndarray, np.ndarray, np.ndarray]) -> Step:
     """The constrained Gauss-Newton step at ``z`` (see the module docstring): ``grad`` = J^T r, ``jr``
     = J (the residuals' Jacobian), ``c`` the constraint values, ``bounded`` = (columns, lower,
@@ -176,7 +176,7 @@ def _damped_cholesky(s: np.ndarray) -> np.ndarray:
     raise GaussNewtonFailure("the reduced Gauss-Newton Hessian is not positive definite")
 
 
-def _merit(nlp: Nlp, r: np.ndarray, c: np.ndarray, nu: float) -> float:
+def _merit(r: np.ndarray, c: np.ndarray, nu: float) -> float:
     return 0.5 * float(r @ r) + nu * float(np.abs(c).sum())
 
 
@@ -242,7 +242,7 @@ def _line_search(nlp: Nlp, z, r, c, grad, jr, step: Step, nu: float, bounded):
     if c1 > 0.0 and model > 0.0:
         nu = max(nu, model / ((1.0 - PENALTY_RHO) * c1))
     slope = float(grad @ dz) - nu * c1
-    phi0 = _merit(nlp, r, c, nu)
+    phi0 = _merit(r, c, nu)
     cols, lo, hi = bounded
     seconds, alpha = 0.0, 1.0
     while alpha >= MIN_STEP:
@@ -252,7 +252,7 @@ def _line_search(nlp: Nlp, z, r, c, grad, jr, step: Step, nu: float, bounded):
         r_t, c_t = d.values_only(trial)
         seconds += time.perf_counter() - t0
         if np.all(np.isfinite(r_t)) and np.all(np.isfinite(c_t)):
-            if _merit(nlp, r_t, c_t, nu) <= phi0 + ARMIJO * alpha * slope:
+            if _merit(r_t, c_t, nu) <= phi0 + ARMIJO * alpha * slope:
                 LOG.debug("Gauss-Newton step length %g (penalty %.3g)", alpha, nu)
                 return trial, nu, seconds
             if alpha == 1.0 and c_t.size:  # second-order correction of the constraints
@@ -261,7 +261,7 @@ def _line_search(nlp: Nlp, z, r, c, grad, jr, step: Step, nu: float, bounded):
                 t0 = time.perf_counter()
                 r_s, c_s = d.values_only(corrected)
                 seconds += time.perf_counter() - t0
-                if np.all(np.isfinite(r_s)) and _merit(nlp, r_s, c_s, nu) <= phi0 + ARMIJO * slope:
+                if np.all(np.isfinite(r_s)) and _merit(r_s, c_s, nu) <= phi0 + ARMIJO * slope:
                     LOG.debug("Gauss-Newton full step with a second-order correction (penalty %.3g)", nu)
                     return corrected, nu, seconds
         alpha *= 0.5
