@@ -4,6 +4,7 @@ exactly as draw_figures does (the same files, the same bytes, the same notes).""
 from __future__ import annotations
 
 import json
+import time
 
 from figure_files import AERO_FIGURES, DROP_FIGURES
 
@@ -50,6 +51,11 @@ def test_a_failure_in_the_parent_stops_the_workers():
             raise KeyboardInterrupt
     except KeyboardInterrupt:
         pass
+    # the executor's own thread may be reaping a worker at the same moment: Popen.poll then sees ECHILD
+    # and reports "alive" until that thread records the exit code, so the state is polled, up to 10 s
+    deadline = time.monotonic() + 10.0
     for proc in processes:
         proc.join(timeout=10)
+        while proc.is_alive() and time.monotonic() < deadline:
+            time.sleep(0.05)
         assert not proc.is_alive()
