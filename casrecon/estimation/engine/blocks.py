@@ -105,7 +105,6 @@ class BlockKind:
             plain.append(constraint)
             self.patterns["jg"] = _triplet(jg)
         self.values = ca.Function(f"{name}_values", [local, *data], [ca.densify(p) for p in plain])
-        self.residual_values = ca.Function(f"{name}_residuals", [local, *data], [ca.densify(residual)])
         self.derivatives = ca.Function(f"{name}_derivatives", [local, *data], [ca.densify(o) for o in outs])
         self.n_local = local.numel()
         self._symbols = (name, local, data, residual, constraint)
@@ -179,11 +178,6 @@ class BlockSet:
     def derivs(self) -> ca.Function:
         """The kind's derivative function over all blocks (built at first use)."""
         return self.mapped(self.kind.derivatives)
-
-    @cached_property
-    def residual_function(self) -> ca.Function:
-        """The kind's residual function (no derivatives) over all blocks (built at first use)."""
-        return self.mapped(self.kind.residual_values)
 
     @cached_property
     def value_function(self) -> ca.Function:

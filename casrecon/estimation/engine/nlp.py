@@ -177,22 +177,10 @@ class BlockDerivatives:
         return BlockEvaluator([bs.derivs for bs in self.sets], [bs.cols for bs in self.sets],
                               [bs.data for bs in self.sets], self.n_z)
 
-    @cached_property
-    def residual_evaluator(self) -> BlockEvaluator:
-        """Every set's mapped residual function (no derivatives) at one z, into numpy arrays."""
-        return BlockEvaluator([bs.residual_function for bs in self.sets], [bs.cols for bs in self.sets],
-                              [bs.data for bs in self.sets], self.n_z)
-
     def residuals_only(self, z: np.ndarray) -> np.ndarray:
-        """Whitened residual vector at ``z`` (a new array): from the cache when ``evaluate`` last
-        ran at z, else from the residual functions alone (a line search's trial points)."""
-        z = np.asarray(z, float).ravel()
-        if self._z is not None and np.array_equal(z, self._z):
-            return self._r.copy()
-        r = np.zeros(self.n_r)
-        for r_row, out in zip(self.r_rows, self.residual_evaluator(z)):
-            r[r_row:r_row + out[0].size] = out[0].ravel()
-        return r
+        """Whitened residual vector at ``z`` (a new array), without derivatives unless they are
+        cached there (see :meth:`values_only`)."""
+        return self.values_only(z)[0]
 
     @cached_property
     def value_evaluator(self) -> BlockEvaluator:
