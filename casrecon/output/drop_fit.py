@@ -9,7 +9,7 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -71,13 +71,22 @@ def read_document(path: Path) -> dict:
         raise InputError(path, f"not valid JSON ({err.msg})", line=err.lineno) from None
 
 
+@dataclass(frozen=True, eq=False, repr=False)
 class FolderViews:
-    """What every result held as its results folder's files answers alike: ``converged``,
-    ``reduced_chi2``, ``chi2``, ``adequacy``, ``columns`` and ``report()``. Needs the attributes
-    ``summary``, ``source``, ``trajectory`` and ``report_text``, and the class attribute
-    ``time_columns``."""
+    """What every result held as its results folder's files has and answers alike: the fields
+    ``name``, ``params``, ``trajectory``, ``residuals``, ``summary`` and ``report_text`` (each
+    subclass documents what its own hold), and ``converged``, ``reduced_chi2``, ``chi2``,
+    ``adequacy``, ``columns`` and ``report()``. Subclasses add the field ``source`` (the folder a
+    loaded result came from) and set the class attribute ``time_columns``."""
 
-    time_columns: tuple[str, ...] = ()
+    name: str
+    params: Parameters
+    trajectory: pd.DataFrame
+    residuals: dict[str, pd.DataFrame]
+    summary: dict
+    report_text: str
+
+    time_columns: ClassVar[tuple[str, ...]] = ()
 
     @property
     def converged(self) -> bool:
@@ -152,12 +161,6 @@ class DropFit(FolderViews):
         The folder a loaded result came from.
     """
 
-    name: str
-    params: Parameters
-    trajectory: pd.DataFrame
-    residuals: dict[str, pd.DataFrame]
-    summary: dict
-    report_text: str
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
     documents: dict[str, dict] = field(default_factory=dict)
     fit: FitResult | None = None

@@ -19,7 +19,7 @@ from casrecon.io.units import TIME_UNIX
 from casrecon.output.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.kinematic_results import write_kinematic_results
 from casrecon.output.out_folder import input_paths
-from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.output.parameter_records import from_document
 from casrecon.output.results import save_results_folder
 
 if TYPE_CHECKING:
@@ -62,12 +62,6 @@ class KinematicFit(FolderViews):
         The folder a loaded result came from.
     """
 
-    name: str
-    params: Parameters
-    trajectory: pd.DataFrame
-    residuals: dict[str, pd.DataFrame]
-    summary: dict
-    report_text: str
     fit: KinematicResult | None = None
     source: Path | None = None
     problem_path: Path | None = None

@@ -17,7 +17,7 @@ from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
 from casrecon.output.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.out_folder import input_paths
-from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.output.parameter_records import from_document
 from casrecon.output.pointmass_results import write_pointmass_results
 from casrecon.output.results import save_results_folder
 
@@ -59,12 +59,6 @@ class PointMassFit(FolderViews):
         The folder a loaded result came from.
     """
 
-    name: str
-    params: Parameters
-    trajectory: pd.DataFrame
-    residuals: dict[str, pd.DataFrame]
-    summary: dict
-    report_text: str
     fit: PointMassResult | None = None
     constant: PointMassResult | None = None
     source: Path | None = None
