@@ -174,11 +174,12 @@ def load_problem(path: str | Path) -> Scenario | PointMassConfig:
 
 @single_threaded_blas()
 def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-        print_level: int = 0, solver: str | None = None) -> DropFit | PointMassFit | KinematicFit:
+        print_level: int = 0, solver: str | None = None, method: str | None = None
+        ) -> DropFit | PointMassFit | KinematicFit:
     """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
     simulations (for a ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`;
     for a ``kind = "kinematic"`` problem the IMU-driven reconstruction, a :class:`KinematicFit`;
-    ``linear_solver``, ``hessian`` and ``solver`` do not apply to them).
+    ``linear_solver``, ``hessian``, ``solver`` and ``method`` do not apply to them).
 
     Parameters
     ----------
@@ -193,6 +194,10 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
     solver : {"auto", "ipopt"}, optional
         Overrides ``[estimation] solver``: "auto" solves with the null-space Gauss-Newton solver
         where it applies (no disturbance states), else with Ipopt.
+    method : {"map", "marginal"}, optional
+        Overrides ``[estimation] method``: "marginal" moves the parameters from the joint MAP to
+        the maximum of their Laplace marginal likelihood (6-DOF fits; see
+        :mod:`casrecon.estimation.engine.laplace`).
 
     Returns
     -------
@@ -218,7 +223,8 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
         return _fit_kinematic(scenario, print_level)
     if not hasattr(scenario, "model"):
         return _fit_point_mass(scenario, print_level)
-    result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level, solver=solver)
+    result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level, solver=solver,
+                      method=method)
     products = fit_products(result)
     report = fit_report(result, products.adequacy)
     result.timings["total_s"] = time.perf_counter() - t0

@@ -131,7 +131,7 @@ def _fit_drop(args: argparse.Namespace, t0: float, figures) -> int:
     scenario = Scenario.load(args.problem)
     try:
         result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian, solver=args.solver,
-                          print_level=5 if args.verbose else 0)
+                          print_level=5 if args.verbose else 0, method=args.method)
     except FitError as err:
         return fit_failed(f"fit of {scenario.config.name}", err)
     products = fit_products(result, concurrent=True)
@@ -191,7 +191,7 @@ def _joint(args: argparse.Namespace) -> int:
     args.where = out_folder_arguments(args, *args.problems, *cfg.drops)  # the drops' inputs too
     try:
         result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
-                           solver=args.solver, print_level=5 if args.verbose else 0)
+                           solver=args.solver, print_level=5 if args.verbose else 0, method=args.method)
     except FitError as err:
         return fit_failed(f"joint fit {cfg.name}", err)
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
@@ -370,6 +370,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", choices=("auto", "ipopt"), default=None,
                    help="auto: the null-space Gauss-Newton solver where it applies, else Ipopt; ipopt: always "
                         "Ipopt (default: [estimation] solver)")
+    p.add_argument("--method", choices=("map", "marginal"), default=None,
+                   help="map: joint maximum a posteriori; marginal: the parameters maximise their Laplace "
+                        "marginal likelihood, the latent states integrated out (unbiased under gusts; "
+                        "default: [estimation] method)")
     p.add_argument("--no-figures", action="store_true", help="do not draw the figures (casrecon report can)")
     p.add_argument("--kinematic-check", action="store_true",
                    help="also reconstruct the drop from its IMU without the aero model and compare the aero "
@@ -393,6 +397,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", choices=("auto", "ipopt"), default=None,
                    help="auto: the null-space Gauss-Newton solver where it applies, else Ipopt; ipopt: always "
                         "Ipopt (default: each problem's [estimation] solver)")
+    p.add_argument("--method", choices=("map", "marginal"), default=None,
+                   help="map: joint maximum a posteriori; marginal: the parameters maximise their Laplace "
+                        "marginal likelihood, the latent states integrated out (unbiased under gusts; "
+                        "default: each problem's [estimation] method)")
     add_format_argument(p)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=_joint)

@@ -3,7 +3,9 @@ receiver's clock) on its collocation interval while the IMU-to-GPS clock offset 
 
 Each drop's clock offset is bounded to one mesh interval around its guess. When a solution ends on
 such a bound, the guess moves there, the measurements are reassigned to intervals and the fit is
-redone from that solution, at most :func:`max_clock_shifts` times.
+redone from that solution, at most :func:`max_clock_shifts` times. With ``method = "marginal"``
+the converged joint MAP solution is then moved to the marginal-likelihood estimate
+(:func:`~casrecon.estimation.engine.laplace.marginal_solution`).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numpy as np
 
 from casrecon.estimation.drop import FitNlp
 from casrecon.estimation.engine.checks import FitError, check_converged, check_determined
+from casrecon.estimation.engine.laplace import marginal_solution
 from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.kinds.gps import CLOCK
 from casrecon.estimation.settings import FitSettings
@@ -72,7 +75,10 @@ def solve_fit(build: Callable[[dict[str, float]], FitNlp], start: Callable[[FitN
         check_converged(sol, nlp)
         moved = clocks_at_bound(sol, fit_nlp, bounds)
         if not moved:
-            return fit_nlp, with_earlier(sol, earlier), build_s
+            sol = with_earlier(sol, earlier)
+            if settings.method == "marginal":
+                sol = marginal_solution(nlp, sol, bounds)
+            return fit_nlp, sol, build_s
         earlier.append(sol)
         _check_clock_plausible(fit_nlp, moved)
         guesses.update(moved)

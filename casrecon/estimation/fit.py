@@ -177,14 +177,15 @@ def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
 
 
 def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-             print_level: int = 0, solver: str | None = None) -> FitResult:
+             print_level: int = 0, solver: str | None = None, method: str | None = None) -> FitResult:
     """Reconstruct one drop (see docs/design.md). Raises FitError when the result is not usable.
 
-    ``linear_solver``, ``hessian`` and ``solver`` override the problem's ``[estimation]`` settings.
+    ``linear_solver``, ``hessian``, ``solver`` and ``method`` ("map" or "marginal") override the
+    problem's ``[estimation]`` settings.
     """
     cfg = scenario.config
     settings = FitSettings.from_estimation(cfg.estimation, linear_solver=linear_solver, hessian=hessian,
-                                           print_level=print_level, solver=solver)
+                                           print_level=print_level, solver=solver, method=method)
     t0 = time.perf_counter()
     data, mesh = prepare_drop(scenario)
     params = parameter_set(cfg)

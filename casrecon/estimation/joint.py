@@ -166,7 +166,7 @@ def joint_settings(scenarios: list[Scenario], **overrides) -> tuple[FitSettings,
 
 def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | None = None,
               linear_solver: str | None = None, max_iter: int | None = None, tol: float | None = None,
-              print_level: int = 0, solver: str | None = None) -> JointResult:
+              print_level: int = 0, solver: str | None = None, method: str | None = None) -> JointResult:
     """Solve the joint NLP. Raises FitError when it does not converge or the KKT matrix is singular.
 
     Solver settings come from the drops' ``[estimation]`` tables (see :func:`joint_settings`);
@@ -180,7 +180,8 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
                        "force_error_sigma_n or moment_error_sigma_nm in [estimation]); the joint fit supports "
                        "only the strong constraint so far: fit those drops one by one")
     settings, setting_notes = joint_settings(scenarios, hessian=hessian, linear_solver=linear_solver,
-                                             max_iter=max_iter, tol=tol, print_level=print_level, solver=solver)
+                                             max_iter=max_iter, tol=tol, print_level=print_level, solver=solver,
+                                             method=method)
     t0 = time.perf_counter()
     prepared = [prepare_drop(sc) for sc in scenarios]
     psets, shared = _parameter_sets(scenarios, cfg)

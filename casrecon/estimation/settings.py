@@ -22,6 +22,9 @@ class FitSettings:
         Ipopt's linear solver.
     solver : {"auto", "ipopt"}
         See :func:`~casrecon.estimation.engine.solve.solve` (``method``).
+    method : {"map", "marginal"}
+        Estimator: joint MAP, or the parameters' Laplace marginal likelihood (see
+        :mod:`~casrecon.estimation.engine.laplace`).
     max_iter : int
         Ipopt iteration limit.
     tol : float
@@ -33,6 +36,7 @@ class FitSettings:
     hessian: str = "gauss-newton"
     linear_solver: str = "mumps"
     solver: str = "auto"
+    method: str = "map"
     max_iter: int = 200
     tol: float = 1e-6
     print_level: int = 0
@@ -40,5 +44,5 @@ class FitSettings:
     @classmethod
     def from_estimation(cls, est: EstimationConfig, **overrides) -> FitSettings:
         """The settings of an ``[estimation]`` table; keyword overrides that are None are ignored."""
-        base = cls(est.resolved_hessian(), est.linear_solver, est.solver, est.max_iter, est.tol)
+        base = cls(est.resolved_hessian(), est.linear_solver, est.solver, est.method, est.max_iter, est.tol)
         return dataclasses.replace(base, **{k: v for k, v in overrides.items() if v is not None})

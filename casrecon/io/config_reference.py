@@ -65,7 +65,7 @@ _ESTIMATION_KEYS = (
     ("start_after_release_s", "float", "s"), ("end_before_impact_s", "float", "s"),
     ("release_imu_s", "float", "s"), ("impact_imu_s", "float", "s"), ("interval_s", "float", "s"),
     ("samples_per_interval", "int", ""), ("hessian", "string", ""), ("linear_solver", "string", ""),
-    ("solver", "string", ""),
+    ("solver", "string", ""), ("method", "string", ""),
     ("max_iter", "int", ""), ("tol", "float", ""), ("saturation", "string", ""),
     ("estimate", "[string]", ""), ("dispersion_prior", "bool", ""), ("atmosphere_prior", "bool", ""),
     ("imu_bias_prior", "bool", ""), ("clock_prior", "bool", ""), ("clock_sigma_s", "float", "s"),

@@ -153,6 +153,13 @@ class EstimationConfig:
         states (its iteration never factorises the whole KKT matrix; 2 to 3 times faster than Ipopt
         on the EES drops, same estimate), Ipopt for the others and to finish a Gauss-Newton run
         that stops unconverged; "ipopt": always Ipopt.
+    method : {"map", "marginal"}
+        "map": the joint maximum a posteriori over states, disturbances and parameters. "marginal":
+        the parameters maximise their Laplace-approximated marginal likelihood, the latent unknowns
+        (node states, gusts, model-error, atmosphere-profile and GPS-error values) integrated out;
+        unbiased where a parameter scales the disturbances' effect (a slope multiplier under gusts),
+        which the joint MAP is not (:mod:`casrecon.estimation.engine.laplace`). Starts from the MAP
+        estimate and adds a few Newton steps, each costing 2 sparse factorisations per parameter.
     max_iter : int
         Iteration limit (Ipopt's; the Gauss-Newton solver stops at the smaller of this and 50
         and hands its iterate to Ipopt).
@@ -198,6 +205,7 @@ class EstimationConfig:
     hessian: str = "auto"
     linear_solver: str = "mumps"
     solver: str = "auto"
+    method: str = "map"
     max_iter: int = 200
     tol: float = 1e-6
     saturation: str = "mask"
@@ -472,6 +480,7 @@ def _estimation(t: Fields) -> EstimationConfig:
         hessian=t.string("hessian", d.hessian, choices=("auto", "gauss-newton", "exact")),
         linear_solver=t.string("linear_solver", d.linear_solver, choices=("mumps", "spral")),
         solver=t.string("solver", d.solver, choices=("auto", "ipopt")),
+        method=t.string("method", d.method, choices=("map", "marginal")),
         max_iter=t.integer("max_iter", d.max_iter, 1), tol=t.number("tol", d.tol, positive=True),
         saturation=t.string("saturation", d.saturation, choices=("mask", "polynomial")), estimate=estimate,
         dispersion_prior=t.boolean("dispersion_prior", True), atmosphere_prior=t.boolean("atmosphere_prior", True),

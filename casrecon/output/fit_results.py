@@ -79,7 +79,18 @@ def summary_document(result) -> dict:
             "clock": clock_document(result),
             "mesh": {"n_intervals": int(result.node_time_s.size - 1),
                      "h_s": float(result.node_time_s[1] - result.node_time_s[0])},
+            "estimator": estimator_document(sol),
             "notes": list(result.notes)}
+
+
+def estimator_document(sol) -> dict:
+    """summary.json's ``estimator``: "map", or "marginal" with the marginal-likelihood run's figures."""
+    run = sol.marginal
+    if run is None:
+        return {"method": "map"}
+    return {"method": "marginal", "outer_iterations": run.outer_iterations, "inner_iterations": run.inner_iterations,
+            "shift_from_map_sigma": run.shift_sigma, "half_log_det": run.half_log_det,
+            "log_det_gradient_s": run.gradient_s, "inner_solves_s": run.inner_s}
 
 
 def products_summary(products) -> dict:

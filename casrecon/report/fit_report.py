@@ -43,6 +43,17 @@ def _correlation_lines(result) -> list[str]:
     return lines or ["    none above 0.5"]
 
 
+def estimator_text(sol) -> str:
+    """One line on the estimator a solve result came from (joint MAP, or marginal likelihood with
+    how far it moved the parameters)."""
+    run = sol.marginal
+    if run is None:
+        return "joint maximum a posteriori over states, disturbances and parameters"
+    return (f"Laplace marginal likelihood of the parameters (latent unknowns integrated out): {run.outer_iterations} "
+            f"Newton steps from the joint MAP, which it moved by {run.shift_sigma:.2f} sigma; 1/2 log det of the "
+            f"latent Hessian {run.half_log_det:.2f}; parameter sigmas from the profile's Gauss-Newton Hessian")
+
+
 def fit_report(result, adequacy: Adequacy | None = None) -> str:
     """Multi-line text report of a :class:`~casrecon.estimation.fit.FitResult`, ending with its
     model-adequacy verdict (``adequacy``, computed from the fit's residuals when not given)."""
@@ -52,6 +63,7 @@ def fit_report(result, adequacy: Adequacy | None = None) -> str:
     lines = [f"[[Fit: {cfg.name}]]",
              f"    {sol.status} in {sol.iterations} iterations ({sol.method}); Hessian {sol.hessian}, linear solver "
              f"{sol.linear_solver}; covariance from the KKT matrix with J^T J",
+             f"    estimator: {estimator_text(sol)}",
              f"    window {d.window[0]:.3f} to {d.window[1]:.3f} s IMU clock "
              f"({d.window[0] - d.release_imu_s:.2f} s after release to "
              f"{d.impact_imu_s - d.window[1]:.2f} s before impact)",

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -221,7 +222,8 @@ def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
                         step.predicted, eval_s, algebra_s, system, nlp)
         if iteration == max_iter:
             break
-        z_new, nu, trial_eval_s = _line_search(nlp, z, r, c, grad, jr, step, nu, bounded)
+        z_new, nu, trial_eval_s = line_search(nlp, z, r, c, grad, jr, step.dz, nu, bounded,
+                                              step.system.split.particular)
         eval_s += trial_eval_s
         if z_new is None:
             status = "line search failed (no step length down to 1e-6 lowers the merit function)"
@@ -232,10 +234,18 @@ def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
                 None if step is None else step.predicted, eval_s, algebra_s, None, nlp)
 
 
-def _line_search(nlp: Nlp, z, r, c, grad, jr, step: Step, nu: float, bounded):
-    """(accepted iterate or None, updated penalty, evaluation seconds)."""
+def line_search(nlp: Nlp, z: np.ndarray, r: np.ndarray, c: np.ndarray, grad: np.ndarray, jr: sps.spmatrix,
+                dz: np.ndarray, nu: float, bounded: tuple[np.ndarray, np.ndarray, np.ndarray],
+                correct: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[np.ndarray | None, float, float]:
+    """Armijo backtracking on the l1 merit 1/2 |r|^2 + nu |c|_1 along the Gauss-Newton step ``dz``
+    from ``z`` (residuals ``r``, constraints ``c``, gradient ``grad`` = J^T r, Jacobian ``jr``), the
+    penalty ``nu`` raised first (Nocedal & Wright eq. 18.36), trial points clipped into ``bounded``
+    and evaluated without derivatives. When the full step is rejected, one second-order correction
+    ``correct(c_trial)`` (a step that zeroes the linearised constraints) is tried.
+
+    Returns (accepted iterate or None, updated penalty, evaluation seconds).
+    """
     d = nlp.derivatives
-    dz = step.dz
     c1 = float(np.abs(c).sum())
     jdz = jr @ dz
     model = float(grad @ dz) + 0.5 * float(jdz @ jdz)
@@ -255,8 +265,8 @@ def _line_search(nlp: Nlp, z, r, c, grad, jr, step: Step, nu: float, bounded):
             if _merit(r_t, c_t, nu) <= phi0 + ARMIJO * alpha * slope:
                 LOG.debug("Gauss-Newton step length %g (penalty %.3g)", alpha, nu)
                 return trial, nu, seconds
-            if alpha == 1.0 and c_t.size:  # second-order correction of the constraints
-                corrected = trial + step.system.split.particular(c_t)
+            if alpha == 1.0 and c_t.size and correct is not None:  # second-order correction
+                corrected = trial + correct(c_t)
                 corrected[cols] = np.clip(corrected[cols], lo, hi)
                 t0 = time.perf_counter()
                 r_s, c_s = d.values_only(corrected)

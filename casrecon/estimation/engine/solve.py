@@ -45,7 +45,8 @@ class SolveResult:
     (objective, constraints and their derivatives, the Hessian), ``stop_test_s`` to the
     Gauss-Newton decrement test (Ipopt) and ``linear_algebra_s`` to the Gauss-Newton solver's
     reduced systems; the rest is Ipopt's own work, mostly its KKT factorisations. ``method`` says
-    which solver produced ``z``: "gauss-newton", "ipopt", or "gauss-newton, then ipopt".
+    which solver produced ``z``: "gauss-newton", "ipopt", or "gauss-newton, then ipopt" (with
+    ", then marginal likelihood" when the marginal-likelihood estimator moved it from there).
     """
 
     z: np.ndarray
@@ -64,6 +65,7 @@ class SolveResult:
     reduced: object | None = None   # the convergence test's ReducedSystem when it was formed at ``z`` itself
     method: str = "ipopt"
     linear_algebra_s: float = 0.0
+    marginal: object | None = None  # laplace.MarginalRun when the marginal-likelihood estimator moved z
 
 
 #: Ipopt stops "at an acceptable level" after ACCEPTABLE_ITER successive iterates whose scaled

@@ -1,0 +1,346 @@
+"""The parameters' Laplace-approximated marginal likelihood, sparse, and the estimator that maximises it.
+
+Notation (scaled z): theta the parameter columns (``Nlp.parameter_names``), u the others (node
+states, disturbance values, atmosphere-profile and GPS-error values). Phi(z) = 1/2 |r(z)|^2 and
+c(z) = 0 the constraints, whose determining rows (collocation defects) fix the dependent state
+columns D given the others. The joint MAP fit minimises Phi over (u, theta). Integrating u out
+instead (Laplace, with the Gauss-Newton Hessian) gives the negative log marginal likelihood
+
+    F(theta) = Phi(u*(theta), theta) + 1/2 log det(Z^T H_uu Z) + const,
+
+u*(theta) the constrained minimiser of Phi with theta held, H_uu = J_u^T J_u, and Z = [-A_D^-1 A_I N; N]
+the latent directions in independent coordinates (the disturbance and first-node values whose prior
+densities are in r; N an orthonormal basis of the side constraints' null space). The log-determinant
+is read from two sparse LU factorisations, never from a dense latent matrix:
+
+    log det(Z^T H_uu Z) = log|det K| - 2 log|det A_D| - log det(A_S A_S^T),   K = [[H_uu, A_u^T], [A_u, 0]],
+
+(transform the columns by [[I, -A_D^-1 A_I], [0, I]], whose determinant is 1, and the KKT
+determinant factorises into the constraint blocks and the reduced Hessian). The joint MAP lacks the
+second term; when a parameter scales the disturbances' effect (a slope multiplier times a
+gust-induced angle of attack, the aero factors under a wind-profile error) that biases it.
+
+:func:`maximise_marginal` minimises F from the joint MAP by Newton steps in theta:
+
+- gradient: the envelope term d Phi*/d theta = J_theta^T (r + J_u du) + A_theta^T lambda from a
+  Gauss-Newton step of the inner problem, plus the log-determinant's total derivative by central
+  differences along the tangent (du*/dtheta, e_k) of the inner optimum (du*/dtheta from K);
+- Hessian: the profile's Gauss-Newton Hessian P = H_tt - [H_tu, A_t^T] K^-1 [H_ut; A_t] (its
+  inverse is the parameter block of the KKT covariance); the log-determinant's curvature is left out;
+- a backtracking line search on F, each trial re-solving u with theta held by a sparse
+  Gauss-Newton iteration on K (:func:`solve_latent`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+from scipy.sparse.linalg import splu
+
+from casrecon.estimation.engine import convergence
+from casrecon.estimation.engine.checks import FitError
+from casrecon.estimation.engine.gauss_newton import line_search
+from casrecon.estimation.engine.nlp import Nlp
+from casrecon.estimation.engine.solve import SolveResult
+from casrecon.parallel import single_threaded_blas
+
+LOG = logging.getLogger(__name__)
+
+#: The outer iteration stops when its Newton step in theta is shorter than this, in the Mahalanobis
+#: norm of the parameter covariance: 0.05 sigma, whose predicted decrease of F (1.2e-3) is at the level
+#: of the inner solves' tolerance.
+STEP_TOL = 0.05
+#: Outer (Newton in theta) iterations allowed.
+MAX_OUTER = 15
+#: Inner (Gauss-Newton in u, theta held) iterations allowed per outer trial point.
+MAX_INNER = 30
+#: The inner iteration's stopping test: predicted chi-square decrease of one more Gauss-Newton step
+#: at most :data:`.convergence.DECREMENT_TOL` (within 0.03 sigma of the inner optimum; F is then
+#: within 5e-4 of its value there) with the constraints met to INNER_FEASIBILITY_TOL. With latent
+#: values at every node the Gauss-Newton iteration converges linearly (the residuals' curvature is
+#: not small against J^T J in the weakly determined latent directions), so the 1e-8 of the fit's
+#: own test would cost tens of iterations for nothing F or the estimate can see (Ipopt's own
+#: default constraint tolerance is 1e-4).
+INNER_FEASIBILITY_TOL = 1e-6
+#: Central-difference step of the log-determinant's derivative along each parameter's tangent, as
+#: a fraction of that parameter's sigma.
+FD_FRACTION = 0.05
+#: Smallest outer step length tried.
+MIN_OUTER_STEP = 1.0 / 64
+
+
+@dataclass(frozen=True)
+class LatentSplit:
+    """Which z columns are parameters (``theta``) and which are latent (``latent``), both sorted."""
+
+    theta: np.ndarray
+    latent: np.ndarray
+
+    @staticmethod
+    def of(nlp: Nlp) -> LatentSplit:
+        """theta: the columns of ``nlp.parameter_names``; latent: every other column."""
+        theta = np.array(sorted(nlp.parameter_names), np.int64)
+        return LatentSplit(theta, np.setdiff1d(np.arange(nlp.n_z), theta))
+
+
+class LatentKkt:
+    """The latent KKT matrix K at one z, factorised, with what the estimator reads from it.
+
+    Attributes
+    ----------
+    z, r, c : arrays
+        The point (scaled), its whitened residuals and constraint values.
+    jr : scipy.sparse.csc_matrix
+        The residuals' Jacobian (all columns).
+    a : scipy.sparse.csc_matrix
+        The constraints' Jacobian (all columns).
+    log_det : float
+        log det(Z^T H_uu Z) (see the module docstring).
+    """
+
+    def __init__(self, nlp: Nlp, split: LatentSplit, z: np.ndarray) -> None:
+        d = nlp.derivatives
+        self.split, self.z = split, np.asarray(z, float).copy()
+        self.r, self.c = d.residuals(self.z).copy(), d.constraints(self.z).copy()
+        self.jr = d.jacobian_r(self.z).tocsc()
+        self.a = d.jacobian_g(self.z).tocsc()
+        u = split.latent
+        self.j_u = self.jr[:, u]
+        a_u = self.a[:, u]
+        if nlp.n_g and np.any(np.diff(a_u.tocsr().indptr) == 0):
+            raise ValueError("a constraint involves parameters only: the latent KKT matrix is singular")
+        kkt = sps.bmat([[self.j_u.T @ self.j_u, a_u.T], [a_u, None]], format="csc")
+        self.lu = splu(kkt)
+        self.log_det = _log_abs_det(self.lu) - 2.0 * _log_abs_det(splu(
+            self.a[:nlp.n_determining][:, nlp.dependent].tocsc())) - _side_log_det(a_u[nlp.n_determining:])
+        self.n_u = u.size
+
+    def solve(self, rhs_u: np.ndarray, rhs_c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(du, lambda) with H_uu du + A_u^T lambda = rhs_u, A_u du = rhs_c (columns allowed)."""
+        x = self.lu.solve(np.concatenate([rhs_u, rhs_c]))
+        return x[:self.n_u], x[self.n_u:]
+
+    def inner_step(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """The Gauss-Newton step of the inner problem (theta held): (du, lambda, predicted chi-square
+        decrease, i.e. twice the model's decrease of Phi)."""
+        g_u = self.j_u.T @ self.r
+        du, lam = self.solve(-g_u, -self.c)
+        jdu = self.j_u @ du
+        return du, lam, -2.0 * float(g_u @ du) - float(jdu @ jdu)
+
+    def profile(self, du: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(gradient G, Hessian P, tangent du*/dtheta (n_u, n_theta)) of the profile Phi*(theta):
+        G = J_t^T (r + J_u du) + A_t^T lambda for the inner step (du, lambda); P and the tangent
+        from K (see the module docstring)."""
+        j_t = self.jr[:, self.split.theta]
+        a_t = self.a[:, self.split.theta]
+        h_ut = (self.j_u.T @ j_t).toarray()
+        a_t_dense = a_t.toarray()
+        tangent, mult = self.solve(-h_ut, -a_t_dense)
+        p = (j_t.T @ j_t).toarray() + h_ut.T @ tangent + a_t_dense.T @ mult
+        g = j_t.T @ (self.r + self.j_u @ du) + a_t.T @ lam
+        return np.asarray(g).ravel(), 0.5 * (p + p.T), tangent
+
+
+def _log_abs_det(lu) -> float:
+    """log |det| of a SuperLU-factorised matrix (L has a unit diagonal)."""
+    return float(np.sum(np.log(np.abs(lu.U.diagonal()))))
+
+
+def _side_log_det(a_side: sps.spmatrix) -> float:
+    """log det(A_S A_S^T) of the side constraints' rows (0 without side constraints)."""
+    if a_side.shape[0] == 0:
+        return 0.0
+    return _log_abs_det(splu((a_side @ a_side.T).tocsc()))
+
+
+def half_log_det(nlp: Nlp, z: np.ndarray, split: LatentSplit | None = None) -> float:
+    """1/2 log det(Z^T H_uu Z) at ``z`` (scaled): the term the marginal likelihood adds to Phi."""
+    return 0.5 * LatentKkt(nlp, split or LatentSplit.of(nlp), z).log_det
+
+
+@dataclass(frozen=True)
+class LatentSolve:
+    """What :func:`solve_latent` ends with: the iterate's factorised KKT, whether it converged,
+    the iterations and the predicted chi-square decrease of one more step."""
+
+    kkt: LatentKkt
+    converged: bool
+    iterations: int
+    decrement: float
+    lam: np.ndarray
+    du: np.ndarray
+
+
+def solve_latent(nlp: Nlp, split: LatentSplit, z0: np.ndarray, max_iter: int = MAX_INNER,
+                 feasibility_tol: float = INNER_FEASIBILITY_TOL,
+                 decrement_tol: float = convergence.DECREMENT_TOL) -> LatentSolve:
+    """Minimise Phi over the latent columns with theta held at ``z0[split.theta]``: sparse
+    Gauss-Newton steps from K with an l1-merit line search. Converged when the constraints are met
+    to ``feasibility_tol`` and the predicted chi-square decrease is at most ``decrement_tol``."""
+    z, nu = np.asarray(z0, float).copy(), 0.0
+    no_bounds = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
+    for iteration in range(max_iter + 1):
+        kkt = LatentKkt(nlp, split, z)
+        du, lam, predicted = kkt.inner_step()
+        violation = float(np.abs(kkt.c).max()) if kkt.c.size else 0.0
+        LOG.debug("inner iteration %d: chi-square %.10g, violation %.2g, predicted decrease %.3g", iteration,
+                  float(kkt.r @ kkt.r), violation, predicted)
+        if violation <= feasibility_tol and predicted <= decrement_tol:
+            return LatentSolve(kkt, True, iteration, predicted, lam, du)
+        if iteration == max_iter:
+            break
+        dz = np.zeros(nlp.n_z)
+        dz[split.latent] = du
+        grad = np.asarray(kkt.jr.T @ kkt.r).ravel()
+        grad[split.theta] = 0.0
+
+        def correct(c_trial: np.ndarray, kkt=kkt) -> np.ndarray:
+            out = np.zeros(nlp.n_z)
+            out[split.latent] = kkt.solve(np.zeros(kkt.n_u), -c_trial)[0]
+            return out
+
+        z_new, nu, _ = line_search(nlp, z, kkt.r, kkt.c, grad, kkt.jr, dz, nu, no_bounds, correct)
+        if z_new is None:
+            break
+        z = z_new
+    return LatentSolve(kkt, False, iteration, predicted, lam, du)
+
+
+@dataclass(frozen=True)
+class MarginalRun:
+    """What :func:`maximise_marginal` ends with.
+
+    Attributes
+    ----------
+    z : array
+        The marginal-likelihood estimate (scaled): theta at the maximum, u at its inner optimum.
+    lam_g : array
+        Constraint multipliers at z.
+    objective : float
+        Phi at z (half the chi-square of the unknown-dependent rows).
+    half_log_det : float
+        1/2 log det(Z^T H_uu Z) at z.
+    converged : bool
+    status : str
+    outer_iterations, inner_iterations : int
+    shift_sigma : float
+        Mahalanobis length of theta's move from the joint MAP (in parameter sigmas).
+    gradient_s, inner_s : float
+        Seconds spent on the log-determinant's gradient and on the inner solves.
+    """
+
+    z: np.ndarray
+    lam_g: np.ndarray
+    objective: float
+    half_log_det: float
+    converged: bool
+    status: str
+    outer_iterations: int
+    inner_iterations: int
+    shift_sigma: float
+    gradient_s: float
+    inner_s: float
+
+
+def _log_det_gradient(nlp: Nlp, split: LatentSplit, z: np.ndarray, tangent: np.ndarray,
+                      sigma: np.ndarray) -> np.ndarray:
+    """d/dtheta_k of 1/2 log det(Z^T H_uu Z) along the inner optimum's tangent (du*/dtheta_k, e_k),
+    by central differences of step FD_FRACTION sigma_k."""
+    out = np.zeros(split.theta.size)
+    for k, col in enumerate(split.theta):
+        h = FD_FRACTION * sigma[k]
+        d = np.zeros(nlp.n_z)
+        d[split.latent] = tangent[:, k]
+        d[col] = 1.0
+        out[k] = (half_log_det(nlp, z + h * d, split) - half_log_det(nlp, z - h * d, split)) / (2.0 * h)
+    return out
+
+
+@single_threaded_blas()
+def maximise_marginal(nlp: Nlp, z_map: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> MarginalRun:
+    """Maximise the Laplace marginal likelihood of the parameters from the joint MAP estimate ``z_map``
+    (scaled), see the module docstring; ``bounds`` (scaled lower, upper over z) clip theta.
+
+    Returns the last iterate whether or not it converged (``converged`` and ``status`` say why)."""
+    split = LatentSplit.of(nlp)
+    lo, hi = (np.full(nlp.n_z, -np.inf), np.full(nlp.n_z, np.inf)) if bounds is None else (
+        np.broadcast_to(np.asarray(b, float), (nlp.n_z,)) for b in bounds)
+    theta = split.theta
+    t0 = time.perf_counter()
+    inner = solve_latent(nlp, split, z_map)
+    inner_s, gradient_s, n_inner = time.perf_counter() - t0, 0.0, inner.iterations
+    status, converged = "outer iteration limit reached", False
+    outer = 0
+    for outer in range(MAX_OUTER + 1):
+        kkt = inner.kkt
+        g_env, p, tangent = kkt.profile(inner.du, inner.lam)
+        cov = np.linalg.inv(p)
+        sigma = np.sqrt(np.diag(cov))
+        t1 = time.perf_counter()
+        grad = g_env + _log_det_gradient(nlp, split, kkt.z, tangent, sigma)
+        gradient_s += time.perf_counter() - t1
+        step = -cov @ grad
+        length = float(np.sqrt(step @ p @ step))
+        f0 = 0.5 * float(kkt.r @ kkt.r) + 0.5 * kkt.log_det
+        LOG.info("marginal likelihood: outer iteration %d, F %.10g, Newton step %.3g sigma", outer, f0, length)
+        if length <= STEP_TOL and inner.converged:
+            status, converged = f"Converged (marginal likelihood; Newton step {length:.2g} sigma)", True
+            break
+        if outer == MAX_OUTER:
+            break
+        alpha, accepted = 1.0, None
+        while alpha >= MIN_OUTER_STEP:
+            trial = kkt.z.copy()
+            trial[theta] = np.clip(kkt.z[theta] + alpha * step, lo[theta], hi[theta])
+            moved = trial[theta] - kkt.z[theta]
+            trial[split.latent] += inner.du + tangent @ moved
+            t1 = time.perf_counter()
+            candidate = solve_latent(nlp, split, trial)
+            inner_s += time.perf_counter() - t1
+            n_inner += candidate.iterations
+            ck = candidate.kkt
+            f1 = 0.5 * float(ck.r @ ck.r) + 0.5 * ck.log_det
+            LOG.debug("marginal likelihood: step length %g: F %.10g (%d inner iterations%s)", alpha, f1,
+                      candidate.iterations, "" if candidate.converged else ", not converged")
+            if candidate.converged and f1 <= f0 + 1e-4 * float(grad @ moved):
+                accepted = candidate
+                break
+            alpha *= 0.5
+        if accepted is None:
+            status = "outer line search failed (no step down to 1/64 lowers the marginal objective)"
+            break
+        inner = accepted
+    z = inner.kkt.z
+    lam = np.zeros(nlp.n_g)
+    lam[:] = inner.lam
+    diff = z[theta] - z_map[theta]
+    kkt = inner.kkt
+    _, p, _ = kkt.profile(inner.du, inner.lam)
+    return MarginalRun(z, lam, 0.5 * float(kkt.r @ kkt.r), 0.5 * kkt.log_det, converged, status, outer,
+                       n_inner, float(np.sqrt(diff @ p @ diff)), gradient_s, inner_s)
+
+
+def marginal_solution(nlp: Nlp, sol: SolveResult, bounds: tuple[np.ndarray, np.ndarray] | None = None
+                      ) -> SolveResult:
+    """The joint MAP solution ``sol`` of ``nlp`` moved to the marginal-likelihood estimate
+    (:func:`maximise_marginal`), its record in ``marginal``; FitError when that does not converge."""
+    t0 = time.perf_counter()
+    run = maximise_marginal(nlp, sol.z, bounds)
+    seconds = time.perf_counter() - t0
+    if not run.converged:
+        raise FitError(f"the marginal-likelihood estimate did not converge: {run.status} after {run.outer_iterations} "
+                       "Newton steps from the joint MAP estimate; no result written")
+    LOG.info("marginal likelihood: %s after %d Newton steps (%d inner iterations, %.1f s); the parameters moved "
+             "%.2f sigma from the joint MAP", run.status, run.outer_iterations, run.inner_iterations, seconds,
+             run.shift_sigma)
+    return dataclasses.replace(sol, z=run.z, lam_g=run.lam_g, objective=run.objective,
+                               status=f"{sol.status}; {run.status}", solve_s=sol.solve_s + seconds,
+                               method=f"{sol.method}, then marginal likelihood", reduced=None, decrement=None,
+                               marginal=run)
