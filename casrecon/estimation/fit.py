@@ -14,13 +14,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from casrecon.estimation.bands import MAX_BAND_NODES, columns_of, trajectory_with_bands
-from casrecon.estimation.continuation import solve_fit
+from casrecon.estimation.continuation import clock_bounds, solve_fit
 from casrecon.estimation.drop import FitNlp, build_nlp, load_measurements, parameter_set
 from casrecon.estimation.engine.checks import (
     FitError,
     covariance_or_fail,
 )
 from casrecon.estimation.engine.covariance import Covariance, KktCovariance
+from casrecon.estimation.engine.laplace import marginal_solution
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult
 from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
@@ -64,6 +65,7 @@ class FitResult:
     z: np.ndarray                      # scaled decision vector at the solution
     residuals: np.ndarray              # whitened residual vector of ``nlp`` at ``z``
     notes: tuple[str, ...] = ()
+    fit_nlp: FitNlp | None = None      # the NLP with its drops (joint fits: shared by every drop)
 
     @property
     def converged(self) -> bool:
@@ -116,8 +118,23 @@ def drop_result(scenario: Scenario, data: FitData, fit_nlp: FitNlp, index: int, 
         n_measurements=counts, dof=dof, reduced_chi2=sum(chi2.values()) / max(dof, 1), solver=sol, timings=timings,
         condition=cov.condition, covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r,
         measurements=dict(fit_nlp.contexts[index].measurements),
-        notes=data.notes + _weak_constraint_notes(part) + error_model_notes(scenario, part))
+        notes=data.notes + _weak_constraint_notes(part) + error_model_notes(scenario, part), fit_nlp=fit_nlp)
     return result
+
+
+def with_marginal_estimate(result: FitResult) -> FitResult:
+    """A per-drop joint-MAP fit moved to the parameters' marginal-likelihood estimate (the same NLP,
+    no refit; see :func:`~casrecon.estimation.engine.laplace.marginal_solution`), covariance and
+    bands recomputed there. Raises FitError when the marginal estimate does not converge."""
+    if result.fit_nlp is None or len(result.fit_nlp.parts) != 1:
+        raise ValueError("with_marginal_estimate takes a per-drop fit result")
+    t0 = time.perf_counter()
+    nlp = result.nlp
+    sol = marginal_solution(nlp, result.solver, clock_bounds(result.fit_nlp.parts, nlp.n_z))
+    r = nlp.residual_vector(sol.z)
+    cov = covariance_or_fail(nlp, sol.z, r)
+    timings = dict(result.timings, marginal_s=time.perf_counter() - t0)
+    return drop_result(result.scenario, result.data, result.fit_nlp, 0, sol, cov, r, timings)
 
 
 def error_model_notes(scenario: Scenario, part: DropLayout) -> tuple[str, ...]:

@@ -228,7 +228,7 @@ class BlockDerivatives:
             if len(out) > 3:
                 jg.append(out[3].ravel())
                 g[(g_rows[:, None] + np.arange(out[4].shape[1])[None, :]).ravel()] = out[4].ravel()
-        self._z, self.grad, self._jr, self._jg = z, grad, jr, np.concatenate(jg)
+        self._z, self.grad, self._jr, self._jg = z.copy(), grad, jr, np.concatenate(jg)  # a copy: callers mutate z
         self._r, self._g, self._jtj_at = r, g, None
 
     @property
