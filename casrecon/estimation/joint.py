@@ -132,8 +132,9 @@ def _parameter_sets(scenarios: list[Scenario], cfg: JointConfig) -> tuple[list[P
 
 def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
              measurements: list[dict]) -> tuple[list[DropLayout], int]:
-    """DropLayouts with global columns: all nodes, then shared factors, then each drop's own, then
-    each drop's extra unknowns (latent sensor errors)."""
+    """DropLayouts with global columns: all nodes, then shared factors, then each drop's own
+    parameters followed by its disturbance node values (weak constraint), then each drop's extra
+    unknowns (latent sensor errors)."""
     node_offsets = np.cumsum([0] + [NS * m.t_nodes.size for m in meshes])
     shared_col = {n: int(node_offsets[-1]) + i for i, n in enumerate(shared)}
     next_col = int(node_offsets[-1]) + len(shared)
@@ -147,7 +148,9 @@ def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
                 cols.append(next_col)
                 next_col += 1
         layouts.append(DropLayout(sc.config.name, mesh, ps, int(off), np.array(cols),
-                                  guess_clock_s=guesses[sc.config.name]))
+                                  guess_clock_s=guesses[sc.config.name],
+                                  disturbance=sc.config.estimation.disturbance, u_offset=next_col))
+        next_col += layouts[-1].u_cols.size  # the drop's latent disturbance values, if any
     out = []
     for sc, layout, meas in zip(scenarios, layouts, measurements):
         layout, next_col = with_extra_columns(layout, sc.config, meas, next_col)
@@ -174,11 +177,6 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     """
     if len({sc.config.name for sc in scenarios}) != len(scenarios):
         raise FitError("joint fit: two drops have the same problem name")
-    weak = [sc.config.name for sc in scenarios if sc.config.estimation.disturbance is not None]
-    if weak:
-        raise FitError(f"joint fit: {', '.join(weak)} estimate(s) disturbance states (gust_sigma_mps, "
-                       "force_error_sigma_n or moment_error_sigma_nm in [estimation]); the joint fit supports "
-                       "only the strong constraint so far: fit those drops one by one")
     settings, setting_notes = joint_settings(scenarios, hessian=hessian, linear_solver=linear_solver,
                                              max_iter=max_iter, tol=tol, print_level=print_level, solver=solver,
                                              method=method)
