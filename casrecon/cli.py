@@ -422,6 +422,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--estimator", action="store_true",
                    help="estimator Monte Carlo instead: draw a truth from the fit's priors, simulate, fit, and test "
                         "the normalised estimation errors (NEES) against chi-square at 95 %%; exit 4 if not consistent")
+    p.add_argument("--method", choices=("map", "marginal"), default=None,
+                   help="with --estimator: the fits' estimator (default: the problem's [estimation] method)")
     add_format_argument(p)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=montecarlo_command)

@@ -28,6 +28,10 @@ def montecarlo_command(args: argparse.Namespace) -> int:
     """``casrecon montecarlo``: the estimator Monte Carlo with ``--estimator``, else the dispersed one."""
     if args.estimator:
         return estimator_montecarlo_command(args)
+    if getattr(args, "method", None) is not None:
+        print("casrecon montecarlo: --method applies to the estimator Monte Carlo only (add --estimator)",
+              file=sys.stderr)
+        return 2
     return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
                                   args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures,
                                   formats=args.formats, force=args.force, progress=not args.quiet)
@@ -139,7 +143,7 @@ def estimator_montecarlo_command(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     try:
         res = estimator_montecarlo(Path(args.problem), cases, seed, args.workers, args.scheduler,
-                                   progress=not args.quiet)
+                                   progress=not args.quiet, method=args.method)
     except OSError as err:
         if args.scheduler is None:
             raise
