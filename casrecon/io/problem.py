@@ -159,7 +159,8 @@ class EstimationConfig:
         (node states, gusts, model-error, atmosphere-profile and GPS-error values) integrated out;
         unbiased where a parameter scales the disturbances' effect (a slope multiplier under gusts),
         which the joint MAP is not (:mod:`casrecon.estimation.engine.laplace`). Starts from the MAP
-        estimate and adds a few Newton steps, each costing 2 sparse factorisations per parameter.
+        estimate and adds a few Newton steps, each costing 2 sparse factorisations per parameter
+        (the latent KKT matrix and the defects' Jacobian at a perturbed point).
     max_iter : int
         Iteration limit (Ipopt's; the Gauss-Newton solver stops at the smaller of this and 50
         and hands its iterate to Ipopt).
