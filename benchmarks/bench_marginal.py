@@ -1,0 +1,90 @@
+"""What the marginal-likelihood estimator costs on a gust fit, against the plain fit (not a test; prints).
+
+For one gust case of the calibration study (ees-drop-3 through Gauss-Markov gusts the balloon did not
+see, seed --seed, window from --start s after release to impact, gust states at every node), each
+run in a fresh process: the plain fit (the same drop, truth and window in still air, fitted without
+gust states: gusty data defeat a strong-constraint fit), the joint-MAP gust fit, and the
+marginal-likelihood step on top of it (Newton steps, time of the log-determinant's gradient and of
+the inner solves), with each process's peak resident memory.
+Medians over --runs runs. The issue's target: a whole-drop marginal gust fit (--start 3.5) in at
+most 10 times the plain fit's time.
+
+Run: python benchmarks/bench_marginal.py [--start 34] [--seed 2] [--runs 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CASE = """
+import dataclasses, json, resource, sys, tempfile, time
+from pathlib import Path
+from casrecon.analysis.gust_calibration import GustCase, case_scenario
+from casrecon.estimation.fit import fit_drop, with_marginal_estimate
+from casrecon.scenario import Scenario
+start, seed, what = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+with tempfile.TemporaryDirectory() as tmp:
+    sc = case_scenario(GustCase(Path(sys.argv[4]), seed, start, truth_gusts=what != "plain"), Path(tmp))
+    out = {}
+    if what == "plain":
+        cfg = sc.config
+        plain = Scenario.from_config(dataclasses.replace(
+            cfg, estimation=dataclasses.replace(cfg.estimation, disturbance=None)))
+        t0 = time.perf_counter()
+        fit_drop(plain)
+        out["plain_s"] = time.perf_counter() - t0
+    else:
+        t0 = time.perf_counter()
+        r = fit_drop(sc)
+        out["map_s"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        m = with_marginal_estimate(r)
+        out["marginal_s"] = time.perf_counter() - t0
+        run = m.solver.marginal
+        out.update(steps=run.outer_iterations, gradient_s=run.gradient_s, inner_s=run.inner_s,
+                   shift_sigma=run.shift_sigma, n_z=r.nlp.n_z)
+out["rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps(out))
+"""
+
+
+def run(start: float, seed: int, what: str) -> dict:
+    problem = str(ROOT / "problems" / "ees-drop-3")
+    proc = subprocess.run([sys.executable, "-c", CASE, str(start), str(seed), what, problem],
+                          capture_output=True, text=True)
+    if proc.returncode:
+        raise SystemExit(f"the {what} case failed:\n{proc.stderr[-3000:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--start", type=float, default=34.0, help="window start after release, s")
+    ap.add_argument("--seed", type=int, default=2)
+    ap.add_argument("--runs", type=int, default=3)
+    a = ap.parse_args()
+    plain = [run(a.start, a.seed, "plain") for _ in range(a.runs)]
+    gusty = [run(a.start, a.seed, "gusts") for _ in range(a.runs)]
+
+    def med(rows, key):
+        return statistics.median(r[key] for r in rows)
+
+    p, g, m = med(plain, "plain_s"), med(gusty, "map_s"), med(gusty, "marginal_s")
+    print(f"ees-drop-3 gust case, seed {a.seed}, window from {a.start:g} s after release; medians of {a.runs} runs")
+    print(f"  plain fit (still air, no gusts) {p:7.1f} s, peak RSS {med(plain, 'rss_mb'):.0f} MB")
+    print(f"  joint-MAP gust fit              {g:7.1f} s")
+    print(f"  marginal step on top of it      {m:7.1f} s ({med(gusty, 'steps'):.0f} Newton steps; log-det "
+          f"gradient {med(gusty, 'gradient_s'):.1f} s, inner solves {med(gusty, 'inner_s'):.1f} s; "
+          f"{gusty[0]['n_z']} unknowns), peak RSS {med(gusty, 'rss_mb'):.0f} MB")
+    print(f"  marginal gust fit / plain fit   {(g + m) / p:7.1f} x (target: at most 10 x for a whole drop)")
+
+
+if __name__ == "__main__":
+    main()
