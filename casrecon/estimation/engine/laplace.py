@@ -322,14 +322,10 @@ def maximise_marginal(nlp: Nlp, z_map: np.ndarray, bounds: tuple[np.ndarray, np.
             status = "outer line search failed (no step down to 1/64 lowers the marginal objective)"
             break
         inner = accepted
-    z = inner.kkt.z
-    lam = np.zeros(nlp.n_g)
-    lam[:] = inner.lam
-    diff = z[theta] - z_map[theta]
-    kkt = inner.kkt
-    _, p, _ = kkt.profile(inner.du, inner.lam)
-    return MarginalRun(z, lam, 0.5 * float(kkt.r @ kkt.r), 0.5 * kkt.log_det, converged, status, outer,
-                       n_inner, float(np.sqrt(diff @ p @ diff)), gradient_s, inner_s)
+    kkt = inner.kkt  # every exit leaves p as the profile Hessian at this iterate
+    diff = kkt.z[theta] - z_map[theta]
+    return MarginalRun(kkt.z, inner.lam.copy(), 0.5 * float(kkt.r @ kkt.r), 0.5 * kkt.log_det, converged, status,
+                       outer, n_inner, float(np.sqrt(diff @ p @ diff)), gradient_s, inner_s)
 
 
 def marginal_solution(nlp: Nlp, sol: SolveResult, bounds: tuple[np.ndarray, np.ndarray] | None = None
