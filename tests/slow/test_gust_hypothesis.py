@@ -80,6 +80,6 @@ def marginal_fit(weak_fit):
 def test_marginal_estimate_recovers_the_vertical_gust(gusty, marginal_fit):
     """The joint MAP's vertical gust over the 24 s window was off by 0.23 m/s RMS (true RMS 0.28)
     with RMS z 2.0, a near-constant offset traded against the drag and density parameters; the
-    marginal-likelihood estimate recovers it."""
+    marginal-likelihood estimate recovers it (measured: RMS error 0.124 m/s, RMS z 1.10)."""
     assert marginal_fit.solver.marginal.converged
     _check_recovered(marginal_fit, gusty, [(2, "gust_d_mps")])
