@@ -10,9 +10,10 @@ disturbance values) at fixed parameters. This module profiles one parameter unde
     joint(v)    = min over the rest of 1/2 |r|^2     with the parameter held at v,
     marginal(v) = joint(v) + 1/2 log det(Z_l^T H Z_l) at that minimum,
 
-Z_l an orthonormal basis (in independent coordinates) of the latent directions that satisfy the
-linearised constraints. The other parameters are profiled, not marginalised. Dense in the latent
-dimension (13 + n_disturbances x nodes): meant for windows of a few seconds.
+Z_l the latent directions that satisfy the linearised constraints, in independent coordinates; the
+log-determinant is the marginal-likelihood estimator's own, from sparse factorisations
+(:func:`casrecon.estimation.engine.laplace.half_log_det`). The other parameters are profiled, not
+marginalised; the estimator ``[estimation] method = "marginal"`` marginalises all of them at once.
 """
 
 from __future__ import annotations
@@ -21,10 +22,9 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import null_space
 
 from casrecon.analysis.observability import refit_with_held
-from casrecon.estimation.engine.covariance import fisher_and_jacobian, reduced_hessian
+from casrecon.estimation.engine.laplace import half_log_det
 from casrecon.estimation.fit import FitResult
 
 LOG = logging.getLogger(__name__)
@@ -61,33 +61,19 @@ class MarginalProfile:
         return self._minimum(self.values, self.marginal)
 
 
-def latent_log_det(result: FitResult, z: np.ndarray) -> float:
-    """log det of the Gauss-Newton Hessian of the latent unknowns at ``z`` (parameters held),
-    in orthonormal independent coordinates (scaled units)."""
-    nlp, part = result.nlp, result.part
-    h, a = fisher_and_jacobian(nlp, z)
-    basis = reduced_hessian(nlp, h, a).basis
-    latent = basis @ null_space(basis[part.theta_cols])
-    h_l = latent.T @ (h @ latent)
-    sign, log_det = np.linalg.slogdet(0.5 * (h_l + h_l.T))
-    if sign <= 0:
-        raise ArithmeticError("the latent Hessian is not positive definite")
-    return float(log_det)
-
-
 def marginal_profile(result: FitResult, name: str, values: np.ndarray, max_iter: int = 150) -> MarginalProfile:
     """Refit ``result`` with ``name`` held at each of ``values`` (SI, warm-started from the fit)
     and return the joint and Laplace-marginal profiles. Logs one line per value (INFO); the refits'
     Ipopt iterations at DEBUG."""
     values = np.asarray(values, float)
-    joint, half_log_det, converged = [], [], []
+    joint, half_log_dets, converged = [], [], []
     for i, v in enumerate(values, 1):
         sol = refit_with_held(result, name, v, max_iter)
         joint.append(sol.objective)
-        half_log_det.append(0.5 * latent_log_det(result, sol.z))
+        half_log_dets.append(half_log_det(result.nlp, sol.z))
         converged.append(sol.converged)
         LOG.info("marginal profile %s: point %d of %d, %s = %.6g: objective %.6g, 1/2 log det %.6g%s", name, i,
-                 len(values), name, v, joint[-1], half_log_det[-1], "" if sol.converged else " (not converged)")
+                 len(values), name, v, joint[-1], half_log_dets[-1], "" if sol.converged else " (not converged)")
     joint = np.array(joint)
-    marginal = joint + np.array(half_log_det)
+    marginal = joint + np.array(half_log_dets)
     return MarginalProfile(name, values, joint - joint.min(), marginal - marginal.min(), np.array(converged))
