@@ -39,6 +39,7 @@ from casrecon.estimation.savgol import savgol_coeffs
 from casrecon.estimation.transcription import STATE_SCALE, disturbance_selection
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment, flow_angles
 from casrecon.physics.dynamics import DISTURBANCE_NAMES, FlightModel
+from casrecon.physics.numpy_call import numpy_call
 
 #: Savitzky-Golay filter of the IMU samples: window (s) and polynomial order.
 SMOOTHING_WINDOW_S = 0.1
@@ -237,10 +238,10 @@ def aero_coefficients(result) -> dict[str, np.ndarray]:
     zt = np.repeat(z[part.theta_cols, None], k, axis=1)
     zu = z[part.u_cols].T
     cell_cols, zg, base = node_cell_inputs(part, z, np.arange(k))
-    y, jac = fn(zx, zt, zu, zg, base, np.nan_to_num(s).T)
-    y = np.asarray(y).T                                               # (K, 26)
+    y, jac = numpy_call(fn, zx, zt, zu, zg, base, np.nan_to_num(s).T)
+    y = y.T                                                           # (K, 26)
     n_v = NS + part.params.n + part.n_u + part.n_profile_local
-    jac = np.asarray(jac).reshape(2 * N_COEF, k, n_v + 9).transpose(1, 0, 2)   # (K, 16, n_v + 9)
+    jac = jac.reshape(2 * N_COEF, k, n_v + 9).transpose(1, 0, 2)   # (K, 16, n_v + 9)
     nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))
     index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i],
                         cell_cols[i]] for i in nodes]

@@ -9,6 +9,7 @@ import numpy as np
 from casrecon.estimation.layout import NS, BlockLocals, DropLayout
 from casrecon.estimation.transcription import STATE_SCALE, disturbance_selection
 from casrecon.physics.dynamics import OUTPUT_NAMES, FlightModel
+from casrecon.physics.numpy_call import numpy_call
 
 #: (column, unit factor) of each reported quantity; angles and rates in degrees.
 COLUMNS = (("pos_n_m", 1.0), ("pos_e_m", 1.0), ("pos_d_m", 1.0), ("h_agl_m", 1.0),
@@ -94,10 +95,10 @@ def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, c
     zt = np.repeat(z[part.theta_cols, None], k, axis=1)
     zu = z[part.u_cols].T
     cell_cols, zg, base = node_cell_inputs(part, z, np.arange(k))
-    y, jac = fn(zx, zt, zu, zg, base)
-    y = np.asarray(y).T
+    y, jac = numpy_call(fn, zx, zt, zu, zg, base)
+    y = y.T
     ny, nv = y.shape[1], NS + part.params.n + part.n_u + part.n_profile_local
-    jac = np.asarray(jac).reshape(ny, k, nv).transpose(1, 0, 2)  # (k, ny, nv)
+    jac = jac.reshape(ny, k, nv).transpose(1, 0, 2)  # (k, ny, nv)
     nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))
     index_sets = [np.r_[part.node_offset + np.arange(NS * i, NS * i + NS), part.theta_cols, part.u_cols[i],
                         cell_cols[i]] for i in nodes]

@@ -19,6 +19,7 @@ import numpy as np
 
 from casrecon.physics.compiled import compiled
 from casrecon.physics.dynamics import DISTURBANCE_NAMES, OUTPUT_NAMES, STATE_NAMES, FlightModel
+from casrecon.physics.numpy_call import numpy_call
 
 
 @dataclass(frozen=True)
@@ -128,8 +129,8 @@ class Simulator:
         x0 = np.asarray(x0, float).copy()
         x0[6:10] /= np.linalg.norm(x0[6:10])
         p = np.asarray(params, float)
-        p_rep = ca.repmat(ca.DM(p), 1, self.chunk)
-        h_rep = ca.DM.ones(1, self.chunk) * self.dt_s
+        p_rep = np.repeat(p[:, None], self.chunk, axis=1)
+        h_rep = np.full(self.chunk, self.dt_s)
         t1 = self.dt_s if first_step_s is None else float(first_step_s)
         if not 0 < t1 <= self.dt_s:
             raise ValueError(f"first_step_s must lie in (0, dt_s], got {t1}")
@@ -137,7 +138,7 @@ class Simulator:
         x1 = np.asarray(self.step(x0, p, t1, *dist.ends(np.array([0.0, t1])))).ravel()
         blocks, x, t_end, impacted = [x0[:, None], x1[:, None]], x1, t1, False
         while t_end < t_max_s:
-            xs = np.asarray(self._run(x, p_rep, h_rep, *dist.ends(t_end + self.dt_s * np.arange(self.chunk + 1))))
+            xs = numpy_call(self._run, x, p_rep, h_rep, *dist.ends(t_end + self.dt_s * np.arange(self.chunk + 1)))[0]
             below = np.nonzero(xs[2] > 0.0)[0]
             if below.size:
                 k = below[0]
@@ -178,7 +179,7 @@ class Simulator:
             block, dblock = states[start:start + m], d[start:start + m]
             pad = np.vstack([block, np.repeat(block[-1:], m - block.shape[0], axis=0)])
             dpad = np.vstack([dblock, np.repeat(dblock[-1:], m - dblock.shape[0], axis=0)])
-            y = np.asarray(self._outputs(pad.T, ca.repmat(ca.DM(p), 1, m), dpad.T)).T
+            y = numpy_call(self._outputs, pad.T, np.repeat(p[:, None], m, axis=1), dpad.T)[0].T
             out.append(y[:block.shape[0]])
         return np.vstack(out)
 

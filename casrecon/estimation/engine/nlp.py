@@ -243,19 +243,24 @@ class BlockDerivatives:
     @cached_property
     def jr_layout(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(order, column indices, row pointers) of the global (n_r, n_z) residual Jacobian in CSR
-        form: entry ``order[k]`` of the stacked block J_r nonzeros is the k-th stored entry (each
-        entry once: a residual row belongs to one block, so a stable sort by row is all it takes)."""
-        rows, cols = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        form: entry ``order[k]`` of the stacked block J_r nonzeros is the k-th stored entry. A
+        residual row belongs to one block and a set's blocks own consecutive rows, so sorting each
+        kind's few local entries by row (stably) and taking the sets in row order sorts them all:
+        the same order as a stable sort of every entry by row, without sorting millions."""
+        orders, counts, start = [], np.zeros(self.n_r, np.int64), 0
         for bs, r_row in zip(self.sets, self.r_rows):
             lr, lc = bs.kind.pattern("jr")
-            n_res = bs.kind.n_residuals
-            block_rows = r_row + n_res * np.arange(bs.n_blocks)
-            rows.append((block_rows[:, None] + lr[None, :]).ravel())
-            cols.append(bs.cols[:, lc].ravel())
-        row, col = np.concatenate(rows), np.concatenate(cols)
-        order = np.argsort(row, kind="stable")
-        indptr = np.concatenate([[0], np.cumsum(np.bincount(row, minlength=self.n_r))])
-        return order, col[order], indptr
+            local = np.argsort(lr, kind="stable")
+            n_res, nnz = bs.kind.n_residuals, lr.size
+            orders.append((r_row, (start + nnz * np.arange(bs.n_blocks)[:, None] + local[None, :]).ravel(),
+                           bs.cols[:, lc[local]].ravel()))
+            counts[r_row:r_row + n_res * bs.n_blocks] = np.tile(np.bincount(lr, minlength=n_res), bs.n_blocks)
+            start += nnz * bs.n_blocks
+        orders.sort(key=lambda item: item[0])
+        order = np.concatenate([np.zeros(0, np.int64)] + [o for _, o, _ in orders])
+        col = np.concatenate([np.zeros(0, np.int64)] + [c for _, _, c in orders])
+        indptr = np.concatenate([[0], np.cumsum(counts)])
+        return order, col, indptr
 
     def jacobian_r(self, z) -> sps.csr_matrix:
         """The whitened residuals' Jacobian J_r at z, (n_r, n_z), CSR (column indices within a row
