@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from scipy import special  # chi-square and normal quantiles, as scipy.stats computes them (not importing stats: ~1 s)
 
 #: Family-wise false-alarm probability of the verdict on an exact model.
 FAMILY_ALPHA = 0.01
@@ -39,10 +38,19 @@ INFORMED = 0.1
 MAX_LAGS = 10
 
 
+def _special():
+    """``scipy.special`` (chi-square and normal quantiles, as ``scipy.stats`` computes them, without
+    importing ``scipy.stats``: ~1 s), imported at first use: its import costs 0.3 to 0.5 s, which a
+    ``casrecon fit`` pays in the forked child that computes the verdict, off the critical path."""
+    from scipy import special
+
+    return special
+
+
 def chi2_ppf(p: float, dof: float) -> float:
     """Chi-square quantile: the x with P(X <= x) = p for ``dof`` degrees of freedom (what
     ``scipy.stats.chi2.ppf`` computes, 2 gammaincinv(dof / 2, p))."""
-    return float(2 * special.gammaincinv(dof / 2, p))
+    return float(2 * _special().gammaincinv(dof / 2, p))
 
 
 def lag1_autocorrelation(x: np.ndarray) -> float:
@@ -71,7 +79,7 @@ def ljung_box(x: np.ndarray, lags: int) -> tuple[float, float]:
         return float("nan"), float("nan")
     rho = np.array([d[:-k] @ d[k:] for k in range(1, lags + 1)]) / den
     q = float(n * (n + 2) * np.sum(rho ** 2 / (n - np.arange(1, lags + 1))))
-    return q, float(special.chdtrc(lags, q))
+    return q, float(_special().chdtrc(lags, q))
 
 
 @dataclass(frozen=True)
@@ -128,7 +136,7 @@ def channel_test(name: str, normalized: np.ndarray, alpha: float) -> ChannelTest
                            float("nan"), float("nan"), alpha)
     lags = ljung_box_lags(n)
     q, p = ljung_box(r, lags)
-    interval = (float(chi2_ppf(alpha / 2, n) / n), float(special.chdtri(n, alpha / 2) / n))
+    interval = (float(chi2_ppf(alpha / 2, n) / n), float(_special().chdtri(n, alpha / 2) / n))
     return ChannelTest(name, n, float(r @ r / n), interval, lag1_autocorrelation(r), lags, q, p, alpha)
 
 
@@ -188,8 +196,8 @@ def prior_nees(values: np.ndarray, prior_sigma: np.ndarray, posterior_cov: np.nd
     proj = vec[:, keep].T @ u
     nees = float(np.sum(proj ** 2 / lam[keep]))
     dof = int(keep.sum())
-    interval = (float(chi2_ppf(alpha / 2, dof)), float(special.chdtri(dof, alpha / 2))) if dof else (0.0, 0.0)
-    p = float(special.chdtrc(dof, nees)) if dof else 1.0
+    interval = (float(chi2_ppf(alpha / 2, dof)), float(_special().chdtri(dof, alpha / 2))) if dof else (0.0, 0.0)
+    p = float(_special().chdtrc(dof, nees)) if dof else 1.0
     return PriorNees(nees, dof, interval, p, float(u @ u), n)
 
 
@@ -404,7 +412,7 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     tests = [channel_test(name, r, a) for name, r in channels.items()]
     values, prior_sigma = np.asarray(values, dtype=float), np.asarray(prior_sigma, dtype=float)
     z = values / prior_sigma if n_priors else np.zeros(0)
-    z_limit = float(-special.ndtri(a / 2))
+    z_limit = float(-_special().ndtri(a / 2))
     units = units or ["-"] * n_priors
     deviations = tuple(PriorDeviation(prior_names[i], float(values[i]), float(prior_sigma[i]), float(z[i]), units[i])
                        for i in np.argsort(-np.abs(z)) if abs(z[i]) >= NAMED_Z)

@@ -140,15 +140,17 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
     result : casrecon.estimation.fit.FitResult
         A converged per-drop fit.
     concurrent : bool
-        Run the nominal-database simulation in a forked process while this one computes the rest
-        (:class:`casrecon.parallel.Forked`; the same numbers): for a command on a machine with a
-        second core, not inside worker processes.
+        Run the nominal-database simulation and the model-adequacy verdict in a forked process
+        while this one computes the rest (:class:`casrecon.parallel.Forked`; the same numbers): for
+        a command on a machine with a second core, not inside worker processes.
 
     Returns
     -------
     FitProducts
     """
-    nominal = Forked(lambda: dg.reconciled_simulation(result, nominal=True)) if concurrent else None
+    # the child imports scipy.special for the verdict's quantiles (0.3 to 0.5 s) off the critical path
+    child = Forked(lambda: (dg.reconciled_simulation(result, nominal=True), result_adequacy(result))) \
+        if concurrent else None
     imu = dg.imu_residuals(result)
     factors = np.array([IMU_CHANNEL_UNITS[c][1] for c in dg.IMU_CHANNELS])
     imu_cols = {"time_imu_s": imu["time_imu_s"]}
@@ -167,7 +169,10 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
     vanes = result.scenario.config.aero.vanes is not None
     others = other_kind_residuals(result)
     coefficients = aero_coefficients(result)
-    nom = dg.reconciled_simulation(result, nominal=True) if nominal is None else nominal.result()
+    if child is None:
+        nom, adequacy = dg.reconciled_simulation(result, nominal=True), drop_adequacy(result, imu, gps, others)
+    else:
+        nom, adequacy = child.result()
     return FitProducts(
         imu_residuals=imu_cols,
         imu_sigma={imu_sigma_key(c): float(sg * f) for c, sg, f in zip(dg.IMU_CHANNELS, imu["sigma"], factors)},
@@ -181,7 +186,7 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
         kind_residuals=others,
         aero_coefficients=coefficients,
         roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None,
-        adequacy=drop_adequacy(result, imu, gps, others))
+        adequacy=adequacy)
 
 
 def result_adequacy(result) -> Adequacy:

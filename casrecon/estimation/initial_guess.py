@@ -5,7 +5,7 @@
    C_nb(t) = R0 dC(t) with R0 unknown.
 2. R0: in descent the specific force points against the air-relative velocity, so R0 is the
    rotation that best maps dC(t) f(t) onto -|f| v_air(t) / |v_air| (Wahba's problem, solved by
-   ``scipy.spatial.transform.Rotation.align_vectors``) over the window, with v_air the GPS
+   SVD: :func:`~casrecon.physics.rotations.best_rotation`) over the window, with v_air the GPS
    velocity minus the balloon wind.
 3. Position and velocity: GPS antenna fixes interpolated to the nodes, moved to the centre of mass
    with the lever arm at the guessed attitude. Rates: the gyro at the nodes (saturated samples
@@ -16,13 +16,18 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from casrecon.estimation.fitdata import FitData
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.gps_rules import interpolate_fixes
 from casrecon.physics.atmosphere import Atmosphere
-from casrecon.physics.rotations import dcm_body_to_ned_array, quat_derivative
+from casrecon.physics.rotations import (
+    best_rotation,
+    dcm_body_to_ned_array,
+    quat_derivative,
+    quat_from_dcm,
+    quat_multiply_array,
+)
 from casrecon.physics.vehicle import Vehicle
 
 
@@ -51,14 +56,6 @@ def _bridge(t: np.ndarray, values: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return out
 
 
-def _quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Scalar-first Hamilton product of one quaternion p with rows of q (via scipy's convention)."""
-    rp = Rotation.from_quat(np.r_[p[1:], p[0]])
-    rq = Rotation.from_quat(np.column_stack([q[:, 1:], q[:, 0]]))
-    out = (rp * rq).as_quat()
-    return np.column_stack([out[:, 3], out[:, :3]])
-
-
 def initial_guess(data: FitData, mesh: Mesh, vehicle: Vehicle, atmosphere: Atmosphere,
                   ground_alt_msl_m: float) -> np.ndarray:
     """Node states (K, 13), SI units, for the Ipopt start."""
@@ -76,11 +73,10 @@ def initial_guess(data: FitData, mesh: Mesh, vehicle: Vehicle, atmosphere: Atmos
     use = (fmag > 3.0) & (np.linalg.norm(v_air, axis=1) > 5.0)
     if use.sum() < 10:
         use = fmag > 0
-    f_start = Rotation.from_quat(np.column_stack([dq[:, 1:], dq[:, 0]])).apply(f)
+    f_start = np.einsum("nij,nj->ni", dcm_body_to_ned_array(dq), f)
     target = -v_air / np.linalg.norm(v_air, axis=1, keepdims=True) * fmag[:, None]
-    r0, _ = Rotation.align_vectors(target[use], f_start[use])
-    q0 = np.roll(r0.as_quat(), 1)
-    quats = _quat_mul(q0, dq)
+    q0 = quat_from_dcm(best_rotation(target[use], f_start[use]))
+    quats = quat_multiply_array(q0, dq)
     idx = np.searchsorted(t, mesh.t_nodes - 1e-9)
     idx = np.clip(idx, 0, t.size - 1)
     lever = vehicle.lever(vehicle.gps_position_m)

@@ -51,6 +51,48 @@ def dcm_body_to_ned_array(quats: np.ndarray) -> np.ndarray:
     return c / np.sum(q * q, axis=1)[:, None, None]
 
 
+def quat_multiply_array(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Numeric, vectorised :func:`quat_multiply`: the Hamilton products of quaternions (n, 4) or
+    (4,) ``p`` and ``q`` (broadcast over rows), scalar first."""
+    p, q = np.atleast_2d(np.asarray(p, float)), np.atleast_2d(np.asarray(q, float))
+    p0, p1, p2, p3 = p[:, 0], p[:, 1], p[:, 2], p[:, 3]
+    q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.column_stack([p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3, p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+                            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1, p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0])
+
+
+def quat_from_dcm(c: np.ndarray) -> np.ndarray:
+    """Unit quaternion (4,), scalar first with q0 >= 0, of a rotation matrix C_nb (3, 3)
+    (Shepperd's method: the largest of the four squared components is computed first, so no
+    division by a small number)."""
+    c = np.asarray(c, float)
+    trace = np.trace(c)
+    squares = np.array([1 + trace, 1 + 2 * c[0, 0] - trace, 1 + 2 * c[1, 1] - trace, 1 + 2 * c[2, 2] - trace])
+    k = int(np.argmax(squares))
+    q = np.empty(4)
+    q[k] = 0.5 * np.sqrt(squares[k])
+    s = 0.25 / q[k]
+    if k == 0:
+        q[1:] = s * np.array([c[2, 1] - c[1, 2], c[0, 2] - c[2, 0], c[1, 0] - c[0, 1]])
+    elif k == 1:
+        q[[0, 2, 3]] = s * np.array([c[2, 1] - c[1, 2], c[0, 1] + c[1, 0], c[0, 2] + c[2, 0]])
+    elif k == 2:
+        q[[0, 1, 3]] = s * np.array([c[0, 2] - c[2, 0], c[0, 1] + c[1, 0], c[1, 2] + c[2, 1]])
+    else:
+        q[[0, 1, 2]] = s * np.array([c[1, 0] - c[0, 1], c[0, 2] + c[2, 0], c[1, 2] + c[2, 1]])
+    q /= np.linalg.norm(q)
+    return q if q[0] >= 0 else -q
+
+
+def best_rotation(target: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """The rotation matrix C (3, 3) minimising sum |target_i - C source_i|^2 over rows of (n, 3)
+    vectors (Wahba's problem; the SVD solution with the determinant forced to +1, as
+    ``scipy.spatial.transform.Rotation.align_vectors`` computes it with unit weights)."""
+    u, _, vt = np.linalg.svd(np.asarray(target, float).T @ np.asarray(source, float))
+    d = np.sign(np.linalg.det(u @ vt)) or 1.0
+    return u @ np.diag([1.0, 1.0, d]) @ vt
+
+
 def quat_derivative(q, omega_body):
     """Kinematics ``dq/dt = q (x) (0, w) / 2`` with w the body angular rate (rad/s)."""
     return 0.5 * quat_multiply(q, ca.vertcat(0, omega_body))

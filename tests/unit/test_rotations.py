@@ -5,14 +5,19 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from casrecon.physics.rotations import (
+    best_rotation,
     dcm_body_to_ned,
+    dcm_body_to_ned_array,
     euler_deg_to_quat,
     euler_from_quat,
     quat_derivative,
+    quat_from_dcm,
     quat_from_euler,
     quat_multiply,
+    quat_multiply_array,
     quat_to_euler_deg,
 )
 
@@ -139,3 +144,35 @@ def test_vectorised_dcm_equals_the_casadi_one_also_for_unnormalised_quaternions(
     many = dcm_body_to_ned_array(quats)
     for q, c in zip(quats, many):
         assert c == pytest.approx(np.asarray(dcm_body_to_ned(q), float), abs=1e-14)
+
+
+def test_quaternion_from_dcm_equals_scipy_in_every_branch():
+    """Shepperd's method against scipy for random rotations and for 180 deg turns about each axis
+    (where the scalar part vanishes and another component is the pivot)."""
+    rotations = [Rotation.random(random_state=k) for k in range(100)]
+    rotations += [Rotation.from_rotvec(np.pi * axis) for axis in np.eye(3)]
+    rotations += [Rotation.from_rotvec(np.radians(179.9) * np.array([0.6, -0.64, 0.48]))]
+    for r in rotations:
+        q = quat_from_dcm(r.as_matrix())
+        ref = np.roll(r.as_quat(), 1)
+        assert np.allclose(q, ref if ref[0] >= 0 else -ref, atol=1e-12)
+        assert np.allclose(dcm_body_to_ned_array(q[None])[0], r.as_matrix(), atol=1e-12)
+
+
+def test_best_rotation_solves_wahba_as_scipy_does():
+    rng = np.random.default_rng(3)
+    for k in range(20):
+        truth = Rotation.random(random_state=k)
+        source = rng.normal(size=(40, 3))
+        target = truth.apply(source) + 0.2 * rng.normal(size=(40, 3))
+        expected, _ = Rotation.align_vectors(target, source)
+        c = best_rotation(target, source)
+        assert np.allclose(c, expected.as_matrix(), atol=1e-12)
+        assert np.isclose(np.linalg.det(c), 1.0)
+
+
+def test_vectorised_quaternion_product_equals_the_casadi_one():
+    rng = np.random.default_rng(4)
+    p, q = rng.normal(size=4), rng.normal(size=(6, 4))
+    expected = np.column_stack([np.asarray(quat_multiply(p, row)).ravel() for row in q])
+    assert np.allclose(quat_multiply_array(p, q), expected.T, atol=1e-14)
