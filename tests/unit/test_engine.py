@@ -93,20 +93,20 @@ def test_an_interrupt_casadi_reports_as_text_stops_the_solve_like_one():
     assert ordinary.keep(err) is err and ordinary.error is None
 
 
-def test_block_evaluator_raises_what_its_sink_raised():
-    """An exception raised inside the sink callback (e.g. Ctrl-C arriving there) comes out of the
-    evaluator as itself, not as CasADi's RuntimeError text."""
+def test_block_evaluator_returns_each_sets_outputs_one_row_per_block():
+    """The buffered evaluation equals CasADi's own call: per set, (n_blocks, n_rows) arrays, with
+    each block's local variables gathered from z by its columns."""
     from casrecon.estimation.engine.buffers import BlockEvaluator
 
-    x = ca.SX.sym("x", 2)
-    fn = ca.Function("f", [x], [ca.densify(x * 2)]).map(3, "serial")
-    evaluator = BlockEvaluator([fn], [np.arange(6).reshape(3, 2)], [[]], 6)
-    out = evaluator(np.arange(6.0))
-    np.testing.assert_array_equal(out[0][0], 2 * np.arange(6.0).reshape(3, 2))
-
-    def interrupted(inputs, outputs):
-        raise KeyboardInterrupt("test")
-
-    evaluator.sink.fill = interrupted
-    with pytest.raises(KeyboardInterrupt, match="test"):
-        evaluator(np.arange(6.0))
+    x, d = ca.SX.sym("x", 2), ca.SX.sym("d", 3)
+    fn = ca.Function("f", [x, d], [ca.densify(x * 2), ca.densify(ca.vertcat(x[0] * d, ca.sum1(x)))])
+    cols = [np.array([[4, 0], [1, 5], [2, 3]]), np.array([[5, 1]])]
+    data = [[ca.DM(np.arange(9.0).reshape(3, 3))], [ca.DM([[1.0], [2.0], [3.0]])]]
+    evaluator = BlockEvaluator([fn.map(3, "serial"), fn], cols, data, 6)
+    z = np.arange(6.0) + 0.5
+    out = evaluator(z)
+    for set_out, c, dd, f in zip(out, cols, data, [fn.map(3, "serial"), fn]):
+        expected = f(z[c].T, dd[0])
+        for got, want in zip(set_out, expected):
+            assert got.shape == (c.shape[0], want.shape[0])
+            np.testing.assert_array_equal(got, np.asarray(want).T)

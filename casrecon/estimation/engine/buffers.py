@@ -2,12 +2,14 @@
 
 Turning a ``DM`` result into a numpy array copies it element by element in Python (about 0.1 us
 an element; a 6-DOF fit's derivative outputs hold about two million); building a sparse ``DM`` from
-numpy values costs as much. Both are avoided here with CasADi callbacks that implement
-``eval_buffer``, which CasADi calls with raw pointers to its own work memory:
+numpy values costs as much. Both are avoided here:
 
-- :class:`BlockEvaluator` is one MX function ``z -> sink(outputs of every set's mapped function
-  at its blocks' local z)``; the sink callback copies each output out of CasADi's memory with one
-  ``memcpy``. The gather of each block's local variables from z is done by CasADi too.
+- :class:`BlockEvaluator` is one MX function ``z -> outputs of every set's mapped function at its
+  blocks' local z``, evaluated through ``Function.buffer()``
+  (:func:`~casrecon.physics.numpy_call.numpy_call`): CasADi reads z from and writes every output
+  into numpy's memory. The gather of each block's local variables from z is done by CasADi too.
+  (An earlier version copied the outputs out with a sink callback; building the call of that
+  callback on the outputs' million-entry patterns cost 0.26 s per NLP.)
 - :class:`BufferCallback` is the base of callbacks that write their results straight into
   CasADi's output memory (the solver's derivatives, :mod:`.solve`).
 """
@@ -18,6 +20,8 @@ from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np
+
+from casrecon.physics.numpy_call import numpy_call
 
 
 class BufferCallback(ca.Callback):
@@ -48,32 +52,6 @@ class BufferCallback(ca.Callback):
         raise NotImplementedError
 
 
-class _Sink(BufferCallback):
-    """Copies its (dense) inputs out of CasADi's memory into :attr:`arrays`."""
-
-    def __init__(self, sparsities: Sequence[ca.Sparsity]) -> None:
-        ca.Callback.__init__(self)
-        self.sparsities = list(sparsities)
-        self.arrays: list[np.ndarray] = []
-        self.construct("block_sink", {})
-
-    def get_n_in(self):
-        return len(self.sparsities)
-
-    def get_n_out(self):
-        return 1
-
-    def get_sparsity_in(self, i):
-        return self.sparsities[i]
-
-    def get_sparsity_out(self, i):
-        return ca.Sparsity.dense(1, 1)
-
-    def fill(self, inputs, outputs):
-        self.arrays = [a.copy() for a in inputs]
-        outputs[0][0] = 0.0
-
-
 class BlockEvaluator:
     """All sets' mapped functions at one z, returned as numpy arrays.
 
@@ -90,7 +68,7 @@ class BlockEvaluator:
 
     def __init__(self, functions: list[ca.Function], cols: list[np.ndarray], data: list[list], n_z: int) -> None:
         z = ca.MX.sym("z", n_z)
-        outs, self.shapes = [], []
+        outs, self.n_outputs = [], []
         for fn, c, d in zip(functions, cols, data):
             c = np.asarray(c, np.int64)
             local = ca.reshape(z[c.ravel().tolist()], c.shape[1], c.shape[0])
@@ -99,20 +77,10 @@ class BlockEvaluator:
                 if not o.sparsity().is_dense():
                     raise ValueError(f"{fn.name()}: block function outputs must be dense")
             outs.extend(res)
-            self.shapes.append([(o.size2(), o.size1()) for o in res])
-        self.sink = _Sink([o.sparsity() for o in outs])
-        self.function = ca.Function("block_evaluator", [z], [self.sink(*outs)])
+            self.n_outputs.append(len(res))
+        self.function = ca.Function("block_evaluator", [z], outs)
 
     def __call__(self, z: np.ndarray) -> list[list[np.ndarray]]:
-        """Per set, its outputs at ``z`` as arrays of shape (n_blocks, n_rows) (one row per block).
-        An exception raised inside the sink (e.g. Ctrl-C arriving there) is raised again as itself."""
-        self.sink.raised = None
-        try:
-            self.function(z)
-        except RuntimeError as err:
-            if self.sink.raised is not None:
-                raise self.sink.raised from err
-            raise
-        arrays = iter(self.sink.arrays)
-        self.sink.arrays = []
-        return [[next(arrays).reshape(shape) for shape in shapes] for shapes in self.shapes]
+        """Per set, its outputs at ``z`` as arrays of shape (n_blocks, n_rows) (one row per block)."""
+        arrays = iter(numpy_call(self.function, z))
+        return [[next(arrays).T for _ in range(n)] for n in self.n_outputs]
