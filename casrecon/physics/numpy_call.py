@@ -12,6 +12,67 @@ import casadi as ca
 import numpy as np
 
 
+class BufferedFunction:
+    """A CasADi ``Function`` evaluated on numpy arrays into numpy arrays through one
+    ``Function.buffer()`` made once (making one allocates the function's work memory: 4 ms for
+    a fit's block evaluator), for functions called many times. Not for concurrent use by threads;
+    picklable (the buffer is made again).
+
+    Parameters
+    ----------
+    function : casadi.Function
+        Every input and output dense (else use :func:`numpy_call`, which falls back to ``DM``).
+    """
+
+    def __init__(self, function: ca.Function) -> None:
+        if not is_dense(function):
+            raise ValueError(f"{function.name()}: BufferedFunction needs dense inputs and outputs")
+        self.function = function
+        self.buffer, self.evaluate = function.buffer()
+
+    def __getstate__(self) -> dict:
+        return {"function": self.function}  # a buffer is process memory: made again on unpickling
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["function"])
+
+    def __call__(self, *inputs) -> list[np.ndarray]:
+        """``function(*inputs)`` as float arrays (see :func:`numpy_call`)."""
+        function = self.function
+        if len(inputs) != function.n_in():
+            raise ValueError(f"{function.name()}: {len(inputs)} inputs given, it takes {function.n_in()}")
+        columns = [column_major(function, i, x) for i, x in enumerate(inputs)]  # alive until evaluated
+        outputs = [np.empty((function.size2_out(k), function.size1_out(k))) for k in range(function.n_out())]
+        for i, x in enumerate(columns):
+            self.buffer.set_arg(i, memoryview(x))
+        for k, out in enumerate(outputs):
+            self.buffer.set_res(k, memoryview(out))
+        self.evaluate()
+        return [out.T for out in outputs]
+
+
+def is_dense(function: ca.Function) -> bool:
+    """Whether every input and output of ``function`` is dense."""
+    return all(function.sparsity_in(i).is_dense() for i in range(function.n_in())) and all(
+        function.sparsity_out(i).is_dense() for i in range(function.n_out()))
+
+
+def column_major(function: ca.Function, i: int, x) -> np.ndarray:
+    """Input ``i`` of ``function`` as a contiguous float vector in CasADi's column-major order;
+    ValueError when its size (or, for a matrix input, its shape) is not the input's."""
+    values = np.asarray(x, float)
+    n1, n2 = function.size1_in(i), function.size2_in(i)
+    if values.size != n1 * n2:
+        raise ValueError(f"{function.name()}: input {function.name_in(i)} has {values.size} elements, "
+                         f"expected {n1} x {n2}")
+    if n1 > 1 and n2 > 1:  # a matrix: its numpy shape must be the input's
+        if values.shape != (n1, n2):
+            raise ValueError(f"{function.name()}: input {function.name_in(i)} has shape {values.shape}, "
+                             f"expected ({n1}, {n2})")
+        values = values.T  # numpy's row-major copy of the transpose is CasADi's column-major order
+    return np.ascontiguousarray(values).ravel()
+
+
 def numpy_call(function: ca.Function, *inputs) -> list[np.ndarray]:
     """``function(*inputs)`` as a list of float arrays, one per output, each of the output's shape
     (``size1`` x ``size2``).
@@ -36,30 +97,8 @@ def numpy_call(function: ca.Function, *inputs) -> list[np.ndarray]:
         An input whose number of elements (or, for a matrix input, shape) differs from the
         function's input.
     """
-    if len(inputs) != function.n_in():
-        raise ValueError(f"{function.name()}: {len(inputs)} inputs given, it takes {function.n_in()}")
-    dense = all(function.sparsity_in(i).is_dense() for i in range(function.n_in())) and all(
-        function.sparsity_out(i).is_dense() for i in range(function.n_out()))
-    if not dense:
+    if not is_dense(function):
+        if len(inputs) != function.n_in():
+            raise ValueError(f"{function.name()}: {len(inputs)} inputs given, it takes {function.n_in()}")
         return [np.asarray(ca.DM(out), float) for out in function.call([ca.DM(x) for x in inputs])]
-    columns = []  # column-major copies, kept alive until the call returns
-    for i, x in enumerate(inputs):
-        values = np.asarray(x, float)
-        n1, n2 = function.size1_in(i), function.size2_in(i)
-        if values.size != n1 * n2:
-            raise ValueError(f"{function.name()}: input {function.name_in(i)} has {values.size} elements, "
-                             f"expected {n1} x {n2}")
-        if n1 > 1 and n2 > 1:  # a matrix: its numpy shape must be the input's
-            if values.shape != (n1, n2):
-                raise ValueError(f"{function.name()}: input {function.name_in(i)} has shape {values.shape}, "
-                                 f"expected ({n1}, {n2})")
-            values = values.T  # numpy's row-major copy of the transpose is CasADi's column-major order
-        columns.append(np.ascontiguousarray(values).ravel())
-    outputs = [np.empty((function.size2_out(k), function.size1_out(k))) for k in range(function.n_out())]
-    buffer, evaluate = function.buffer()
-    for i, x in enumerate(columns):
-        buffer.set_arg(i, memoryview(x))
-    for k, out in enumerate(outputs):
-        buffer.set_res(k, memoryview(out))
-    evaluate()
-    return [out.T for out in outputs]
+    return BufferedFunction(function)(*inputs)

@@ -19,7 +19,7 @@ import numpy as np
 
 from casrecon.physics.compiled import compiled
 from casrecon.physics.dynamics import DISTURBANCE_NAMES, OUTPUT_NAMES, STATE_NAMES, FlightModel
-from casrecon.physics.numpy_call import numpy_call
+from casrecon.physics.numpy_call import BufferedFunction
 
 
 @dataclass(frozen=True)
@@ -114,8 +114,8 @@ class Simulator:
         self.step = ca.Function("rk4_step", [x, p, h, d0, d1], [xn])
         # compiled (and cached on disk) when a C compiler exists: a 40 s drop at 2 ms steps takes
         # 0.30 s instead of 0.56 s, the first time plus about 1 s to compile
-        self._run = compiled(self.step.mapaccum("rk4_chunk", self.chunk, [0], [0]))
-        self._outputs = compiled(model.outputs_d.map(self.chunk + 1))
+        self._run = BufferedFunction(compiled(self.step.mapaccum("rk4_chunk", self.chunk, [0], [0])))
+        self._outputs = BufferedFunction(compiled(model.outputs_d.map(self.chunk + 1)))
 
     def run(self, x0, params, t_max_s: float = 300.0, first_step_s: float | None = None,
             disturbance=None) -> Trajectory:
@@ -138,7 +138,7 @@ class Simulator:
         x1 = np.asarray(self.step(x0, p, t1, *dist.ends(np.array([0.0, t1])))).ravel()
         blocks, x, t_end, impacted = [x0[:, None], x1[:, None]], x1, t1, False
         while t_end < t_max_s:
-            xs = numpy_call(self._run, x, p_rep, h_rep, *dist.ends(t_end + self.dt_s * np.arange(self.chunk + 1)))[0]
+            xs = self._run(x, p_rep, h_rep, *dist.ends(t_end + self.dt_s * np.arange(self.chunk + 1)))[0]
             below = np.nonzero(xs[2] > 0.0)[0]
             if below.size:
                 k = below[0]
@@ -179,7 +179,7 @@ class Simulator:
             block, dblock = states[start:start + m], d[start:start + m]
             pad = np.vstack([block, np.repeat(block[-1:], m - block.shape[0], axis=0)])
             dpad = np.vstack([dblock, np.repeat(dblock[-1:], m - dblock.shape[0], axis=0)])
-            y = numpy_call(self._outputs, pad.T, np.repeat(p[:, None], m, axis=1), dpad.T)[0].T
+            y = self._outputs(pad.T, np.repeat(p[:, None], m, axis=1), dpad.T)[0].T
             out.append(y[:block.shape[0]])
         return np.vstack(out)
 

@@ -6,7 +6,7 @@ numpy values costs as much. Both are avoided here:
 
 - :class:`BlockEvaluator` is one MX function ``z -> outputs of every set's mapped function at its
   blocks' local z``, evaluated through ``Function.buffer()``
-  (:func:`~casrecon.physics.numpy_call.numpy_call`): CasADi reads z from and writes every output
+  (:class:`~casrecon.physics.numpy_call.BufferedFunction`): CasADi reads z from and writes every output
   into numpy's memory. The gather of each block's local variables from z is done by CasADi too.
   (An earlier version copied the outputs out with a sink callback; building the call of that
   callback on the outputs' million-entry patterns cost 0.26 s per NLP.)
@@ -16,12 +16,10 @@ numpy values costs as much. Both are avoided here:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import casadi as ca
 import numpy as np
 
-from casrecon.physics.numpy_call import numpy_call
+from casrecon.physics.numpy_call import BufferedFunction
 
 
 class BufferCallback(ca.Callback):
@@ -78,9 +76,9 @@ class BlockEvaluator:
                     raise ValueError(f"{fn.name()}: block function outputs must be dense")
             outs.extend(res)
             self.n_outputs.append(len(res))
-        self.function = ca.Function("block_evaluator", [z], outs)
+        self.function = BufferedFunction(ca.Function("block_evaluator", [z], outs))
 
     def __call__(self, z: np.ndarray) -> list[list[np.ndarray]]:
         """Per set, its outputs at ``z`` as arrays of shape (n_blocks, n_rows) (one row per block)."""
-        arrays = iter(numpy_call(self.function, z))
+        arrays = iter(self.function(z))
         return [[next(arrays).T for _ in range(n)] for n in self.n_outputs]
