@@ -140,7 +140,7 @@ def _node_function(result) -> ca.Function:
     y = ca.vertcat(best, rec, database_coefficients(model, x, p_nominal, d), fl.alpha_t * 180 / np.pi, qbar)
     banded = ca.vertcat(best, rec)
     jac = ca.horzcat(ca.jacobian(banded, ca.vertcat(zx, zt, zu, zg)), ca.jacobian(banded, s))
-    return ca.Function("aero_coefficients_node", [zx, zt, zu, zg, base, s], [y, jac])
+    return ca.Function("aero_coefficients_node", [zx, zt, zu, zg, base, s], [ca.densify(y), ca.densify(jac)])
 
 
 def filter_shape(window_s: float, dt_s: float) -> tuple[int, int]:

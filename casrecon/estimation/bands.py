@@ -82,7 +82,8 @@ def _output_function(model: FlightModel, part: DropLayout) -> ca.Function:
                    out[idx("alpha")], out[idx("beta")], out[idx("alpha_t")], out[idx("qbar")], out[idx("mach")], u)
     y = y * ca.DM([f for _, f in COLUMNS] + [DISTURBANCE_COLUMNS[i][1] for i in active])
     v = ca.vertcat(zx, zt, zu, zg)
-    return ca.Function("outputs_with_jacobian", [zx, zt, zu, zg, base], [y, ca.jacobian(y, v)])
+    return ca.Function("outputs_with_jacobian", [zx, zt, zu, zg, base],
+                       [ca.densify(y), ca.densify(ca.jacobian(y, v))])  # dense: evaluated by numpy_call
 
 
 def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, cov):

@@ -25,6 +25,7 @@ from casrecon.estimation.transcription import (
 )
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.dynamics import PARAMETER_NAMES
+from casrecon.physics.numpy_call import numpy_call
 
 #: Names of the IMU bias parameters (accelerometer m/s^2, gyro rad/s; IMU axes).
 SENSOR_NAMES = tuple(f"{k}_bias_{a}" for k in ("accel", "gyro") for a in "xyz")
@@ -91,9 +92,9 @@ class ImuKind:
         x = result.states.T
         u = layout.disturbances(result.z)[:, list(layout.active)].T
         pk, pk1 = interval_parameters(result)
-        coefs = np.asarray(f(x[:, :-1], x[:, 1:], pk, pk1, np.tile(b[:, None], n),
-                             np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)),
-                             u[:, :-1], u[:, 1:])[2])
+        coefs = numpy_call(f, x[:, :-1], x[:, 1:], pk, pk1, np.tile(b[:, None], n),
+                           np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)),
+                           u[:, :-1], u[:, 1:])[2]
         pred = np.zeros((n * k, 6))
         for c, basis in enumerate(channel_bases(k)):
             pred[:, c] = (basis @ coefs[D_OFFSETS[c]:D_OFFSETS[c + 1]]).T.ravel()
