@@ -140,17 +140,20 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
     result : casrecon.estimation.fit.FitResult
         A converged per-drop fit.
     concurrent : bool
-        Run the nominal-database simulation and the model-adequacy verdict in a forked process
-        while this one computes the rest (:class:`casrecon.parallel.Forked`; the same numbers): for
-        a command on a machine with a second core, not inside worker processes.
+        Run the nominal-database simulation with the model-adequacy verdict, and the aerodynamic
+        coefficients, in two forked processes while this one computes the rest
+        (:class:`casrecon.parallel.Forked`; the same numbers): for a command on a machine with a
+        second core, not inside worker processes.
 
     Returns
     -------
     FitProducts
     """
-    # the child imports scipy.special for the verdict's quantiles (0.3 to 0.5 s) off the critical path
+    # two children: the nominal simulation and the verdict (which imports scipy.special for its
+    # quantiles, 0.1 to 0.5 s), and the aerodynamic coefficients; this process does the rest
     child = Forked(lambda: (dg.reconciled_simulation(result, nominal=True), result_adequacy(result))) \
         if concurrent else None
+    coefficients_child = Forked(lambda: aero_coefficients(result)) if concurrent else None
     imu = dg.imu_residuals(result)
     factors = np.array([IMU_CHANNEL_UNITS[c][1] for c in dg.IMU_CHANNELS])
     imu_cols = {"time_imu_s": imu["time_imu_s"]}
@@ -168,7 +171,7 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
     rec = dg.reconciled_simulation(result)
     vanes = result.scenario.config.aero.vanes is not None
     others = other_kind_residuals(result)
-    coefficients = aero_coefficients(result)
+    coefficients = aero_coefficients(result) if coefficients_child is None else coefficients_child.result()
     if child is None:
         nom, adequacy = dg.reconciled_simulation(result, nominal=True), drop_adequacy(result, imu, gps, others)
     else:
