@@ -15,21 +15,41 @@ import scipy.sparse as sps
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
-#: Components of the last few patterns seen (an iteration's defect Jacobian has the previous one's
-#: pattern): pattern key -> (number of blocks, labels of the rows then the columns).
-_COMPONENTS: dict[tuple, tuple[int, np.ndarray]] = {}
+from casrecon.estimation.engine.submatrix import pattern_key, submatrix
+
+#: The blocks of the last few patterns seen (an iteration's defect Jacobian has the previous one's
+#: pattern): pattern key -> list of (rows, columns) of each block, or None for one block.
+_BLOCKS: dict[tuple, list | None] = {}
 
 
 def components(m: sps.csc_matrix) -> tuple[int, np.ndarray]:
     """(number of blocks, block label of each row then each column) of the square matrix ``m``:
-    the connected components of its bipartite row-column graph, remembered by pattern."""
-    key = (m.shape, m.nnz, hash(m.indptr.tobytes()), hash(m.indices.tobytes()))
-    if key not in _COMPONENTS:
-        graph = sps.bmat([[None, m], [m.T, None]], format="csr")
-        if len(_COMPONENTS) >= 8:
-            _COMPONENTS.clear()
-        _COMPONENTS[key] = connected_components(graph, directed=False)
-    return _COMPONENTS[key]
+    the connected components of its bipartite row-column graph."""
+    graph = sps.bmat([[None, m], [m.T, None]], format="csr")
+    return connected_components(graph, directed=False)
+
+
+def block_layout(m: sps.csc_matrix) -> list | None:
+    """The (rows, columns) of each diagonal block of the square CSC matrix ``m`` (sorted indices),
+    None for a matrix of one block; remembered by pattern. RuntimeError for a block that is not
+    square."""
+    key = pattern_key(m)
+    if key in _BLOCKS:
+        return _BLOCKS[key]
+    n_blocks, labels = components(m)
+    n = m.shape[0]
+    layout = None
+    if n_blocks > 1:
+        layout = []
+        for b in range(n_blocks):
+            rows, cols = np.flatnonzero(labels[:n] == b), np.flatnonzero(labels[n:] == b)
+            if rows.size != cols.size:
+                raise RuntimeError(f"structurally singular: a block of {rows.size} rows and {cols.size} columns")
+            layout.append((rows, cols))
+    if len(_BLOCKS) >= 8:
+        _BLOCKS.clear()
+    _BLOCKS[key] = layout
+    return layout
 
 
 class BlockLu:
@@ -49,20 +69,17 @@ class BlockLu:
 
     def __init__(self, matrix: sps.spmatrix, permc_spec: str = "COLAMD") -> None:
         m = sps.csc_matrix(matrix)
-        n = m.shape[0]
-        n_blocks, labels = components(m)
-        rows_of, cols_of = labels[:n], labels[n:]
-        self.n = n
+        if not m.has_sorted_indices:
+            m = m.sorted_indices()  # a copy: the caller's matrix is left as it is
+        self.n = n = m.shape[0]
         self.blocks: list[tuple[np.ndarray, np.ndarray, object]] = []
-        if n_blocks == 1:  # no copy of the matrix
+        layout = block_layout(m)
+        if layout is None:  # one block: no copy of the matrix
             every = np.arange(n)
             self.blocks.append((every, every, splu(m, permc_spec=permc_spec)))
             return
-        for b in range(n_blocks):
-            rows, cols = np.flatnonzero(rows_of == b), np.flatnonzero(cols_of == b)
-            if rows.size != cols.size:
-                raise RuntimeError(f"structurally singular: a block of {rows.size} rows and {cols.size} columns")
-            self.blocks.append((rows, cols, splu(m[rows][:, cols].tocsc(), permc_spec=permc_spec)))
+        for rows, cols in layout:  # each block cut by a remembered gather of the nonzeros
+            self.blocks.append((rows, cols, splu(submatrix(m, rows, cols), permc_spec=permc_spec)))
 
     @property
     def n_blocks(self) -> int:
@@ -72,7 +89,7 @@ class BlockLu:
         """x with M x = rhs (``trans="T"``: M^T x = rhs), for a vector or a 2-D array of right-hand
         sides; a block's columns of ``rhs`` that are zero on it are not solved for."""
         rhs = np.asarray(rhs, float)
-        x = np.zeros_like(rhs)
+        x = np.zeros(rhs.shape)  # calloc: pages of zeros cost nothing until written
         for rows, cols, lu in self.blocks:
             into, source = (cols, rows) if trans == "N" else (rows, cols)
             part = rhs[source]

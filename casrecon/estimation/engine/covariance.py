@@ -38,6 +38,7 @@ from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.block_lu import BlockLu
 from casrecon.estimation.engine.nlp import Nlp
+from casrecon.estimation.engine.submatrix import index_key, submatrix
 from casrecon.parallel import single_threaded_blas
 
 #: A reduced Hessian with condition number above this is reported as singular.
@@ -310,22 +311,37 @@ class ConstraintSplit:
         return dz
 
 
+#: Remembered independent column sets: (n_z, dependent key, excluded key) -> columns.
+_INDEPENDENT: dict[tuple, np.ndarray] = {}
+
+
+def independent_columns(n_z: int, dep: np.ndarray, excluded: np.ndarray) -> np.ndarray:
+    """The columns of 0..n_z-1 neither dependent nor excluded, in order (remembered: a solver
+    asks at every iterate)."""
+    key = (n_z, index_key(dep), index_key(excluded))
+    if key not in _INDEPENDENT:
+        if len(_INDEPENDENT) >= 16:
+            _INDEPENDENT.clear()
+        _INDEPENDENT[key] = np.setdiff1d(np.arange(n_z), np.union1d(dep, excluded))
+    return _INDEPENDENT[key]
+
+
 def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
                      excluded: np.ndarray = ()) -> ConstraintSplit:
     """The :class:`ConstraintSplit` of a constraint Jacobian whose first ``n_determining`` rows fix
     the columns ``dep`` given the others (the rest are side constraints, e.g. unit norms); the
     ``excluded`` columns (in no constraint) get zero rows in Z."""
-    n_z = a.shape[1]
+    n_z, n_g = a.shape[1], a.shape[0]
     n_def = n_determining
     dep = np.asarray(dep, np.int64)
-    indep = np.setdiff1d(np.arange(n_z), np.union1d(dep, excluded))
-    a_def = a[:n_def]
-    a_d, a_i = a_def[:, dep].tocsc(), a_def[:, indep].tocsr()
-    a_side = a[n_def:]
-    if a_side.shape[0] and abs(a_side[:, dep]).sum() != 0:
+    indep = independent_columns(n_z, dep, np.asarray(excluded, np.int64))
+    # the pieces by remembered gathers (the pattern is the same at every iterate)
+    a_d, a_i = submatrix(a, slice(0, n_def), dep), submatrix(a, slice(0, n_def), indep).tocsr()
+    side = slice(n_def, n_g)
+    if n_g > n_def and abs(submatrix(a, side, dep)).sum() != 0:
         raise ValueError("a side constraint involves a dependent column")
-    a_side_i = a_side[:, indep].toarray()
-    n_basis = null_space(a_side_i) if a_side.shape[0] else np.eye(indep.size)
+    a_side_i = submatrix(a, side, indep).toarray()
+    n_basis = null_space(a_side_i) if n_g > n_def else np.eye(indep.size)
     lu = BlockLu(a_d, permc_spec=A_D_ORDERING)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis

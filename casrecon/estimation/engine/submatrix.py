@@ -1,0 +1,51 @@
+"""Submatrices of sparse matrices that keep their pattern from one iteration to the next.
+
+A solver iteration slices its constraint Jacobian into the same pieces each time (the defects'
+rows in the dependent columns, in the independent columns, the side rows). SciPy's fancy
+slicing costs tens of milliseconds per piece on a joint fit; :func:`submatrix` works out once per
+pattern where each nonzero of a piece comes from, and then cuts a new matrix of that pattern by
+one gather of its nonzeros.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sps
+
+#: Remembered gathers: (pattern key, rows key, columns key) -> (positions of the piece's nonzeros
+#: in the CSC data, the piece's CSC indices, its CSC index pointer, its shape).
+_GATHERS: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int]]] = {}
+#: Gathers kept at most (a few NLPs' worth; the oldest are dropped first).
+MAX_GATHERS = 32
+
+
+def pattern_key(m: sps.csc_matrix) -> tuple:
+    """A key of the sparsity pattern of a CSC matrix with sorted indices."""
+    return m.shape, m.nnz, hash(m.indptr.tobytes()), hash(m.indices.tobytes())
+
+
+def index_key(index) -> tuple:
+    """A key of a row or column selection: a slice or an integer array."""
+    if isinstance(index, slice):
+        return ("slice", index.start, index.stop, index.step)
+    index = np.asarray(index, np.int64)
+    return ("array", index.size, hash(index.tobytes()))
+
+
+def submatrix(matrix: sps.spmatrix, rows, cols) -> sps.csc_matrix:
+    """``matrix[rows][:, cols]`` as CSC (``rows``, ``cols``: slices or integer arrays), the same
+    values as SciPy's slicing, through a gather remembered for the pattern and the selection."""
+    m = sps.csc_matrix(matrix)
+    if not m.has_sorted_indices:
+        m = m.sorted_indices()  # a copy: the caller's matrix is left as it is
+    key = (pattern_key(m), index_key(rows), index_key(cols))
+    if key not in _GATHERS:
+        # 1-based, so that no stored position is an explicit zero that slicing could drop
+        positions = sps.csc_matrix((np.arange(1, m.nnz + 1, dtype=float), m.indices, m.indptr), shape=m.shape)
+        piece = positions[rows][:, cols].tocsc()
+        piece.sort_indices()
+        if len(_GATHERS) >= MAX_GATHERS:
+            del _GATHERS[next(iter(_GATHERS))]
+        _GATHERS[key] = (piece.data.astype(np.int64) - 1, piece.indices.copy(), piece.indptr.copy(), piece.shape)
+    where, indices, indptr, shape = _GATHERS[key]
+    return sps.csc_matrix((m.data[where], indices, indptr), shape=shape)
