@@ -29,10 +29,18 @@ def components(m: sps.csc_matrix) -> tuple[int, np.ndarray]:
     return connected_components(graph, directed=False)
 
 
+def as_slice(index: np.ndarray) -> np.ndarray | slice:
+    """A sorted index array as the equal slice when it is a contiguous range (a view instead of a
+    copy when rows are taken; a drop's rows and columns usually are), else the array itself."""
+    if index.size and index[-1] - index[0] + 1 == index.size:
+        return slice(int(index[0]), int(index[-1]) + 1)
+    return index
+
+
 def block_layout(m: sps.csc_matrix) -> list | None:
-    """The (rows, columns) of each diagonal block of the square CSC matrix ``m`` (sorted indices),
-    None for a matrix of one block; remembered by pattern. RuntimeError for a block that is not
-    square."""
+    """The (rows, columns) of each diagonal block of the square CSC matrix ``m`` (sorted indices;
+    each a slice when contiguous), None for a matrix of one block; remembered by pattern.
+    RuntimeError for a block that is not square."""
     key = pattern_key(m)
     if key in _BLOCKS:
         return _BLOCKS[key]
@@ -45,7 +53,7 @@ def block_layout(m: sps.csc_matrix) -> list | None:
             rows, cols = np.flatnonzero(labels[:n] == b), np.flatnonzero(labels[n:] == b)
             if rows.size != cols.size:
                 raise RuntimeError(f"structurally singular: a block of {rows.size} rows and {cols.size} columns")
-            layout.append((rows, cols))
+            layout.append((as_slice(rows), as_slice(cols)))
     if len(_BLOCKS) >= 8:
         _BLOCKS.clear()
     _BLOCKS[key] = layout
@@ -72,10 +80,10 @@ class BlockLu:
         if not m.has_sorted_indices:
             m = m.sorted_indices()  # a copy: the caller's matrix is left as it is
         self.n = n = m.shape[0]
-        self.blocks: list[tuple[np.ndarray, np.ndarray, object]] = []
+        self.blocks: list[tuple[np.ndarray | slice, np.ndarray | slice, object]] = []
         layout = block_layout(m)
         if layout is None:  # one block: no copy of the matrix
-            every = np.arange(n)
+            every = slice(0, n)
             self.blocks.append((every, every, splu(m, permc_spec=permc_spec)))
             return
         for rows, cols in layout:  # each block cut by a remembered gather of the nonzeros
@@ -97,6 +105,9 @@ class BlockLu:
                 x[into] = lu.solve(part, trans=trans)
                 continue
             used = np.flatnonzero(np.any(part != 0.0, axis=0))
-            if used.size:
-                x[np.ix_(into, used)] = lu.solve(np.ascontiguousarray(part[:, used]), trans=trans)
+            if used.size == part.shape[1]:
+                x[into] = lu.solve(np.ascontiguousarray(part), trans=trans)
+            elif used.size:
+                rows = into if isinstance(into, slice) else into[:, None]
+                x[rows, used] = lu.solve(np.ascontiguousarray(part[:, used]), trans=trans)
         return x
