@@ -45,14 +45,40 @@ MATH_LINE = 1.45
 SUPERSCRIPTS = str.maketrans("-0123456789", "\u207b\u2070\u00b9\u00b2\u00b3\u2074\u2075\u2076\u2077\u2078\u2079")
 
 
+def in_view(axis, ticks) -> np.ndarray:
+    """The ticks (data units) inside the axis's view interval: matplotlib builds a tick object (three
+    lines and two texts) for every location its locator returns, drawn or not."""
+    lo, hi = sorted(axis.get_view_interval())
+    ticks = np.asarray(ticks, dtype=float)
+    tol = 1e-9 * max(abs(lo), abs(hi), 1e-300)
+    return ticks[(ticks >= lo - tol) & (ticks <= hi + tol)]
+
+
+class FewTicks(MaxNLocator):
+    """At most ``nbins`` major tick intervals on a linear axis (steps 1, 2, 2.5, 5 times a power of ten),
+    only the ticks inside the view."""
+
+    def __init__(self, nbins: int = TICK_BINS):
+        super().__init__(nbins=nbins, steps=[1, 2, 2.5, 5, 10])
+
+    def __call__(self):
+        """The tick locations of the axis's view (data units)."""
+        return in_view(self.axis, super().__call__())
+
+
 def few_ticks(axis, bins: int = TICK_BINS) -> None:
-    """At most ``bins`` major tick intervals on a linear axis (steps 1, 2, 2.5, 5 times a power of ten)."""
-    axis.set_major_locator(MaxNLocator(nbins=bins, steps=[1, 2, 2.5, 5, 10]))
+    """:class:`FewTicks` on a linear axis."""
+    axis.set_major_locator(FewTicks(bins))
 
 
 class LogTicks(LogLocator):
-    """Major ticks of a log axis: each decade (every n-th when there are more than ``numticks``), or 1, 2
-    and 5 times each decade when the axis spans fewer than :data:`FEW_DECADES` decades."""
+    """Major ticks of a log axis inside its view: each decade (every n-th when there are more than
+    :data:`TICK_BINS`), or 1, 2 and 5 times each decade when the axis spans fewer than
+    :data:`FEW_DECADES` decades."""
+
+    def __call__(self):
+        """The tick locations of the axis's view (data units)."""
+        return in_view(self.axis, super().__call__())
 
     def tick_values(self, vmin, vmax):
         """Tick values (data units) of the interval; matplotlib drops those outside the view."""
@@ -106,9 +132,7 @@ def _height_pt(text) -> float:
 
 def _tick_labels(axis) -> list[str]:
     """The major tick labels the axis will draw (inside its view interval)."""
-    lo, hi = sorted(axis.get_view_interval())
-    tol = 1e-9 * max(abs(lo), abs(hi), 1e-300)
-    locs = [v for v in axis.get_majorticklocs() if lo - tol <= v <= hi + tol]
+    locs = in_view(axis, axis.get_majorticklocs())
     return [s for s in axis.get_major_formatter().format_ticks(locs) if s]
 
 

@@ -129,10 +129,9 @@ def correlation_figure(parameters: dict, title: str) -> Figure:
             ax.axhline(k - 0.5, color="k", lw=1.0)
             ax.axvline(k - 0.5, color="k", lw=1.0)
     if n <= 25:
-        for i in range(n):
-            for j in range(n):
-                ax.text(j, i, f"{mat[i, j]:.2f}", ha="center", va="center", fontsize=6,
-                        color="white" if abs(mat[i, j]) > 0.6 else "black")
+        rows, cols = np.indices((n, n)).reshape(2, -1)
+        style.cell_labels(ax, cols, rows, [f"{v:.2f}" for v in mat.ravel()],
+                          ["white" if abs(v) > 0.6 else "black" for v in mat.ravel()])
     ax.set_title(f"{title}: parameter correlation matrix ({n} parameters)")
     return fig
 
