@@ -32,9 +32,9 @@ from matplotlib.textpath import text_to_path
 from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullLocator
 
 #: Major tick intervals of a linear axis (at most; matplotlib's default goes up to 9 on a wide panel).
-TICK_BINS = 5
+TICK_BINS = 6
 #: A log axis spanning fewer decades than this is ticked at 1, 2 and 5 times each decade.
-FEW_DECADES = 1.5
+FEW_DECADES = 3.0
 #: Space kept free at each edge of the figure, inches.
 EDGE_IN = 0.06
 #: Space kept free between neighbouring panels' text, inches.
