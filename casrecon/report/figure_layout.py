@@ -1,9 +1,10 @@
 """A cheap layout for casrecon's per-drop figures: margins computed once per draw from the text they hold.
 
-Constrained layout measures the drawn extent of every tick label, axis label and title in two passes
-before matplotlib draws them again: on the per-drop figures that was about half of their CPU time.
-:class:`FixedLayout` instead places the grid of panels with ``Figure.subplots_adjust`` once per draw,
-from what the text will need, in inches:
+Constrained layout measures the drawn extent of every tick label, axis label and title in two passes,
+and ``savefig`` of a figure with any layout engine draws it once without rendering before the real
+draw: on the per-drop figures that was about half of their CPU time. :class:`FixedLayout` instead
+places the grid of panels with ``Figure.subplots_adjust`` from what the text will need, in inches
+(:func:`casrecon.report.figure_style.save_figure` runs it once and saves without an engine):
 
 - left of each column: the widest y tick label the axis formatter will write (measured with the font's
   metrics, no rendering), the tick and its pads, and the y label (line count times its font size);
