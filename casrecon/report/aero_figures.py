@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 
 from casrecon.analysis import aero_columns as cols
 from casrecon.report import figure_style as style
+from casrecon.report.figure_layout import log_axis
 from casrecon.report.results_folder import DropFolder
 
 TABLE = "aero_coefficients.csv"
@@ -53,7 +54,7 @@ def aero_coefficients_figure(drop: DropFolder) -> Figure:
     database along the reconstructed trajectory."""
     tab = drop.csv(TABLE)
     t = tab[cols.FLIGHT_TIME]
-    fig, axes = style.new_figure(3, 2, (13, 9.5))
+    fig, axes = style.new_figure(3, 2, (13, 9.5), fixed=True)
     for r, row in enumerate(TIME_PANELS):
         for c, coef in enumerate(row):
             ax = axes[r, c]
@@ -82,13 +83,13 @@ def aero_sigma_figure(drop: DropFolder) -> Figure:
     scale: which coefficient is limited by the measurement noise and which by the parameters."""
     tab = drop.csv(TABLE)
     t = tab[cols.FLIGHT_TIME]
-    fig, axes = style.new_figure(3, 2, (13, 9.5))
+    fig, axes = style.new_figure(3, 2, (13, 9.5), fixed=True)
     for r, row in enumerate(TIME_PANELS):
         for c, coef in enumerate(row):
             ax = axes[r, c]
             for variant, label, color in VARIANTS:
                 ax.plot(t, tab[cols.sigma_column(coef, variant)], color=color, lw=1.0, label=label)
-            ax.set_yscale("log")
+            log_axis(ax.yaxis)
             ax.set_ylabel(f"3$\\sigma$ of {SYMBOLS[coef]}, -")
     label_time_panels(axes)
     style.figure_legend(fig)
@@ -101,7 +102,7 @@ def aero_alpha_t_figure(drop: DropFolder) -> Figure:
     reconstructed points (3-sigma error bars on a subset), best-fit and nominal database points."""
     tab = drop.csv(TABLE)
     a = tab[cols.ALPHA_T]
-    fig, axes = style.new_figure(1, 3, (15, 5.2), sharex=True)
+    fig, axes = style.new_figure(1, 3, (15, 5.2), sharex=True, fixed=True)
     for ax, coef in zip(axes[0], ALPHA_PANELS):
         rec, three = tab[cols.column(coef, cols.RECONSTRUCTED)], tab[cols.sigma_column(coef, cols.RECONSTRUCTED)]
         ax.plot(a, tab[cols.column(coef, cols.NOMINAL)], ".", ms=2, color=style.NOMINAL_COLOR, rasterized=True,

@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter
 
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
@@ -26,6 +25,7 @@ from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, ImuCsvSpec, ImuLog, read_im
 from casrecon.io.input_kind import input_kind
 from casrecon.io.sounding import Sounding, read_sounding
 from casrecon.report import figure_style as style
+from casrecon.report.figure_layout import log_axis
 from casrecon.report.results_folder import DropFolder, MissingInput
 
 #: Gas constant of dry air, J/(kg K), for the density of a sounding that gives none.
@@ -60,15 +60,6 @@ def _mark(ax, timeline: Timeline) -> None:
         ax.axvline(t, color=style.SIGMA_COLOR, lw=1.0, ls=ls, label=label)
 
 
-def _plain_log(ax) -> None:
-    """Log y axis with plain tick labels (0.3, 1, 10) instead of powers of ten."""
-    ax.set_yscale("log")
-    plain = FuncFormatter(lambda v, _: f"{v:g}")
-    ax.yaxis.set_major_formatter(plain)
-    ax.yaxis.set_minor_formatter(FuncFormatter(
-        lambda v, _: f"{v:g}" if v > 0 and round(v / 10 ** np.floor(np.log10(v))) in (2, 5) else ""))
-
-
 def imu_figure(log: ImuLog, title: str, timeline: Timeline, accel_unit: str = "m/s^2",
                gyro_unit: str = "deg/s", spec: ImuCsvSpec | None = None) -> Figure:
     """Specific force and angular rate of an IMU log (IMU axes) against time, one panel per channel,
@@ -79,7 +70,7 @@ def imu_figure(log: ImuLog, title: str, timeline: Timeline, accel_unit: str = "m
     span = np.ones(t.size, bool) if timeline.window_s is None else (
         (t >= timeline.window_s[0]) & (t <= timeline.window_s[1]))
     span = span if span.any() else np.ones(t.size, bool)
-    fig, axes = style.new_figure(3, 2, (13, 8.5))
+    fig, axes = style.new_figure(3, 2, (13, 8.5), fixed=True)
     accel_scale, gyro_scale = ACCEL_SCALE[accel_unit], GYRO_SCALE[gyro_unit]
     units = UNIT_LABELS
     for k in range(3):
@@ -119,7 +110,7 @@ def gps_figure(track: GpsTrack, title: str, timeline: Timeline, origin: tuple[fl
     if origin is None:
         origin = (float(track.lat_deg[0]), float(track.lon_deg[0]), float(track.h_msl_m[0]))
     n, e, _ = pymap3d.geodetic2ned(track.lat_deg, track.lon_deg, track.h_msl_m, *origin)
-    fig, axes = style.new_figure(2, 3, (15, 8.5), sharex=False)
+    fig, axes = style.new_figure(2, 3, (15, 8.5), sharex=False, fixed=True)
     for ax in axes.flat[1:]:
         ax.sharex(axes[0, 1])
         _mark(ax, timeline)
@@ -145,7 +136,7 @@ def gps_figure(track: GpsTrack, title: str, timeline: Timeline, origin: tuple[fl
     axes[1, 2].plot(t, track.v_acc_m, "--", color=style.MEASUREMENT_COLOR, lw=1.2)
     axes[1, 2].set_ylabel("position accuracy, m\n(solid hAcc horizontal, dashed vAcc vertical)")
     for ax in (axes[1, 1], axes[1, 2]):
-        _plain_log(ax)
+        log_axis(ax.yaxis, plain=True)
     for ax in axes[1]:
         ax.set_xlabel(timeline.label)
     axes[0, 1].set_xlabel(timeline.label)
@@ -164,7 +155,7 @@ def sounding_figure(s: Sounding, title: str, drop_range_msl_m: tuple[float, floa
     direction = np.degrees(np.arctan2(-s.wind_east_mps, -s.wind_north_mps)) % 360.0
     given = s.density_kgm3 is not None
     rho = s.density_kgm3 if given else s.pressure_pa / (R_AIR * s.temperature_k)
-    fig, axes = style.new_figure(1, 4, (15, 6), sharex=False)
+    fig, axes = style.new_figure(1, 4, (15, 6), sharex=False, fixed=True)
     for ax in axes[0, 1:]:
         ax.sharey(axes[0, 0])
     panels = ((speed, "wind speed, m/s", ".-"), (direction, "wind direction (from), deg", "."),

@@ -28,9 +28,13 @@ The figures themselves live in :mod:`casrecon.report.trajectory_figures` (flight
 :mod:`casrecon.report.residual_figures` (residuals, correlation); their look (colour code, labels, one
 legend per figure, formats) in :mod:`casrecon.report.figure_style`; this module draws them all.
 Figures are drawn on ``matplotlib.figure.Figure`` objects (Agg canvas, never pyplot), so nothing is
-registered globally and each figure is freed once saved. A figure whose optional input file is
-missing or unreadable is skipped with a note (logged, and appended to ``notes`` if given); a folder
-without ``summary.json`` or ``trajectory.csv`` raises ``FileNotFoundError`` naming the file.
+registered globally and a figure is freed once saved and no longer referenced. The drop's figures are
+laid out by :class:`casrecon.report.figure_layout.FixedLayout` (margins measured once from their text)
+with few ticks: 0.15 to 0.8 s of CPU each on ees-drop-1, 5 to 7 s for all 13 on a loaded machine
+(15 s with constrained layout and matplotlib's default ticks; ``benchmarks/bench_figures.py``). A
+figure whose optional input file is missing or unreadable is skipped with a note (logged, and appended
+to ``notes`` if given); a folder without ``summary.json`` or ``trajectory.csv`` raises
+``FileNotFoundError`` naming the file.
 """
 
 from __future__ import annotations
@@ -74,10 +78,10 @@ DROP_FIGURES: tuple[tuple[str, Callable[[DropFolder], Figure]], ...] = (
 )
 
 
-#: Figures drawn first, the costliest first (CPU seconds of ees-drop-1's: 1.3 to 2 s; the others 0.4 to
-#: 1.2 s), so that the workers finish together.
-COSTLY_FIRST = ("aero_coefficients_sigma", "reconciled", "residuals_imu", "correlation", "aero_coefficients",
-                "residuals_gps", "altitude_velocity", "inputs_gps")
+#: Figures drawn first, the costliest first (CPU seconds of ees-drop-1's: 0.5 to 0.8 s; the others 0.15 to
+#: 0.5 s; benchmarks/bench_figures.py), so that the workers finish together.
+COSTLY_FIRST = ("residuals_imu", "reconciled", "aero_coefficients", "aero_coefficients_sigma", "inputs_imu",
+                "inputs_gps", "altitude_velocity", "residuals_gps")
 
 
 def draw_order(correlation: bool = True) -> list[int]:

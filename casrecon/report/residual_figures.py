@@ -6,10 +6,12 @@ from __future__ import annotations
 import logging
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from casrecon.report import figure_style as style
 from casrecon.report import results_folder as rf
+from casrecon.report.figure_layout import text_width_pt
 from casrecon.report.results_folder import DropFolder, MissingInput
 
 log = logging.getLogger(__name__)
@@ -36,7 +38,7 @@ def residuals_imu_figure(drop: DropFolder) -> Figure:
         log.info("residuals_imu: no sigma lines (%s)", exc)
         sigma = {}
     t = drop.flight_time(res[rf.TIME_IMU])
-    fig, axes = style.new_figure(3, 2, (13, 9))
+    fig, axes = style.new_figure(3, 2, (13, 9), fixed=True)
     for k, ch in enumerate(rf.IMU_CHANNELS):
         ax = axes[k % 3, k // 3]
         unit = "deg/s" if ch.startswith("w") else style.MPS2
@@ -77,7 +79,7 @@ def residuals_gps_figure(drop: DropFolder) -> Figure:
     with the receiver's own +-1 and +-3 sigma per fix."""
     res = drop.csv("residuals_gps.csv")
     t = drop.flight_time(res[rf.TIME_IMU])
-    fig, axes = style.new_figure(3, 2, (13, 9))
+    fig, axes = style.new_figure(3, 2, (13, 9), fixed=True)
     for k, ch in enumerate(rf.GPS_COMPONENTS):
         ax = axes[k % 3, k // 3]
         unit = "m" if ch.startswith("pos") else "m/s"
@@ -97,20 +99,28 @@ def residuals_gps_figure(drop: DropFolder) -> Figure:
 def correlation_figure(parameters: dict, title: str) -> Figure:
     """The parameter correlation matrix of parameters.json (``correlation`` {names, matrix}) as an
     image, names on both axes, colour scale -1..1; values printed when there are few parameters,
-    black lines between the blocks of a joint fit (shared, then ``<drop>.<name>`` per drop)."""
+    black lines between the blocks of a joint fit (shared, then ``<drop>.<name>`` per drop).
+
+    The matrix is a square of :func:`correlation_side_in` inches; the margins (inches) are measured from
+    the names, so the figure needs no layout engine."""
     corr = parameters.get("correlation")
     if not corr or "names" not in corr or "matrix" not in corr:
         raise MissingInput("parameters.json has no correlation {names, matrix}")
     names = list(corr["names"])
     mat = np.asarray(corr["matrix"], dtype=float)
     n = len(names)
-    side = float(np.clip(3.0 + 0.32 * n, 6.0, 24.0))
-    fig, axes = style.new_figure(1, 1, (side + 1.5, side), sharex=False)
-    ax = axes[0, 0]
-    ax.grid(False)
-    img = ax.imshow(mat, cmap="RdBu_r", vmin=-1.0, vmax=1.0, interpolation="nearest")
-    fig.colorbar(img, ax=ax, label="correlation coefficient, -", shrink=0.8)
     font = 9 if n <= 25 else 7 if n <= 50 else 5
+    names_in = (max((text_width_pt(name, font) for name in names), default=0.0) + 8.0) / 72.0
+    side = correlation_side_in(n)
+    left, bottom, top, right = 0.1 + names_in, 0.1 + names_in, 0.45, CORRELATION_BAR_IN
+    width, height = left + side + right, bottom + side + top
+    fig = Figure(figsize=(width, height))
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((left / width, bottom / height, side / width, side / height))
+    img = ax.imshow(mat, cmap="RdBu_r", vmin=-1.0, vmax=1.0, interpolation="nearest")
+    cax = fig.add_axes(((left + side + 0.3) / width, (bottom + 0.1 * side) / height, 0.22 / width,
+                        0.8 * side / height))
+    fig.colorbar(img, cax=cax, label="correlation coefficient, -")
     ax.set_xticks(range(n), names, rotation=90, fontsize=font)
     ax.set_yticks(range(n), names, fontsize=font)
     groups = [name.split(".", 1)[0] if "." in name else "" for name in names]
@@ -119,9 +129,17 @@ def correlation_figure(parameters: dict, title: str) -> Figure:
             ax.axhline(k - 0.5, color="k", lw=1.0)
             ax.axvline(k - 0.5, color="k", lw=1.0)
     if n <= 25:
-        for i in range(n):
-            for j in range(n):
-                ax.text(j, i, f"{mat[i, j]:.2f}", ha="center", va="center", fontsize=6,
-                        color="white" if abs(mat[i, j]) > 0.6 else "black")
+        rows, cols = np.indices((n, n)).reshape(2, -1)
+        style.cell_labels(ax, cols, rows, [f"{v:.2f}" for v in mat.ravel()],
+                          ["white" if abs(v) > 0.6 else "black" for v in mat.ravel()])
     ax.set_title(f"{title}: parameter correlation matrix ({n} parameters)")
     return fig
+
+
+#: Space right of the correlation matrix, in: gap, colour bar, its tick labels and label.
+CORRELATION_BAR_IN = 1.45
+
+
+def correlation_side_in(n: int) -> float:
+    """Side (in) of the square correlation matrix of ``n`` parameters: 0.32 in a parameter, 4.5 to 21 in."""
+    return float(np.clip(1.5 + 0.32 * n, 4.5, 21.0))

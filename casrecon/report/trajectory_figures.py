@@ -37,7 +37,7 @@ def altitude_velocity_figure(drop: DropFolder) -> Figure:
     except MissingInput as exc:
         log.info("altitude_velocity: no GPS dots (%s)", exc)
         gps = None
-    fig, axes = style.new_figure(3, 2, (13, 9.5), sharex=False)
+    fig, axes = style.new_figure(3, 2, (13, 9.5), sharex=False, fixed=True)
     panels = ((axes[0, 0], tr[rf.H_AGL], "altitude AGL $h$, m"), (axes[0, 1], style.speed(*vel), "speed $|v|$, m/s"),
               (axes[1, 0], vel[0], "north velocity $v_N$, m/s"), (axes[1, 1], vel[1], "east velocity $v_E$, m/s"),
               (axes[2, 0], vel[2], "down velocity $v_D$, m/s"))
@@ -74,7 +74,7 @@ def qbar_alpha_t_figure(drop: DropFolder) -> Figure:
     3-sigma bands (left), and the 3-sigma itself against time (right) since the bands are thin."""
     tr = drop.traj
     t = tr[rf.FLIGHT_TIME]
-    fig, axes = style.new_figure(2, 2, (13, 7.5))
+    fig, axes = style.new_figure(2, 2, (13, 7.5), fixed=True)
     rows = ((rf.QBAR, r"dynamic pressure $\bar q$", "Pa"), (rf.ALPHA_T, r"total angle of attack $\alpha_T$", "deg"))
     for k, (col, label, unit) in enumerate(rows):
         three = tr[rf.three_sigma(col)]
@@ -105,7 +105,7 @@ def pitching_moment_figure(drop: DropFolder) -> Figure:
     except MissingInput as exc:
         log.info("pitching_moment: no database curves (%s)", exc)
         curves = None
-    fig, axes = style.new_figure(1, 1, (9, 6.8))
+    fig, axes = style.new_figure(1, 1, (9, 6.8), fixed=True)
     ax = axes[0, 0]
     ax.plot(pm[rf.ALPHA][keep], pm[rf.CM_RECONSTRUCTED][keep], ".", ms=3, color=style.RECONSTRUCTED_COLOR,
             zorder=2, rasterized=True, label=f"reconstructed from the measured rates ({keep.sum()} nodes)")
@@ -163,7 +163,7 @@ def reconciled_figure(drop: DropFolder) -> Figure:
             (rf.ALPHA_T, r"total angle of attack $\alpha_T$", "deg")]
     if rf.ROLL_RATE in sim:
         rows.append((rf.ROLL_RATE, "roll rate $p$", "deg/s"))
-    fig, axes = style.new_figure(len(rows), 2, (14, 3.1 * len(rows) + 0.6))
+    fig, axes = style.new_figure(len(rows), 2, (14, 3.1 * len(rows) + 0.6), fixed=True)
     for k, (col, label, unit) in enumerate(rows):
         ax, ad = axes[k]
         y = recon[col]
