@@ -149,17 +149,21 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
     -------
     FitProducts
     """
-    # two children: the nominal simulation and the verdict (which imports scipy.special for its
+    imu, gps, others = dg.imu_residuals(result), dg.gps_residuals(result), other_kind_residuals(result)
+    # two children: the nominal simulation with the verdict (which imports scipy.special for its
     # quantiles, 0.1 to 0.5 s), and the aerodynamic coefficients; this process does the rest
-    child = Forked(lambda: (dg.reconciled_simulation(result, nominal=True), result_adequacy(result))) \
-        if concurrent else None
-    coefficients_child = Forked(lambda: aero_coefficients(result)) if concurrent else None
-    imu = dg.imu_residuals(result)
+    def nominal_and_verdict():
+        return dg.reconciled_simulation(result, nominal=True), drop_adequacy(result, imu, gps, others)
+
+    def coefficients():
+        return aero_coefficients(result)
+
+    verdict_child = Forked(nominal_and_verdict) if concurrent else None
+    coefficients_child = Forked(coefficients) if concurrent else None
     factors = np.array([IMU_CHANNEL_UNITS[c][1] for c in dg.IMU_CHANNELS])
     imu_cols = {"time_imu_s": imu["time_imu_s"]}
     imu_cols.update({imu_residual_column(c): imu["residual"][:, k] * factors[k] for k, c in enumerate(dg.IMU_CHANNELS)})
     imu_cols.update({f"{c}_used": imu["valid"][:, k] for k, c in enumerate(dg.IMU_CHANNELS)})
-    gps = dg.gps_residuals(result)
     utc = {TIME_UNIX: unix_time(result, gps["time_imu_s"])}
     gps_cols = {"time_imu_s": gps["time_imu_s"], **utc}
     gps_cols.update({gps_residual_column(c): gps["residual"][:, k] for k, c in enumerate(GPS_COMPONENTS)})
@@ -170,12 +174,8 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
     pm = dg.pitching_moment(result)
     rec = dg.reconciled_simulation(result)
     vanes = result.scenario.config.aero.vanes is not None
-    others = other_kind_residuals(result)
-    coefficients = aero_coefficients(result) if coefficients_child is None else coefficients_child.result()
-    if child is None:
-        nom, adequacy = dg.reconciled_simulation(result, nominal=True), drop_adequacy(result, imu, gps, others)
-    else:
-        nom, adequacy = child.result()
+    aero = coefficients() if coefficients_child is None else coefficients_child.result()
+    nom, adequacy = nominal_and_verdict() if verdict_child is None else verdict_child.result()
     return FitProducts(
         imu_residuals=imu_cols,
         imu_sigma={imu_sigma_key(c): float(sg * f) for c, sg, f in zip(dg.IMU_CHANNELS, imu["sigma"], factors)},
@@ -187,7 +187,7 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
         nominal={k: nom[k] for k in SIMULATION_COLUMNS},
         summary={**rec["summary"], "nominal_database": nom["summary"]},
         kind_residuals=others,
-        aero_coefficients=coefficients,
+        aero_coefficients=aero,
         roll_rate=roll_rate_comparison(result, rec, nom) if vanes else None,
         adequacy=adequacy)
 
