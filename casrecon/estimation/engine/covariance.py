@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sps
 from scipy.linalg import null_space
+from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.block_lu import BlockLu
@@ -311,6 +312,33 @@ class ConstraintSplit:
         return dz
 
 
+def side_null_basis(a_side: np.ndarray) -> np.ndarray:
+    """An orthonormal basis N (n, n - rank) of the null space of the side rows ``a_side``
+    (n_side, n) (unit norms) that keeps them apart: the identity on the columns no side row
+    touches, and a null-space basis of each group of side rows linked by shared columns on its
+    own columns. A joint fit's unit norms (one per drop) thus give each drop's directions rows in
+    that drop only, so the basis Z stays block-sparse and its products and solves cost the
+    per-drop sum (one SVD of all side rows together would mix every drop into every direction)."""
+    n_side, n = a_side.shape
+    if not n_side:
+        return np.eye(n)
+    touched = np.flatnonzero(np.any(a_side != 0.0, axis=0))
+    free = np.setdiff1d(np.arange(n), touched)
+    pattern = sps.csr_matrix(a_side[:, touched] != 0.0)
+    n_groups, labels = connected_components(sps.bmat([[None, pattern], [pattern.T, None]]), directed=False)
+    parts = [(free, np.eye(free.size))]
+    for g in range(n_groups):
+        rows, cols = np.flatnonzero(labels[:n_side] == g), touched[labels[n_side:] == g]
+        if cols.size:  # a group of side rows without columns (all-zero rows) takes no direction away
+            parts.append((cols, null_space(a_side[np.ix_(rows, cols)])))
+    basis = np.zeros((n, sum(b.shape[1] for _, b in parts)))
+    k = 0
+    for cols, b in parts:
+        basis[cols, k:k + b.shape[1]] = b
+        k += b.shape[1]
+    return basis
+
+
 #: Remembered independent column sets: (n_z, dependent key, excluded key) -> columns.
 _INDEPENDENT: dict[tuple, np.ndarray] = {}
 
@@ -341,7 +369,7 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     if n_g > n_def and abs(submatrix(a, side, dep)).sum() != 0:
         raise ValueError("a side constraint involves a dependent column")
     a_side_i = submatrix(a, side, indep).toarray()
-    n_basis = null_space(a_side_i) if n_g > n_def else np.eye(indep.size)
+    n_basis = side_null_basis(a_side_i)
     lu = BlockLu(a_d, permc_spec=A_D_ORDERING)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
