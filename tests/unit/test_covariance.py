@@ -134,3 +134,21 @@ def test_kkt_blocks_equal_the_dense_inverse_and_are_kept(short_fit, dense_kkt, d
     monkeypatch.setattr(lu_cov, "_columns", lambda idx: solves.append(idx))
     again = lu_cov.blocks(sets[::-1])
     assert solves == [] and all(a is b for a, b in zip(again, first[::-1]))
+
+
+def test_side_null_basis_keeps_groups_of_side_rows_apart():
+    """Unit norms of two drops' quaternions (columns 2..5 and 9..12 of 14): the basis is
+    orthonormal, annihilates the side rows, has n - 2 columns, and no column mixes the drops."""
+    from casrecon.estimation.engine.covariance import side_null_basis
+
+    rng = np.random.default_rng(8)
+    a = np.zeros((2, 14))
+    a[0, 2:6], a[1, 9:13] = rng.normal(size=4), rng.normal(size=4)
+    n = side_null_basis(a)
+    assert n.shape == (14, 12)
+    np.testing.assert_allclose(n.T @ n, np.eye(12), atol=1e-12)
+    np.testing.assert_allclose(a @ n, 0.0, atol=1e-12)
+    first, second = np.any(n[2:6] != 0, axis=0), np.any(n[9:13] != 0, axis=0)
+    assert not np.any(first & second)
+    assert first.sum() == 3 and second.sum() == 3
+    np.testing.assert_array_equal(side_null_basis(np.zeros((0, 3))), np.eye(3))
