@@ -25,6 +25,7 @@ folders, stops the workers and exits.
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import signal
 import socket
@@ -168,12 +169,24 @@ class SignalWatch:
 
 
 def exit_process(code: int) -> None:
-    """End the ``casrecon`` process with ``code``. After a signal (130, 143) the streams are flushed
-    and the process ends at once: a library that swallowed the ``KeyboardInterrupt`` may have left
-    Python set to kill itself with SIGINT at exit, which would replace the status."""
+    """End the ``casrecon`` process with ``code``, the streams and log handlers flushed first.
+
+    When no worker process or other thread is left, the process ends at once, without the
+    interpreter's teardown (freeing every CasADi function and array one by one: 0.15 to 0.25 s
+    of a fit command; the operating system reclaims the memory). After a signal (130, 143) it ends
+    at once in any case: a library that swallowed the ``KeyboardInterrupt`` may have left Python set
+    to kill itself with SIGINT at exit, which would replace the status. Otherwise ``sys.exit``,
+    which joins what is left."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe (``casrecon ... | head``) or stream
+            pass
     if code >= EXIT_SIGNAL:
-        sys.stdout.flush()
-        sys.stderr.flush()
+        os._exit(code)
+    mp = sys.modules.get("multiprocessing")  # never imported: no workers
+    if (mp is None or not mp.active_children()) and threading.active_count() == 1:
+        logging.shutdown()
         os._exit(code)
     sys.exit(code)
 
