@@ -139,7 +139,7 @@ def test_kkt_blocks_equal_the_dense_inverse_and_are_kept(short_fit, dense_kkt, d
 def test_side_null_basis_keeps_groups_of_side_rows_apart():
     """Unit norms of two drops' quaternions (columns 2..5 and 9..12 of 14): the basis is
     orthonormal, annihilates the side rows, has n - 2 columns, and no column mixes the drops."""
-    from casrecon.estimation.engine.covariance import side_null_basis
+    from casrecon.estimation.engine.constraint_split import side_null_basis
 
     rng = np.random.default_rng(8)
     a = np.zeros((2, 14))
