@@ -95,8 +95,11 @@ def parts(problem: Path, runs: int, figures: bool) -> dict[str, list[float]]:
     return out
 
 
-RUN_AND_REPORT_RSS = ("import resource, sys; from casrecon.cli import main; code = main(sys.argv[1:]); "
-                      "print('maxrss', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(code)")
+#: The console script's own ending (``cli.run``: ``main``, then ``exit_process``), with the peak RSS printed.
+RUN_AND_REPORT_RSS = ("import resource, sys; from casrecon.cli import main; "
+                      "from casrecon.cli_guard import exit_process; code = main(sys.argv[1:]); "
+                      "print('maxrss', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, flush=True); "
+                      "exit_process(code)")
 
 
 def command(problem: Path, runs: int, extra: list[str]) -> tuple[list[float], list[float], list[dict]]:
