@@ -6,6 +6,8 @@ about 0.3 s at the problems' own 500 Hz settings.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import shutil
 from pathlib import Path
 
@@ -25,6 +27,15 @@ PROBLEMS = REPO / "problems"
 REALDATA_DIR = Path(__file__).resolve().parent / "data" / "realdata"
 EES_DROPS = ("ees-drop-1", "ees-drop-2", "ees-drop-3", "ees-drop-4")
 ALL_PROBLEMS = (*EES_DROPS, "davinci-ztu")
+
+def short_window(name: str, start_s: float, length_s: float) -> Scenario:
+    """A shipped EES drop fitted over ``length_s`` seconds from ``start_s`` after release."""
+    sc = Scenario.load(PROBLEMS / name)
+    flight = json.loads((PROBLEMS / name / "data" / "truth.json").read_text())["summary"]["flight_time_s"]
+    est = dataclasses.replace(sc.config.estimation, start_after_release_s=start_s,
+                              end_before_impact_s=flight - start_s - length_s)
+    return Scenario.from_config(dataclasses.replace(sc.config, estimation=est))
+
 
 #: A representative site (the UTTR point of the shipped problems).
 UTTR = Site(lat_deg=40.19, lon_deg=-112.94, ground_alt_msl_m=1310.0)

@@ -5,22 +5,12 @@ products. An 8 s window of ees-drop-1 keeps the fit to a few seconds."""
 from __future__ import annotations
 
 import dataclasses
-import json
 
 import numpy as np
-from conftest import PROBLEMS
+from conftest import short_window
 
 from casrecon.analysis.fit_products import fit_products
 from casrecon.estimation.fit import fit_drop
-from casrecon.scenario import Scenario
-
-
-def short_window(name: str, start_s: float, length_s: float) -> Scenario:
-    sc = Scenario.load(PROBLEMS / name)
-    flight = json.loads((PROBLEMS / name / "data" / "truth.json").read_text())["summary"]["flight_time_s"]
-    est = dataclasses.replace(sc.config.estimation, start_after_release_s=start_s,
-                              end_before_impact_s=flight - start_s - length_s)
-    return Scenario.from_config(dataclasses.replace(sc.config, estimation=est))
 
 
 def assert_same(a, b, where: str) -> None:

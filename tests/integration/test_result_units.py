@@ -9,7 +9,6 @@ ees-drop-2 jointly): about 7 s and 17 s of solving here; the point-mass fit is F
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import types
 from pathlib import Path
@@ -17,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pymap3d
 import pytest
-from conftest import PROBLEMS
+from conftest import PROBLEMS, short_window
 from scipy.spatial.transform import Rotation
 
 import casrecon
@@ -37,15 +36,6 @@ from casrecon.scenario import Scenario
 #: Files ``casrecon simulate --data`` writes in the input formats the readers take (FlySight columns,
 #: the problem's IMU column names, the sounding as given): their units are those formats'.
 INPUT_FORMAT_FILES = {"imu.csv", "gps.csv", "baro.csv", "sounding.csv"}
-
-
-def short_window(name: str, start_s: float, length_s: float) -> Scenario:
-    """A shipped EES drop fitted over ``length_s`` seconds from ``start_s`` after release."""
-    sc = Scenario.load(PROBLEMS / name)
-    flight = json.loads((PROBLEMS / name / "data" / "truth.json").read_text())["summary"]["flight_time_s"]
-    est = dataclasses.replace(sc.config.estimation, start_after_release_s=start_s,
-                              end_before_impact_s=flight - start_s - length_s)
-    return Scenario.from_config(dataclasses.replace(sc.config, estimation=est))
 
 
 @pytest.fixture(scope="module")
