@@ -21,12 +21,13 @@ from casrecon.estimation.fitdata import FitData
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.gps_rules import interpolate_fixes
 from casrecon.physics.atmosphere import Atmosphere
+from casrecon.physics.numpy_call import numpy_call
 from casrecon.physics.rotations import (
     best_rotation,
     dcm_body_to_ned_array,
     quat_derivative,
     quat_from_dcm,
-    quat_multiply_array,
+    quat_multiply,
 )
 from casrecon.physics.vehicle import Vehicle
 
@@ -45,6 +46,13 @@ def _integrate_gyro(t: np.ndarray, gyro_body: np.ndarray) -> np.ndarray:
     run = step.mapaccum("gyro_run", n)
     qs = np.asarray(run([1, 0, 0, 0], gyro_body[:-1].T, gyro_body[1:].T, np.diff(t)[None, :]))
     return np.vstack([[1.0, 0, 0, 0], qs.T])
+
+
+def _rotate_all(q0: np.ndarray, dq: np.ndarray) -> np.ndarray:
+    """q0 (x) dq[i] for every row of ``dq`` (N, 4): the model's own :func:`quat_multiply`, mapped."""
+    p, q = ca.SX.sym("p", 4), ca.SX.sym("q", 4)
+    product = ca.Function("quat_product", [p, q], [quat_multiply(p, q)]).map(dq.shape[0])
+    return numpy_call(product, np.repeat(q0[:, None], dq.shape[0], axis=1), dq.T)[0].T
 
 
 def _bridge(t: np.ndarray, values: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -76,7 +84,7 @@ def initial_guess(data: FitData, mesh: Mesh, vehicle: Vehicle, atmosphere: Atmos
     f_start = np.einsum("nij,nj->ni", dcm_body_to_ned_array(dq), f)
     target = -v_air / np.linalg.norm(v_air, axis=1, keepdims=True) * fmag[:, None]
     q0 = quat_from_dcm(best_rotation(target[use], f_start[use]))
-    quats = quat_multiply_array(q0, dq)
+    quats = _rotate_all(q0, dq)
     idx = np.searchsorted(t, mesh.t_nodes - 1e-9)
     idx = np.clip(idx, 0, t.size - 1)
     lever = vehicle.lever(vehicle.gps_position_m)

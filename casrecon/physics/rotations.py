@@ -51,16 +51,6 @@ def dcm_body_to_ned_array(quats: np.ndarray) -> np.ndarray:
     return c / np.sum(q * q, axis=1)[:, None, None]
 
 
-def quat_multiply_array(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Numeric, vectorised :func:`quat_multiply`: the Hamilton products of quaternions (n, 4) or
-    (4,) ``p`` and ``q`` (broadcast over rows), scalar first."""
-    p, q = np.atleast_2d(np.asarray(p, float)), np.atleast_2d(np.asarray(q, float))
-    p0, p1, p2, p3 = p[:, 0], p[:, 1], p[:, 2], p[:, 3]
-    q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.column_stack([p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3, p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
-                            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1, p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0])
-
-
 def quat_from_dcm(c: np.ndarray) -> np.ndarray:
     """Unit quaternion (4,), scalar first with q0 >= 0, of a rotation matrix C_nb (3, 3)
     (Shepperd's method: the largest of the four squared components is computed first, so no

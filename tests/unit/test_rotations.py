@@ -17,7 +17,6 @@ from casrecon.physics.rotations import (
     quat_from_dcm,
     quat_from_euler,
     quat_multiply,
-    quat_multiply_array,
     quat_to_euler_deg,
 )
 
@@ -170,9 +169,3 @@ def test_best_rotation_solves_wahba_as_scipy_does():
         assert np.allclose(c, expected.as_matrix(), atol=1e-12)
         assert np.isclose(np.linalg.det(c), 1.0)
 
-
-def test_vectorised_quaternion_product_equals_the_casadi_one():
-    rng = np.random.default_rng(4)
-    p, q = rng.normal(size=4), rng.normal(size=(6, 4))
-    expected = np.column_stack([np.asarray(quat_multiply(p, row)).ravel() for row in q])
-    assert np.allclose(quat_multiply_array(p, q), expected.T, atol=1e-14)
