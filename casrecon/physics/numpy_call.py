@@ -39,8 +39,7 @@ class BufferedFunction:
     def __call__(self, *inputs) -> list[np.ndarray]:
         """``function(*inputs)`` as float arrays (see :func:`numpy_call`)."""
         function = self.function
-        if len(inputs) != function.n_in():
-            raise ValueError(f"{function.name()}: {len(inputs)} inputs given, it takes {function.n_in()}")
+        check_input_count(function, inputs)
         columns = [column_major(function, i, x) for i, x in enumerate(inputs)]  # alive until evaluated
         outputs = [np.empty((function.size2_out(k), function.size1_out(k))) for k in range(function.n_out())]
         for i, x in enumerate(columns):
@@ -49,6 +48,12 @@ class BufferedFunction:
             self.buffer.set_res(k, memoryview(out))
         self.evaluate()
         return [out.T for out in outputs]
+
+
+def check_input_count(function: ca.Function, inputs: tuple) -> None:
+    """ValueError unless ``inputs`` has one entry per input of ``function``."""
+    if len(inputs) != function.n_in():
+        raise ValueError(f"{function.name()}: {len(inputs)} inputs given, it takes {function.n_in()}")
 
 
 def is_dense(function: ca.Function) -> bool:
@@ -98,7 +103,6 @@ def numpy_call(function: ca.Function, *inputs) -> list[np.ndarray]:
         function's input.
     """
     if not is_dense(function):
-        if len(inputs) != function.n_in():
-            raise ValueError(f"{function.name()}: {len(inputs)} inputs given, it takes {function.n_in()}")
+        check_input_count(function, inputs)
         return [np.asarray(ca.DM(out), float) for out in function.call([ca.DM(x) for x in inputs])]
     return BufferedFunction(function)(*inputs)

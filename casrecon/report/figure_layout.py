@@ -237,7 +237,7 @@ class FixedLayout(LayoutEngine):
         if suptitle:
             size = FontProperties(size=mpl.rcParams["figure.titlesize"]).get_size_in_points()
             title_in = 0.02 * height + (suptitle.count("\n") + 1) * LINE * size / 72.0 + 0.04
-        top_in = EDGE_IN + max(title_in, 0.0) + above[0]
+        top_in = EDGE_IN + title_in + above[0]
         bottom_in = EDGE_IN + below[-1] + (self.legend_height_in() + 0.05 if self._params["legend_rows"] else 0.0)
         left_in, right_in = EDGE_IN + left[0], self._params["right"]
         wspace_in = max((GAP_IN + left[c] for c in range(1, ncols)), default=0.0)

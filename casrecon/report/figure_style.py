@@ -25,10 +25,10 @@ from matplotlib.collections import PathCollection
 from matplotlib.figure import Figure
 from matplotlib.font_manager import FontProperties
 from matplotlib.path import Path as MplPath
-from matplotlib.textpath import TextPath, text_to_path
+from matplotlib.textpath import TextPath
 from matplotlib.transforms import Affine2D
 
-from casrecon.report.figure_layout import FixedLayout, few_ticks
+from casrecon.report.figure_layout import FixedLayout, few_ticks, text_width_pt
 
 DPI = 150
 
@@ -176,8 +176,7 @@ def sigma_lines(ax, t, sigma, color: str = SIGMA_COLOR) -> None:
 def _glyph(char: str, size: float) -> tuple[np.ndarray, np.ndarray, float]:
     """Outline (vertices in pt, codes) and advance width (pt) of one character of the default font."""
     outline = TextPath((0.0, 0.0), char, prop=FontProperties(size=size))
-    advance = text_to_path.get_text_width_height_descent(char, FontProperties(size=size), ismath=False)[0]
-    return outline.vertices, outline.codes, advance
+    return outline.vertices, outline.codes, text_width_pt(char, size)
 
 
 def _outline(text: str, size: float) -> MplPath:

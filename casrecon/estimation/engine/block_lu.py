@@ -15,7 +15,7 @@ import scipy.sparse as sps
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
-from casrecon.estimation.engine.submatrix import pattern_key, submatrix
+from casrecon.estimation.engine.submatrix import pattern_key, sorted_csc, submatrix
 
 #: The blocks of the last few patterns seen (an iteration's defect Jacobian has the previous one's
 #: pattern): pattern key -> list of (rows, columns) of each block, or None for one block.
@@ -76,9 +76,7 @@ class BlockLu:
     """
 
     def __init__(self, matrix: sps.spmatrix, permc_spec: str = "COLAMD") -> None:
-        m = sps.csc_matrix(matrix)
-        if not m.has_sorted_indices:
-            m = m.sorted_indices()  # a copy: the caller's matrix is left as it is
+        m = sorted_csc(matrix)
         self.n = n = m.shape[0]
         self.blocks: list[tuple[np.ndarray | slice, np.ndarray | slice, object]] = []
         layout = block_layout(m)

@@ -19,6 +19,13 @@ _GATHERS: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int]]
 MAX_GATHERS = 32
 
 
+def sorted_csc(matrix: sps.spmatrix) -> sps.csc_matrix:
+    """``matrix`` as CSC with sorted row indices (a copy only when it is not already so: the
+    caller's matrix is left as it is)."""
+    m = sps.csc_matrix(matrix)
+    return m if m.has_sorted_indices else m.sorted_indices()
+
+
 def pattern_key(m: sps.csc_matrix) -> tuple:
     """A key of the sparsity pattern of a CSC matrix with sorted indices."""
     return m.shape, m.nnz, hash(m.indptr.tobytes()), hash(m.indices.tobytes())
@@ -35,9 +42,7 @@ def index_key(index) -> tuple:
 def submatrix(matrix: sps.spmatrix, rows, cols) -> sps.csc_matrix:
     """``matrix[rows][:, cols]`` as CSC (``rows``, ``cols``: slices or integer arrays), the same
     values as SciPy's slicing, through a gather remembered for the pattern and the selection."""
-    m = sps.csc_matrix(matrix)
-    if not m.has_sorted_indices:
-        m = m.sorted_indices()  # a copy: the caller's matrix is left as it is
+    m = sorted_csc(matrix)
     key = (pattern_key(m), index_key(rows), index_key(cols))
     if key not in _GATHERS:
         # 1-based, so that no stored position is an explicit zero that slicing could drop
