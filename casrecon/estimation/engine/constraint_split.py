@@ -125,9 +125,3 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     basis[indep] = n_basis
     basis[dep] = -lu.solve(np.asarray(a_i @ n_basis))
     return ConstraintSplit(basis, lu, dep, indep, a_i, a_side_i)
-
-
-def null_space_basis(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
-                     excluded: np.ndarray = ()) -> np.ndarray:
-    """Z with A Z = 0 (see :func:`constraint_split`)."""
-    return constraint_split(a, dep, n_determining, excluded).basis
