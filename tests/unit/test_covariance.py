@@ -103,29 +103,34 @@ def test_at_bounds_hand_cases():
     assert at_bounds(z, None).size == 0
 
 
-def test_variance_of_a_combination_matches_the_dense_inverse(short_fit, dense_kkt, dense_kkt_cov):
+@pytest.mark.parametrize("bordered", [False, True])
+def test_variance_of_a_combination_matches_the_dense_inverse(short_fit, dense_kkt, dense_kkt_cov, bordered):
     """The variance of a weighted sum (here the window mean of the pitch rate, then arbitrary
     weights on pitch rate and two parameters) from the null-space covariance and from one sparse-LU
-    solve of the KKT matrix (the disturbance-state path) equals w^T C w of the dense inverse."""
+    solve of the KKT matrix (the disturbance-state path, with and without the parameters as a
+    bordered block) equals w^T C w of the dense inverse."""
     k = short_fit.part.mesh.t_nodes.size
     q_idx = NS * np.arange(k) + 11
     n_sv = short_fit.part.n_state_vars
     cases = [(q_idx, np.full(k, 1.0 / k)),
              (np.r_[q_idx[:3], n_sv, n_sv + 4], np.array([1.0, -2.0, 0.5, 3.0, -1.0]))]
     kkt, n_z = dense_kkt
-    lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1)
+    border = np.arange(short_fit.part.n_state_vars, n_z) if bordered else None
+    lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1, border=border)
     for idx, w in cases:
         want = w @ dense_kkt_cov[np.ix_(idx, idx)] @ w
         assert short_fit.covariance.variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
         assert lu_cov.variance_of_combination(idx, w) == pytest.approx(want, rel=1e-6)
 
 
-def test_kkt_blocks_equal_the_dense_inverse_and_are_kept(short_fit, dense_kkt, dense_kkt_cov, monkeypatch):
-    """The sparse-LU blocks (the disturbance-state path) equal the dense inverse; asking again for
-    the same index sets (trajectory bands, then coefficient bands) solves nothing."""
+@pytest.mark.parametrize("bordered", [False, True])
+def test_kkt_blocks_equal_the_dense_inverse_and_are_kept(short_fit, dense_kkt, dense_kkt_cov, monkeypatch, bordered):
+    """The sparse-LU blocks (the disturbance-state path, with and without the parameters as a
+    bordered block) equal the dense inverse; asking again for the same index sets (trajectory
+    bands, then coefficient bands) solves nothing."""
     kkt, n_z = dense_kkt
-    lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1)
     theta = np.arange(short_fit.part.n_state_vars, n_z)
+    lu_cov = KktCovariance(sps.csc_matrix(kkt), n_z, chi2=1.0, dof=1, border=theta if bordered else None)
     sets = [np.r_[NS * node + np.arange(NS), theta] for node in (1, 7, 13)]
     first = lu_cov.blocks(sets)
     for idx, got in zip(sets, first):

@@ -29,15 +29,19 @@ by the reduced chi-square chi2 / dof (as lmfit does), dof = measurements - free 
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sps
 from scipy.sparse.linalg import splu
 
+from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 from casrecon.estimation.engine.constraint_split import ConstraintSplit, constraint_split
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.parallel import single_threaded_blas
+
+LOG = logging.getLogger(__name__)
 
 #: A reduced Hessian with condition number above this is reported as singular.
 MAX_CONDITION = 1e13
@@ -171,6 +175,20 @@ class KktCovariance:
     Same interface as :class:`Covariance` for what the fit reads: ``covariance_of``, ``blocks``,
     ``reduced_chi2`` and ``condition`` (here the condition number of the parameter covariance only:
     the reduced Hessian is never formed).
+
+    Parameters
+    ----------
+    kkt : sparse matrix
+        K, its first ``n_z`` rows and columns the unknowns.
+    n_z : int
+        Number of unknowns.
+    chi2, dof : float, int
+        The fit's chi-square and degrees of freedom.
+    border : int array, optional
+        The parameters' columns. K is then factorised by its block without them and their Schur
+        complement (:class:`.bordered_kkt.BorderedKkt`: a whole-drop gust fit's factor shrinks from
+        hundreds of millions of nonzeros to a few million); if that block is singular (a constraint
+        on parameters alone) or no border is given, by one SuperLU factorisation of K.
     """
 
     #: Right-hand sides per LU solve (bounds the dense work array: n_kkt x this x 8 bytes).
@@ -179,13 +197,20 @@ class KktCovariance:
     #: nonzeros, MMD_AT_PLUS_A 18.4M, MMD_ATA 20.0M; banded orderings without pivoting are unstable).
     PERMC_SPEC = "COLAMD"
 
-    def __init__(self, kkt: sps.csc_matrix, n_z: int, chi2: float, dof: int) -> None:
+    def __init__(self, kkt: sps.spmatrix, n_z: int, chi2: float, dof: int, border: np.ndarray | None = None) -> None:
         self.n_z, self.reduced_chi2 = n_z, chi2 / max(dof, 1)
-        try:
-            self._lu = splu(kkt.tocsc(), permc_spec=self.PERMC_SPEC)
-        except RuntimeError as err:
-            raise SingularCovariance(f"KKT matrix singular ({err}): some combination of the unknowns is not "
-                                     "determined by the data") from None
+        self._lu = None
+        if border is not None:
+            try:
+                self._lu = BorderedKkt(kkt, border)
+            except RuntimeError as err:
+                LOG.debug("bordered KKT factorisation refused (%s): one LU of the whole matrix", err)
+        if self._lu is None:
+            try:
+                self._lu = splu(sps.csc_matrix(kkt), permc_spec=self.PERMC_SPEC)
+            except RuntimeError as err:
+                raise SingularCovariance(f"KKT matrix singular ({err}): some combination of the unknowns is not "
+                                         "determined by the data") from None
         self.condition = float("nan")
         self._blocks: dict[bytes, np.ndarray] = {}  # blocks already computed, by their index set
 
@@ -372,8 +397,8 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,
 
 def _kkt_covariance(nlp: Nlp, h, a, chi2: float, dof: int) -> KktCovariance:
     kkt = sps.bmat([[h, a.T], [a, None]], format="csc")
-    cov = KktCovariance(kkt, h.shape[0], chi2, dof)
-    cols = np.array(sorted(nlp.parameter_names))
+    cols = np.array(sorted(nlp.parameter_names), np.int64)
+    cov = KktCovariance(kkt, h.shape[0], chi2, dof, border=cols)
     eig = np.linalg.eigvalsh(cov.covariance_of(cols))
     cov.condition = float(eig[-1] / max(eig[0], 1e-300))
     if eig[0] <= 0 or cov.condition > MAX_CONDITION:
