@@ -20,8 +20,10 @@ columns in the basis makes every covariance read the same formula, plus the H_EE
 two eliminated columns meet.
 
 With latent process values at every node (``Nlp.latent``, the weak constraint) Z would have
-thousands of columns, and the z-block is instead read from sparse LU solves of K itself
+thousands of columns, and the z-block is instead read from solves with K itself
 (:class:`KktCovariance`): the parameters' columns once, each requested node's columns on demand.
+K is factorised by its block without the parameters' dense rows and columns and their Schur
+complement (:mod:`.bordered_kkt`).
 
 Two covariances are reported: the absolute one (noise sigmas taken as given) and the one scaled
 by the reduced chi-square chi2 / dof (as lmfit does), dof = measurements - free directions.
