@@ -18,6 +18,7 @@ result as the item finishes (e.g. to log one line per finished case).
 from __future__ import annotations
 
 import multiprocessing
+import os
 import queue
 import signal
 import sys
@@ -324,6 +325,18 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
         if counts is not None:
             counts.close()
     return [value for k in range(len(chunks)) for value in results[k]]
+
+
+def spare_core() -> bool:
+    """Whether a forked helper can run beside this process on a core of its own: more than one
+    core available to this process, fork available, and this process not a daemon (which may not
+    have children)."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return (cores > 1 and "fork" in multiprocessing.get_all_start_methods()
+            and not multiprocessing.current_process().daemon)
 
 
 class Forked:

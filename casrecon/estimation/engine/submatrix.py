@@ -9,6 +9,8 @@ one gather of its nonzeros.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sps
 
@@ -54,3 +56,26 @@ def submatrix(matrix: sps.spmatrix, rows, cols) -> sps.csc_matrix:
         _GATHERS[key] = (piece.data.astype(np.int64) - 1, piece.indices.copy(), piece.indptr.copy(), piece.shape)
     where, indices, indptr, shape = _GATHERS[key]
     return sps.csc_matrix((m.data[where], indices, indptr), shape=shape)
+
+
+def gathered(build: Callable[..., sps.spmatrix], *parts: sps.spmatrix, key: tuple = ()) -> sps.csc_matrix:
+    """``build(*parts)`` as CSC with sorted indices, through one gather of the parts' nonzeros
+    worked out once for their patterns and ``key`` (which must name everything else ``build``
+    depends on: the selections it makes). ``build`` may slice, transpose, mirror a triangle and
+    stack, but must never add two nonzeros together (each entry of its result comes from one
+    nonzero of one part)."""
+    parts = [sorted_csc(p) for p in parts]
+    full_key = ("gathered", tuple(pattern_key(p) for p in parts), key)
+    if full_key not in _GATHERS:
+        offsets = np.cumsum([0] + [p.nnz for p in parts])
+        # 1-based positions across the parts, so that no stored position is an explicit zero
+        positions = [sps.csc_matrix((np.arange(o + 1, o + p.nnz + 1, dtype=float), p.indices, p.indptr), shape=p.shape)
+                     for o, p in zip(offsets, parts)]
+        piece = sps.csc_matrix(build(*positions))
+        piece.sort_indices()
+        if len(_GATHERS) >= MAX_GATHERS:
+            del _GATHERS[next(iter(_GATHERS))]
+        _GATHERS[full_key] = (piece.data.astype(np.int64) - 1, piece.indices.copy(), piece.indptr.copy(), piece.shape)
+    where, indices, indptr, shape = _GATHERS[full_key]
+    data = np.concatenate([p.data for p in parts]) if len(parts) > 1 else parts[0].data
+    return sps.csc_matrix((data[where], indices, indptr), shape=shape)
