@@ -97,7 +97,8 @@ class GaussNewtonRun:
     multipliers: np.ndarray
 
 
-def _bounded(bounds, n_z: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def bounded_columns(bounds, n_z: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(columns, lower, upper) of the finite bounds among ``bounds`` = (lbx, ubx) (None: none)."""
     if bounds is None:
         return np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
     lo, hi = (np.broadcast_to(np.asarray(b, float), (n_z,)) for b in bounds)
@@ -190,7 +191,7 @@ def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
     :class:`GaussNewtonFailure` only when not even a first step can be formed.
     """
     d = nlp.derivatives
-    bounded = _bounded(bounds, nlp.n_z)
+    bounded = bounded_columns(bounds, nlp.n_z)
     z = np.asarray(z0, float).copy()
     z[bounded[0]] = np.clip(z[bounded[0]], bounded[1], bounded[2])
     const_chi2 = float(sum(nlp.const_chi2.values()))

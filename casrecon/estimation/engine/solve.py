@@ -2,7 +2,9 @@
 
 ``method="auto"`` (default) uses :mod:`.gauss_newton` for NLPs without latent process values,
 with the Gauss-Newton Hessian and few free directions (:func:`.gauss_newton.applies`), and hands
-its last iterate to Ipopt if it stops unconverged; ``method="ipopt"`` always uses Ipopt.
+its last iterate to Ipopt if it stops unconverged; NLPs with latent process values start Ipopt
+from a few full-space Gauss-Newton steps (:func:`.kkt_gauss_newton.warm_start`).
+``method="ipopt"`` always uses Ipopt from the given start.
 
 Ipopt's objective, constraints, gradient, constraint Jacobian and Hessian all come from
 :class:`BlockDerivatives` through CasADi callbacks: one evaluation of the mapped (compiled) block
@@ -32,7 +34,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from casrecon.estimation.engine import convergence, gauss_newton
+from casrecon.estimation.engine import convergence, gauss_newton, kkt_gauss_newton
 from casrecon.estimation.engine.buffers import BufferCallback
 from casrecon.estimation.engine.nlp import Nlp
 
@@ -182,6 +184,11 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
     module docstring). ``linear_solver``, ``tol`` and ``print_level`` are Ipopt's."""
     if method not in METHODS:
         raise ValueError(f"solver method {method!r}: expected one of {', '.join(METHODS)}")
+    if method == "auto" and nlp.latent:
+        z_warm, steps, seconds = kkt_gauss_newton.warm_start(nlp, z0, bounds)
+        sol = solve_ipopt(nlp, z_warm, linear_solver, max_iter, tol, print_level, bounds)
+        return dataclasses.replace(sol, iterations=steps + sol.iterations, solve_s=seconds + sol.solve_s,
+                                   method=f"gauss-newton ({steps} steps), then ipopt")
     if method == "ipopt" or not gauss_newton.applies(nlp):
         return solve_ipopt(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
     t0 = time.perf_counter()
