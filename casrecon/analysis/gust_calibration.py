@@ -25,6 +25,7 @@ import numpy as np
 
 from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
 from casrecon.estimation.engine.checks import FitError
+from casrecon.estimation.engine.laplace import log_det_curvature
 from casrecon.estimation.fit import FitResult, fit_drop, with_marginal_estimate
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
@@ -84,12 +85,17 @@ def _axis_errors(r: FitResult, truth: np.ndarray, j: int, subsample_s: float) ->
     idx, scale = part.u_cols[:, jj], part.u_scale[jj]
     err = r.column(AXES[j])[0] - truth[:, j]
     sigma_mean = scale * np.sqrt(cov.variance_of_combination(idx, np.full(idx.size, 1.0 / idx.size)))
-    t = r.flight_time_s
-    sub = np.unique(np.searchsorted(t, np.arange(t[0], t[-1], subsample_s)))
+    sub = _subsampled_nodes(r, subsample_s)
     c_sub = cov.covariance_of(idx[sub], np.full(sub.size, scale))
     return {"z_mean": float(err.mean() / sigma_mean), "sigma_mean": float(sigma_mean),
             "nees": float(err[sub] @ np.linalg.solve(c_sub, err[sub])), "dof": int(sub.size),
             "rms_error": float(np.sqrt(np.mean(err**2))), "rms_truth": float(np.sqrt(np.mean(truth[:, j] ** 2)))}
+
+
+def _subsampled_nodes(r: FitResult, subsample_s: float) -> np.ndarray:
+    """Indices of the fit's nodes about ``subsample_s`` apart, from the first."""
+    t = r.flight_time_s
+    return np.unique(np.searchsorted(t, np.arange(t[0], t[-1], subsample_s)))
 
 
 def _fit_case(case: GustCase) -> tuple[Scenario, FitResult]:
@@ -145,3 +151,35 @@ def marginal_profile_case(case: GustCase, name: str = "Cmn_mult", n_points: int 
     return {"seed": case.seed, "name": name, "truth": truth, "estimate": value, "sigma": sigma,
             "joint_minimum": prof.joint_minimum, "marginal_minimum": prof.marginal_minimum,
             "all_converged": bool(prof.converged.all())}
+
+
+def curvature_case(case: GustCase) -> dict:
+    """What the marginal estimator's missing log-determinant curvature does on one case: fit, move
+    to the marginal estimate, and compare the parameter covariance P^-1 with (P + L)^-1
+    (:func:`~casrecon.estimation.engine.laplace.log_det_curvature`): the eigenvalues of
+    P^-1/2 L P^-1/2, each parameter's sigma ratio, and each gust axis's NEES at the subsampled
+    nodes with the gust covariance's parameter part T P^-1 T^T replaced by T (P + L)^-1 T^T."""
+    sc, r = _fit_case(case)
+    m = with_marginal_estimate(r)
+    cur = log_det_curvature(m.nlp, m.solver.z)
+    p, ld = cur.profile_hessian, cur.log_det_hessian
+    chol = np.linalg.cholesky(p)
+    relative = np.linalg.solve(chol, np.linalg.solve(chol, ld).T)
+    delta = np.linalg.inv(p + ld) - np.linalg.inv(p)
+    ratio = np.sqrt(np.diag(np.linalg.inv(p + ld)) / np.diag(np.linalg.inv(p)))
+    theta = np.array(sorted(m.nlp.parameter_names))
+    latent_position = np.full(m.nlp.n_z, -1)
+    latent_position[np.setdiff1d(np.arange(m.nlp.n_z), theta)] = np.arange(m.nlp.n_z - theta.size)
+    truth = truth_disturbance(sc, case.seed)(m.flight_time_s)
+    sub = _subsampled_nodes(m, case.subsample_s)
+    nees = {}
+    for j, axis in enumerate(AXES):
+        jj = list(m.part.active).index(j)
+        idx, scale = m.part.u_cols[sub, jj], m.part.u_scale[jj]
+        err = m.column(axis)[0][sub] - truth[sub, j]
+        c_sub = m.covariance.covariance_of(idx, np.full(idx.size, scale))
+        t_sub = cur.tangent[latent_position[idx]] * scale
+        nees[axis] = {"without": float(err @ np.linalg.solve(c_sub, err)),
+                      "with": float(err @ np.linalg.solve(c_sub + t_sub @ delta @ t_sub.T, err)), "dof": int(sub.size)}
+    return {"seed": case.seed, "eigenvalues": np.linalg.eigvalsh(0.5 * (relative + relative.T)).tolist(),
+            "sigma_ratio": dict(zip([m.nlp.parameter_names[int(c)] for c in theta], ratio.tolist())), "gust_nees": nees}
