@@ -25,7 +25,7 @@ import numpy as np
 
 from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
 from casrecon.estimation.engine.checks import FitError
-from casrecon.estimation.engine.laplace import log_det_curvature
+from casrecon.estimation.engine.laplace import LatentSplit, log_det_curvature
 from casrecon.estimation.fit import FitResult, fit_drop, with_marginal_estimate
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
@@ -167,9 +167,7 @@ def curvature_case(case: GustCase) -> dict:
     relative = np.linalg.solve(chol, np.linalg.solve(chol, ld).T)
     delta = np.linalg.inv(p + ld) - np.linalg.inv(p)
     ratio = np.sqrt(np.diag(np.linalg.inv(p + ld)) / np.diag(np.linalg.inv(p)))
-    theta = np.array(sorted(m.nlp.parameter_names))
-    latent_position = np.full(m.nlp.n_z, -1)
-    latent_position[np.setdiff1d(np.arange(m.nlp.n_z), theta)] = np.arange(m.nlp.n_z - theta.size)
+    split = LatentSplit.of(m.nlp)
     truth = truth_disturbance(sc, case.seed)(m.flight_time_s)
     sub = _subsampled_nodes(m, case.subsample_s)
     nees = {}
@@ -178,8 +176,9 @@ def curvature_case(case: GustCase) -> dict:
         idx, scale = m.part.u_cols[sub, jj], m.part.u_scale[jj]
         err = m.column(axis)[0][sub] - truth[sub, j]
         c_sub = m.covariance.covariance_of(idx, np.full(idx.size, scale))
-        t_sub = cur.tangent[latent_position[idx]] * scale
+        t_sub = cur.tangent[np.searchsorted(split.latent, idx)] * scale
         nees[axis] = {"without": float(err @ np.linalg.solve(c_sub, err)),
                       "with": float(err @ np.linalg.solve(c_sub + t_sub @ delta @ t_sub.T, err)), "dof": int(sub.size)}
     return {"seed": case.seed, "eigenvalues": np.linalg.eigvalsh(0.5 * (relative + relative.T)).tolist(),
-            "sigma_ratio": dict(zip([m.nlp.parameter_names[int(c)] for c in theta], ratio.tolist())), "gust_nees": nees}
+            "sigma_ratio": dict(zip([m.nlp.parameter_names[int(c)] for c in split.theta], ratio.tolist())),
+            "gust_nees": nees}

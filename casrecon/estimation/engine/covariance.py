@@ -397,8 +397,13 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,
     return Covariance(system.basis, cov_w, chi2 / max(dof, 1), cond, system.elimination)
 
 
+def kkt_matrix(h: sps.spmatrix, a: sps.spmatrix) -> sps.csc_matrix:
+    """K = [[H, A^T], [A, 0]] (CSC) from the full symmetric H and the constraint Jacobian A."""
+    return sps.bmat([[h, a.T], [a, None]], format="csc")
+
+
 def _kkt_covariance(nlp: Nlp, h, a, chi2: float, dof: int) -> KktCovariance:
-    kkt = sps.bmat([[h, a.T], [a, None]], format="csc")
+    kkt = kkt_matrix(h, a)
     cols = np.array(sorted(nlp.parameter_names), np.int64)
     cov = KktCovariance(kkt, h.shape[0], chi2, dof, border=cols)
     eig = np.linalg.eigvalsh(cov.covariance_of(cols))

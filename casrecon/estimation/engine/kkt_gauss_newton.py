@@ -25,10 +25,10 @@ import logging
 import time
 
 import numpy as np
-import scipy.sparse as sps
 
 from casrecon.estimation.engine import convergence
 from casrecon.estimation.engine.bordered_kkt import BorderedKkt
+from casrecon.estimation.engine.covariance import fisher_and_jacobian, kkt_matrix
 from casrecon.estimation.engine.gauss_newton import bounded_columns, line_search
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.parallel import single_threaded_blas
@@ -60,12 +60,11 @@ def warm_start(nlp: Nlp, z0: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] |
     for steps in range(max_steps):
         d.evaluate(z)
         r, c, grad = d.residuals(z), d.constraints(z), d.gradient(z)
-        jr, a, h_upper = d.jacobian_r(z), d.jacobian_g(z).tocsc(), d.gauss_newton(z)
+        jr = d.jacobian_r(z)
         violation = float(np.abs(c).max()) if c.size else 0.0
         convergence.log_iteration(level, label, steps, float(r @ r) + const_chi2, violation)
-        h = (h_upper + sps.triu(h_upper, 1).T).tocsc()
         try:
-            factor = BorderedKkt(sps.bmat([[h, a.T], [a, None]], format="csc"), border)
+            factor = BorderedKkt(kkt_matrix(*fisher_and_jacobian(nlp, z)), border)
         except RuntimeError as err:
             LOG.info("Gauss-Newton warm start stopped after %d steps: %s", steps, err)
             break

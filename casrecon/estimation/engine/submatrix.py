@@ -4,7 +4,8 @@ A solver iteration slices its constraint Jacobian into the same pieces each time
 rows in the dependent columns, in the independent columns, the side rows). SciPy's fancy
 slicing costs tens of milliseconds per piece on a joint fit; :func:`submatrix` works out once per
 pattern where each nonzero of a piece comes from, and then cuts a new matrix of that pattern by
-one gather of its nonzeros.
+one gather of its nonzeros. :func:`gathered` does the same for any assembly of several matrices
+that only places nonzeros (slicing, transposing, stacking), e.g. a KKT matrix.
 """
 
 from __future__ import annotations
@@ -14,8 +15,8 @@ from collections.abc import Callable
 import numpy as np
 import scipy.sparse as sps
 
-#: Remembered gathers: (pattern key, rows key, columns key) -> (positions of the piece's nonzeros
-#: in the CSC data, the piece's CSC indices, its CSC index pointer, its shape).
+#: Remembered gathers: (the parts' pattern keys, the caller's key) -> (positions of the result's
+#: nonzeros in the parts' concatenated CSC data, its CSC indices, its CSC index pointer, its shape).
 _GATHERS: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int]]] = {}
 #: Gathers kept at most (a few NLPs' worth; the oldest are dropped first).
 MAX_GATHERS = 32
@@ -43,19 +44,9 @@ def index_key(index) -> tuple:
 
 def submatrix(matrix: sps.spmatrix, rows, cols) -> sps.csc_matrix:
     """``matrix[rows][:, cols]`` as CSC (``rows``, ``cols``: slices or integer arrays), the same
-    values as SciPy's slicing, through a gather remembered for the pattern and the selection."""
-    m = sorted_csc(matrix)
-    key = (pattern_key(m), index_key(rows), index_key(cols))
-    if key not in _GATHERS:
-        # 1-based, so that no stored position is an explicit zero that slicing could drop
-        positions = sps.csc_matrix((np.arange(1, m.nnz + 1, dtype=float), m.indices, m.indptr), shape=m.shape)
-        piece = positions[rows][:, cols].tocsc()
-        piece.sort_indices()
-        if len(_GATHERS) >= MAX_GATHERS:
-            del _GATHERS[next(iter(_GATHERS))]
-        _GATHERS[key] = (piece.data.astype(np.int64) - 1, piece.indices.copy(), piece.indptr.copy(), piece.shape)
-    where, indices, indptr, shape = _GATHERS[key]
-    return sps.csc_matrix((m.data[where], indices, indptr), shape=shape)
+    values as SciPy's slicing, through a gather remembered for the pattern and the selection
+    (:func:`gathered`)."""
+    return gathered(lambda m: m[rows][:, cols], matrix, key=("submatrix", index_key(rows), index_key(cols)))
 
 
 def gathered(build: Callable[..., sps.spmatrix], *parts: sps.spmatrix, key: tuple = ()) -> sps.csc_matrix:
@@ -65,7 +56,7 @@ def gathered(build: Callable[..., sps.spmatrix], *parts: sps.spmatrix, key: tupl
     stack, but must never add two nonzeros together (each entry of its result comes from one
     nonzero of one part)."""
     parts = [sorted_csc(p) for p in parts]
-    full_key = ("gathered", tuple(pattern_key(p) for p in parts), key)
+    full_key = (tuple(pattern_key(p) for p in parts), key)
     if full_key not in _GATHERS:
         offsets = np.cumsum([0] + [p.nnz for p in parts])
         # 1-based positions across the parts, so that no stored position is an explicit zero
