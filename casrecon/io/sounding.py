@@ -31,6 +31,9 @@ Rules (the same for every format):
   kept level is dropped (the first is kept) and counted in ``dropped_levels``; a level lower
   than the previous one is an error naming its line.
 - Pressure, temperature (K) and density must be positive, wind speed non-negative.
+- A present value outside its plausible range (altitude -1 to 100 km, pressure up to
+  120 kPa, temperature 100 to 400 K, wind speed up to 200 m/s, density up to 2.5 kg/m^3),
+  or one that overflows in its unit conversion, is an error naming its line.
 - Fewer than 2 usable levels is an error.
 """
 
@@ -49,6 +52,12 @@ KNOT_MPS = 1852.0 / 3600.0
 ZERO_C_K = 273.15
 _IGRA_HEADER = re.compile(r"^#[A-Z0-9]{11} \d{4} \d\d \d\d \d\d")
 _PLAIN_REQUIRED = ("altitude_msl_m", "pressure_pa", "temperature_k")
+# Plausible range of each quantity in SI (inclusive): altitude from below the Dead Sea to the
+# top of any balloon or rocket sounding, surface pressure records, the coldest mesopause and
+# hottest surface, the fastest jet stream with margin, and density from vacuum to twice sea level.
+_PLAUSIBLE = {"z": ("altitude", "m", -1000.0, 100_000.0), "p": ("pressure", "Pa", 0.0, 120_000.0),
+              "t": ("temperature", "K", 100.0, 400.0), "wind": ("wind speed", "m/s", 0.0, 200.0),
+              "rho": ("density", "kg/m^3", 0.0, 2.5)}
 
 
 @dataclass(frozen=True)
@@ -200,6 +209,7 @@ def _finish(path: str | Path, fmt: str, cols: dict[str, np.ndarray], lines: np.n
 
     ``cols`` holds ``z, p, t, wn, we`` and optionally ``rho`` (SI, NaN = missing).
     """
+    _check_plausible(path, cols, lines)
     have = np.ones(lines.size, dtype=bool)
     for v in cols.values():
         have &= np.isfinite(v)
@@ -228,6 +238,20 @@ def _finish(path: str | Path, fmt: str, cols: dict[str, np.ndarray], lines: np.n
                          f"{dropped} dropped for missing values)")
     return Sounding(str(path), fmt, cols["z"], cols["p"], cols["t"], cols["wn"], cols["we"],
                     cols.get("rho"), description, dropped)
+
+
+def _check_plausible(path: str | Path, cols: dict[str, np.ndarray], lines: np.ndarray) -> None:
+    """Reject a present value outside what the atmosphere holds (a unit slip, a corrupt digit);
+    NaN is missing (dropped later), inf a number that overflowed in its unit conversion."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        values = dict(cols, wind=np.hypot(cols["wn"], cols["we"]))
+    for key, (name, unit, low, high) in _PLAUSIBLE.items():
+        v = values.get(key, np.full(lines.size, np.nan))
+        bad = ~np.isnan(v) & ~((v >= low) & (v <= high))
+        if np.any(bad):
+            k = int(np.argmax(bad))
+            raise InputError(path, f"{name} {v[k]:g} {unit} (SI) is outside the plausible range "
+                             f"[{low:g}, {high:g}] {unit}", line=int(lines[k]), field=name)
 
 
 def _wind(path: str | Path, direction: np.ndarray, speed: np.ndarray, lines: np.ndarray,
@@ -267,7 +291,8 @@ def _read_wyoming_csv(path: str | Path, lines: list[str]) -> Sounding:
                              f"{', '.join(units)}", line=1, field=header[k])
         scale, offset = units[unit]
         raw = parse_floats(path, [r[k] for r in rows], numbers, header[k], allow_empty=True)
-        vals[name] = raw * scale + offset
+        with np.errstate(over="ignore"):  # an overflow becomes inf, rejected in _finish
+            vals[name] = raw * scale + offset
     wn, we = _wind(path, vals["wind direction"], np.nan_to_num(vals["wind speed"], nan=0.0),
                    numbers)
     missing_wind = np.isnan(vals["wind direction"]) | np.isnan(vals["wind speed"])
@@ -329,8 +354,9 @@ def _read_wyoming_list(path: str | Path, lines: list[str]) -> Sounding:
     for name in ("PRES", "HGHT", "TEMP", "DRCT", speed):
         a, b = spans[name]
         unit = units_line[a:b].strip()
-        vals[name] = parse_floats(path, [ln[a:b] for ln in body], numbers_a, name,
-                                  allow_empty=True) * _WYO_LIST_UNITS[name][unit]
+        raw = parse_floats(path, [ln[a:b] for ln in body], numbers_a, name, allow_empty=True)
+        with np.errstate(over="ignore"):  # an overflow becomes inf, rejected in _finish
+            vals[name] = raw * _WYO_LIST_UNITS[name][unit]
     wn, we = _wind(path, vals["DRCT"], np.nan_to_num(vals[speed], nan=0.0), numbers_a)
     wn[np.isnan(vals["DRCT"]) | np.isnan(vals[speed])] = np.nan
     cols = {"z": vals["HGHT"], "p": vals["PRES"], "t": vals["TEMP"] + ZERO_C_K,

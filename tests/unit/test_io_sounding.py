@@ -180,6 +180,10 @@ PLAIN_BREAKS = {
     "truncated row": ("100,1e5,288,0,0\n300,9.7e4\n", 3, None),
     "one level": ("100,1e5,288,0,0\n200,,288,0,0\n", None, None),
     "negative pressure": ("100,1e5,288,0,0\n200,-5,288,0,0\n", 3, "pressure"),
+    "temperature in C": ("100,1e5,288,0,0\n200,9.8e4,15,0,0\n", 3, "temperature"),
+    "pressure in mPa": ("100,1e5,288,0,0\n200,9.8e7,287,0,0\n", 3, "pressure"),
+    "wind in mm/s": ("100,1e5,288,0,0\n200,9.8e4,287,3000,4000\n", 3, "wind speed"),
+    "altitude in ft x 1000": ("100,1e5,288,0,0\n2e5,9.8e4,287,0,0\n", 3, "altitude"),
 }
 
 
@@ -214,6 +218,15 @@ def test_wyoming_list_bad_number(tmp_path):
     with pytest.raises(InputError, match="2x.2") as exc:
         read_sounding(bad)
     assert_located(exc.value, bad, 8, "TEMP")
+
+
+def test_wyoming_list_overflow_in_unit_conversion(tmp_path):
+    # 1e307 hPa is a finite number whose conversion to Pa overflows: an error, not a level
+    # silently dropped as missing (line 8 is the 966.0 hPa level)
+    bad = edited(tmp_path, LIST, lambda L: L[:7] + [L[7].replace(" 966.0", " 1e307")] + L[8:])
+    with pytest.raises(InputError, match="plausible range") as exc:
+        read_sounding(bad)
+    assert_located(exc.value, bad, 8, "pressure")
 
 
 def test_wyoming_csv_unknown_unit_and_missing_column(tmp_path):
