@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.model_error_mc import BAND_GROUPS, model_error_montecarlo
+from casrecon.analysis.model_error_mc import COVERAGE_GROUPS, model_error_montecarlo
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
@@ -37,7 +37,7 @@ def print_variant(label: str, v: dict) -> None:
     print("  aero mean z: " + ", ".join(z))
     others = [f"{n} {m:+.2f}" for n, m in zip(v["names"], v["mean_z"]) if not n.endswith(("_mult", "_add"))]
     print("  other mean z: " + ", ".join(others))
-    print("  3-sigma band coverage: " + ", ".join(f"{g} {100 * v['coverage'][g]:.1f} %" for g in BAND_GROUPS))
+    print("  3-sigma band coverage: " + ", ".join(f"{g} {100 * v['coverage'][g]:.1f} %" for g in COVERAGE_GROUPS))
     print(f"  adequacy verdict 'trusted' on {v['trusted']} of {v['converged']}")
     s = np.asarray(v["seconds"])
     if s.size:

@@ -41,6 +41,11 @@ BAND_GROUPS = {
 }
 #: Columns that are angles (differences wrapped to +-180 deg).
 ANGLES = ("roll_deg", "yaw_deg")
+#: Every coverage group: the column groups, and "attitude", the 3-D attitude error region (see
+#: :func:`attitude_coverage`); the Euler-angle bands are linearised and fail near +-90 deg pitch.
+COVERAGE_GROUPS = (*BAND_GROUPS, "attitude")
+#: Chi-square (3 degrees of freedom) whose region holds 99.73 %, the content of a 1-D 3-sigma band.
+ATTITUDE_NEES_3SIGMA = 14.1563
 
 
 def without_error_models(scenario: Scenario) -> Scenario:
@@ -51,8 +56,50 @@ def without_error_models(scenario: Scenario) -> Scenario:
     return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps))
 
 
+def attitude_nees(q_fit: np.ndarray, q_true: np.ndarray, cov_q: np.ndarray) -> np.ndarray:
+    """NEES of the attitude error at each node.
+
+    Parameters
+    ----------
+    q_fit, q_true : ndarray, shape (K, 4)
+        Fitted and true attitude quaternions (scalar first, body to NED), unit norm.
+    cov_q : ndarray, shape (K, 4, 4)
+        Covariance of the fitted quaternion.
+
+    Returns
+    -------
+    ndarray, shape (K,)
+        dtheta^T C^-1 dtheta with dtheta = 2 vec(q_fit* q_true), the small rotation (body axes,
+        rad) from the fit to the truth, and C = 4 Xi^T cov_q Xi its covariance, Xi(q_fit) the
+        4 x 3 matrix with vec(q_fit* p) = Xi^T p.
+    """
+    q0, q1, q2, q3 = q_fit.T
+    xi = np.stack([np.stack([-q1, -q2, -q3], -1), np.stack([q0, -q3, q2], -1),
+                   np.stack([q3, q0, -q1], -1), np.stack([-q2, q1, q0], -1)], axis=1)  # (K, 4, 3)
+    cov = 4 * np.einsum("kai,kab,kbj->kij", xi, cov_q, xi)
+    sign = np.sign(np.einsum("ka,ka->k", q_fit, q_true))
+    error = 2 * np.einsum("kai,ka->ki", xi, q_true) * sign[:, None]
+    return np.einsum("ki,ki->k", error, np.linalg.solve(cov, error[:, :, None])[:, :, 0])
+
+
+def attitude_coverage(result, trajectory, release_imu_s: float) -> tuple[int, int]:
+    """(nodes whose true attitude lies in the fit's 99.73 % attitude region, nodes): the
+    :func:`attitude_nees` at most :data:`ATTITUDE_NEES_3SIGMA`. Unlike the roll, pitch and yaw bands,
+    this region stays right at any attitude, +-90 deg pitch included."""
+    part = result.part
+    t = result.node_time_s - release_imu_s
+    q_true = np.column_stack([np.interp(t, trajectory.time_s, trajectory.states[:, 6 + i]) for i in range(4)])
+    q_true /= np.linalg.norm(q_true, axis=1, keepdims=True)
+    q_fit = result.states[:, 6:10] / np.linalg.norm(result.states[:, 6:10], axis=1, keepdims=True)
+    scale = part.state_scale[6:10]
+    blocks = result.covariance.blocks(list(part.node_cols.reshape(-1, part.n_states)[:, 6:10]))
+    cov_q = np.array(blocks) * np.outer(scale, scale)
+    nees = attitude_nees(q_fit, q_true, cov_q)
+    return int(np.sum(nees <= ATTITUDE_NEES_3SIGMA)), int(nees.size)
+
+
 def band_coverage(result, trajectory, release_imu_s: float) -> dict[str, tuple[int, int]]:
-    """Per group of :data:`BAND_GROUPS`: (node values whose truth lies within 3 sigma, node values).
+    """Per group of :data:`COVERAGE_GROUPS`: (node values whose truth lies within 3 sigma, node values).
 
     Parameters
     ----------
@@ -77,6 +124,7 @@ def band_coverage(result, trajectory, release_imu_s: float) -> dict[str, tuple[i
             inside += int(np.sum(np.abs(diff[ok]) <= 3.0 * sigma[ok]))
             total += int(ok.sum())
         out[group] = (inside, total)
+    out["attitude"] = attitude_coverage(result, trajectory, release_imu_s)
     return out
 
 
@@ -126,7 +174,7 @@ class ModelErrorStudy:
         ok = [f for f in fits if "nees" in f]
         n_params = len(ok[0]["names"]) if ok else 0
         coverage = {}
-        for group in BAND_GROUPS:
+        for group in COVERAGE_GROUPS:
             inside = sum(f["coverage"][group][0] for f in ok)
             total = sum(f["coverage"][group][1] for f in ok)
             coverage[group] = inside / total if total else float("nan")

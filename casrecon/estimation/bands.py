@@ -35,8 +35,8 @@ def columns_of(part: DropLayout) -> tuple[str, ...]:
 
 def node_parameters(part: DropLayout, x, theta, z_cell, cell_base_msl_m):
     """The FlightModel parameters at a node of state ``x`` (SI): the estimates ``theta`` (SI) plus,
-    with a profile, the corrections on its cell (scaled level values ``z_cell``, lower level at
-    ``cell_base_msl_m``)."""
+    with a profile, the corrections from its cell's window (scaled spline coefficients ``z_cell``,
+    the lowest at ``cell_base_msl_m``)."""
     p = BlockLocals(part).model_params(theta)
     grid = part.profile
     if grid is None:
@@ -45,14 +45,15 @@ def node_parameters(part: DropLayout, x, theta, z_cell, cell_base_msl_m):
 
 
 def node_cell_inputs(part: DropLayout, z: np.ndarray, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(z columns (len(nodes), n_profile_local), their values (n_profile_local, len(nodes)), the cells'
-    lower altitudes (1, len(nodes))) of the profile cells of ``nodes`` (empty without a profile)."""
+    """(z columns (len(nodes), n_profile_local), their values (n_profile_local, len(nodes)), the
+    windows' lowest altitudes (1, len(nodes))) of the profile cells of ``nodes`` (empty without a
+    profile)."""
     nodes = np.asarray(nodes, np.int64)
     if part.profile is None:
         return np.zeros((nodes.size, 0), np.int64), np.zeros((0, nodes.size)), np.zeros((1, nodes.size))
     cells = part.node_cells[nodes]
     cols = part.profile_cell_columns(cells)
-    return cols, z[cols].T, part.profile.altitudes_msl_m[cells][None, :]
+    return cols, z[cols].T, part.profile.window_base_msl_m(cells)[None, :]
 
 
 def node_parameter_values(part: DropLayout, z: np.ndarray) -> np.ndarray:

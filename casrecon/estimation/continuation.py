@@ -3,7 +3,11 @@ receiver's clock) on its collocation interval while the IMU-to-GPS clock offset 
 
 Each drop's clock offset is bounded to one mesh interval around its guess. When a solution ends on
 such a bound, the guess moves there, the measurements are reassigned to intervals and the fit is
-redone from that solution, at most :func:`max_clock_shifts` times. With ``method = "marginal"``
+redone from that solution, at most :func:`max_clock_shifts` times. Likewise when a fitted node
+altitude has left the reach of the atmosphere-profile window its blocks were given (the GPS
+altitudes the windows were placed by were off by more than the window's tolerance), the windows
+are placed again by the fitted altitudes and the fit is redone from its solution, at most
+MAX_PROFILE_PLACEMENTS times. With ``method = "marginal"``
 the converged joint MAP solution is then moved to the marginal-likelihood estimate
 (:func:`~casrecon.estimation.engine.laplace.marginal_solution`).
 """
@@ -23,6 +27,9 @@ from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.kinds.gps import CLOCK
 from casrecon.estimation.settings import FitSettings
 
+#: How many times the atmosphere-profile windows may be placed again by the fitted altitudes.
+MAX_PROFILE_PLACEMENTS = 3
+
 
 def max_clock_shifts(fit_nlp: FitNlp) -> int:
     """How many times a clock-offset guess may move by one mesh interval: enough to cross 3 sigma
@@ -35,14 +42,16 @@ def max_clock_shifts(fit_nlp: FitNlp) -> int:
     return max(shifts)
 
 
-def solve_fit(build: Callable[[dict[str, float]], FitNlp], start: Callable[[FitNlp], np.ndarray],
+def solve_fit(build: Callable[[dict[str, float], dict[str, np.ndarray]], FitNlp], start: Callable[[FitNlp], np.ndarray],
               guesses: dict[str, float], settings: FitSettings) -> tuple[FitNlp, SolveResult, float]:
-    """Build and solve, keeping every receiver-clock measurement on its collocation interval.
+    """Build and solve, keeping every receiver-clock measurement on its collocation interval and
+    every node within the reach of its atmosphere-profile window.
 
     Parameters
     ----------
     build : callable
-        ``build(guesses) -> FitNlp`` for clock-offset guesses by drop name (s).
+        ``build(guesses, altitudes) -> FitNlp`` for clock-offset guesses by drop name (s) and node
+        altitude guesses by drop name (m MSL; a drop not named places its profile windows by its GPS).
     start : callable
         ``start(fit_nlp) -> z0``, the scaled initial guess.
     guesses : dict
@@ -53,40 +62,72 @@ def solve_fit(build: Callable[[dict[str, float]], FitNlp], start: Callable[[FitN
     -------
     (FitNlp, SolveResult, build seconds)
     """
-    guesses, z, build_s, attempt, limit = dict(guesses), None, 0.0, 0, 1
-    earlier: list[SolveResult] = []  # the solves before a clock shift
+    guesses, altitudes, z, build_s, attempt, limit, placements = dict(guesses), {}, None, 0.0, 0, 1, 0
+    earlier: list[SolveResult] = []  # the solves before a clock shift or a new placement
+    previous: FitNlp | None = None
     while attempt <= limit:
         t = time.perf_counter()
-        fit_nlp = build(guesses)
+        fit_nlp = build(guesses, altitudes)
         nlp = fit_nlp.nlp
         build_s += time.perf_counter() - t
         limit = max_clock_shifts(fit_nlp)
-        z0 = start(fit_nlp) if z is None else z.copy()
+        z0 = start(fit_nlp) if z is None else transferred(previous, fit_nlp, z)
         for part in fit_nlp.parts:
             if CLOCK in part.params.names:
                 i = part.params.index(CLOCK)
                 z0[part.theta_cols[i]] = part.guess_clock_s / part.params.scales[i]
-        if attempt == 0:
+        if attempt == 0 and previous is None:
             check_determined(nlp, z0)
         bounds = clock_bounds(fit_nlp.parts, nlp.n_z)
         sol = solve(nlp, z0, linear_solver=settings.linear_solver, max_iter=settings.max_iter, tol=settings.tol,
                     print_level=settings.print_level, bounds=bounds, method=settings.solver)
         build_s += sol.build_s
         check_converged(sol, nlp)
+        previous, z = fit_nlp, sol.z
         moved = clocks_at_bound(sol, fit_nlp, bounds)
-        if not moved:
-            sol = with_earlier(sol, earlier)
-            if settings.method == "marginal":
-                sol = marginal_solution(nlp, sol, bounds)
-            return fit_nlp, sol, build_s
-        earlier.append(sol)
-        _check_clock_plausible(fit_nlp, moved)
-        guesses.update(moved)
-        z = sol.z
-        attempt += 1
+        if moved:
+            earlier.append(sol)
+            _check_clock_plausible(fit_nlp, moved)
+            guesses.update(moved)
+            attempt += 1
+            continue
+        stray = {part.name: part.ground_alt_msl_m - part.states(sol.z)[:, 2] for part in fit_nlp.parts
+                 if part.profile_window_violation(sol.z) is not None}
+        if stray:
+            if placements == MAX_PROFILE_PLACEMENTS:
+                raise FitError(next(why for part in fit_nlp.parts
+                                    if (why := part.profile_window_violation(sol.z)) is not None))
+            earlier.append(sol)
+            altitudes.update(stray)
+            placements += 1
+            continue
+        sol = with_earlier(sol, earlier)
+        if settings.method == "marginal":
+            sol = marginal_solution(nlp, sol, bounds)
+        return fit_nlp, sol, build_s
     raise FitError(f"the IMU-to-GPS clock offset kept reaching its bound after {limit} shifts "
                    f"({', '.join(f'{k} {v:+.3f} s' for k, v in moved.items())}); give [estimation] "
                    "clock_offset_guess_s")
+
+
+def transferred(old: FitNlp, new: FitNlp, z_old: np.ndarray) -> np.ndarray:
+    """The solution ``z_old`` of ``old`` as a starting point of ``new``, the same drops rebuilt for
+    another clock-offset guess or profile placement: node states, parameters, disturbances and
+    extra unknowns copied column for column, atmosphere-profile coefficients level by level (a
+    level new to the grid starts at zero)."""
+    z = np.zeros(new.nlp.n_z)
+    for a, b in zip(old.parts, new.parts, strict=True):
+        z[b.node_cols] = z_old[a.node_cols]
+        z[b.theta_cols] = z_old[a.theta_cols]
+        z[b.u_cols.ravel()] = z_old[a.u_cols.ravel()]
+        for extra in b.extras:
+            source = a.extra(extra.name)
+            if extra.name == "profile":
+                to, frm = b.profile.common_columns(extra.offset, a.profile, source.offset)
+                z[to] = z_old[frm]
+            elif source is not None and source.count == extra.count:
+                z[extra.cols] = z_old[source.cols]
+    return z
 
 
 def with_earlier(sol: SolveResult, earlier: list[SolveResult]) -> SolveResult:

@@ -27,7 +27,7 @@ from casrecon.estimation.kinds.imu import ImuKind
 from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.layout import NS, DropLayout, ExtraColumns
 from casrecon.estimation.parameters import ParameterSet, model_parameters
-from casrecon.estimation.profile import ProfileGrid
+from casrecon.estimation.profile import LEAST_TOLERANCE_M, ProfileGrid
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.dynamics import FlightModel
@@ -63,12 +63,14 @@ def load_measurements(cfg: ProblemConfig, data: FitData,
 
 
 def with_extra_columns(layout: DropLayout, cfg: ProblemConfig, measurements: dict[str, object], first_col: int,
-                       kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> tuple[DropLayout, int]:
+                       kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS,
+                       node_alt_msl_m: np.ndarray | None = None) -> tuple[DropLayout, int]:
     """The layout with the extra unknowns its kinds ask for (a kind's optional
     ``latent_size(config, measurements) -> (count, eliminable)``) from z column ``first_col`` on,
-    and the next free column."""
+    and the next free column. ``node_alt_msl_m``: the altitude guess of the nodes (m MSL) the
+    profile grid is placed by (default: the GPS altitudes, see :func:`profile_grid`)."""
     extras, col = [], first_col
-    grid, interval_cells, node_cells = profile_grid(layout, cfg, measurements)
+    grid, interval_cells, node_cells = profile_grid(layout, cfg, measurements, node_alt_msl_m)
     if grid is not None:
         extras.append(ExtraColumns("profile", col, grid.size))
         col += grid.size
@@ -82,17 +84,23 @@ def with_extra_columns(layout: DropLayout, cfg: ProblemConfig, measurements: dic
                    interval_cells=interval_cells, node_cells=node_cells), col
 
 
-def profile_grid(layout: DropLayout, cfg: ProblemConfig, measurements: dict[str, object]):
+def profile_grid(layout: DropLayout, cfg: ProblemConfig, measurements: dict[str, object],
+                 node_alt_msl_m: np.ndarray | None = None):
     """(ProfileGrid, cell of each interval, cell of each node) of a drop from ``[atmosphere]`` and
-    the GPS altitudes interpolated to the nodes, or (None, None, None) without a profile error."""
+    the nodes' altitude guess ``node_alt_msl_m`` (m MSL; default the GPS altitudes interpolated to
+    the nodes), or (None, None, None) without a profile error."""
     atm = cfg.atmosphere
     data = measurements.get("gps")
     sigmas = (atm.profile_wind_sigma_mps, atm.profile_wind_sigma_mps, atm.profile_density_sigma)
     if data is None or not any(sigmas):
         return None, None, None
     t = layout.mesh.t_nodes
-    alt = cfg.site.ground_alt_msl_m - np.interp(t, data.gps_time_s - layout.guess_clock_s, data.gps_pos_ned[:, 2])
-    grid = ProfileGrid.covering(alt, atm.profile_step_m, sigmas, atm.profile_length_m)
+    alt = cfg.site.ground_alt_msl_m - np.interp(t, data.gps_time_s - layout.guess_clock_s, data.gps_pos_ned[:, 2]) \
+        if node_alt_msl_m is None else np.asarray(node_alt_msl_m, float)
+    vertical = data.gps_sigma[:, 2]
+    vertical = vertical[np.isfinite(vertical)]
+    tolerance = max(LEAST_TOLERANCE_M, 4 * float(np.median(vertical)) if vertical.size else 0.0)
+    grid = ProfileGrid.covering(alt, atm.profile_step_m, sigmas, atm.profile_length_m, tolerance)
     return grid, grid.cell_of(0.5 * (alt[:-1] + alt[1:])), grid.cell_of(alt)
 
 
@@ -152,16 +160,18 @@ def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-
 
 def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg: ProblemConfig,
               hessian: str = "gauss-newton", guess_clock_s: float | None = None,
-              measurements: dict[str, object] | None = None) -> FitNlp:
+              measurements: dict[str, object] | None = None, node_alt_msl_m: np.ndarray | None = None) -> FitNlp:
     """The NLP of one drop. GPS fixes are put on collocation intervals for the clock offset
     ``guess_clock_s`` (default: the configured guess). ``measurements`` are the kinds' data from
-    :func:`load_measurements` (read here when not given)."""
+    :func:`load_measurements` (read here when not given); ``node_alt_msl_m`` places the
+    atmosphere-profile grid (see :func:`with_extra_columns`)."""
     n_sv = NS * mesh.t_nodes.size
     guess = cfg.estimation.clock_offset_guess_s if guess_clock_s is None else guess_clock_s
     layout = DropLayout(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), guess_clock_s=guess,
                         disturbance=cfg.estimation.disturbance, u_offset=n_sv + params.n)
     if measurements is None:
         measurements = load_measurements(cfg, data)
-    layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.u_cols.size)
+    layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.u_cols.size,
+                                     node_alt_msl_m=node_alt_msl_m)
     context = DropContext(model, cfg, layout, data, measurements)
     return assemble_drops([context], n_z, hessian)

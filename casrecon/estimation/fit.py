@@ -211,8 +211,9 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     x0 = initial_guess(data, mesh, cfg.vehicle, scenario.atmosphere, cfg.site.ground_alt_msl_m)
     t1 = time.perf_counter()
 
-    def build(guesses: dict[str, float]) -> FitNlp:
-        return build_nlp(scenario.model, data, mesh, params, cfg, settings.hessian, guesses[cfg.name], measurements)
+    def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
+        return build_nlp(scenario.model, data, mesh, params, cfg, settings.hessian, guesses[cfg.name], measurements,
+                         altitudes.get(cfg.name))
 
     def start(fit_nlp: FitNlp) -> np.ndarray:
         return fit_nlp.pack(x0, np.zeros(params.n))

@@ -131,10 +131,10 @@ def _parameter_sets(scenarios: list[Scenario], cfg: JointConfig) -> tuple[list[P
 
 
 def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
-             measurements: list[dict]) -> tuple[list[DropLayout], int]:
+             measurements: list[dict], altitudes: dict[str, np.ndarray]) -> tuple[list[DropLayout], int]:
     """DropLayouts with global columns: all nodes, then shared factors, then each drop's own
     parameters followed by its disturbance node values (weak constraint), then each drop's extra
-    unknowns (latent sensor errors)."""
+    unknowns (latent sensor errors, atmosphere-profile coefficients placed by ``altitudes``)."""
     node_offsets = np.cumsum([0] + [NS * m.t_nodes.size for m in meshes])
     shared_col = {n: int(node_offsets[-1]) + i for i, n in enumerate(shared)}
     next_col = int(node_offsets[-1]) + len(shared)
@@ -153,7 +153,8 @@ def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
         next_col += layouts[-1].u_cols.size  # the drop's latent disturbance values, if any
     out = []
     for sc, layout, meas in zip(scenarios, layouts, measurements):
-        layout, next_col = with_extra_columns(layout, sc.config, meas, next_col)
+        layout, next_col = with_extra_columns(layout, sc.config, meas, next_col,
+                                              node_alt_msl_m=altitudes.get(sc.config.name))
         out.append(layout)
     return out, next_col
 
@@ -187,8 +188,8 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
            for sc, (data, mesh) in zip(scenarios, prepared)]
 
-    def build(guesses: dict[str, float]) -> FitNlp:
-        layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses, measurements)
+    def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
+        layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses, measurements, altitudes)
         contexts = [DropContext(sc.model, sc.config, layout, data, meas, prefixed=True)
                     for sc, (data, _), layout, meas in zip(scenarios, prepared, layouts, measurements)]
         return assemble_drops(contexts, n_z, settings.hessian)

@@ -101,22 +101,39 @@ class DropLayout:
 
     @property
     def n_profile_local(self) -> int:
-        """Profile unknowns a two-node block sees: the two levels of its cell."""
-        return 0 if self.profile is None else 2 * self.profile.n_components
+        """Profile unknowns a two-node block sees: the spline coefficients of its cell's window."""
+        return 0 if self.profile is None else self.profile.window_levels * self.profile.n_components
 
     def profile_cell_columns(self, cells: np.ndarray) -> np.ndarray:
-        """z columns (len(cells), n_profile_local) of the given grid cells."""
+        """z columns (len(cells), n_profile_local) of the windows of the given grid cells."""
         if self.profile is None:
             return np.zeros((len(cells), 0), np.int64)
-        return self.profile.cell_columns(self.extra("profile").offset, cells)
+        return self.profile.window_columns(self.extra("profile").offset, cells)
 
     def profile_block_data(self, k: np.ndarray) -> list:
-        """Per-block data of the profile for two-node blocks on intervals ``k``: the lower level's
-        altitude of each interval's cell (m MSL) as one DM row, or nothing without a profile."""
+        """Per-block data of the profile for two-node blocks on intervals ``k``: the altitude of the
+        lowest level of each interval's window (m MSL) as one DM row, or nothing without a profile."""
         if self.profile is None:
             return []
         cells = self.interval_cells[np.asarray(k, np.int64)]
-        return [ca.DM(self.profile.altitudes_msl_m[cells]).T]
+        return [ca.DM(self.profile.window_base_msl_m(cells)).T]
+
+    def profile_window_violation(self, z: np.ndarray) -> str | None:
+        """Why the profile corrections at ``z`` are not the grid's spline (a node more than one
+        step outside the cell its blocks were given), or None when they are (or no profile)."""
+        if self.profile is None:
+            return None
+        alt = self.ground_alt_msl_m - self.states(z)[:, 2]
+        bad = (self.profile.outside_windows(alt, self.node_cells)
+               | self.profile.outside_windows(alt, np.r_[self.interval_cells, self.interval_cells[-1]])
+               | self.profile.outside_windows(alt, np.r_[self.interval_cells[0], self.interval_cells]))
+        if not np.any(bad):
+            return None
+        k = int(np.argmax(bad))
+        return (f"{self.name}: the fitted altitude at node {k} ({alt[k]:.1f} m MSL) is farther from the one "
+                f"guessed from the GPS than the atmosphere-profile windows reach "
+                f"({(self.profile.window_levels - 4) // 2} steps of {self.profile.step_m:g} m); the GPS "
+                f"altitudes and the fit disagree")
 
     def extra(self, name: str) -> ExtraColumns | None:
         """The extra unknowns called ``name`` (None when the drop has none)."""
@@ -232,9 +249,9 @@ class BlockLocals:
         self.params = layout.params
         self.n_s, self.n_p, self.n_u = layout.n_states, layout.params.n, layout.n_u
         self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u + layout.n_profile_local)
-        #: Per-block data symbols the locals need (the profile cell's lower altitude), to be listed
+        #: Per-block data symbols the locals need (the profile window's lowest altitude), to be listed
         #: after a kind's own data, with :meth:`DropLayout.profile_block_data` as their values.
-        self.data = [ca.SX.sym("profile_cell_msl_m")] if layout.profile is not None else []
+        self.data = [ca.SX.sym("profile_window_msl_m")] if layout.profile is not None else []
 
     def point_params(self, theta: ca.SX, x: ca.SX, v: ca.SX | None = None) -> ca.SX:
         """The FlightModel parameter vector at the point of state ``x``: :meth:`model_params` plus the

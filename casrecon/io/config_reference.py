@@ -107,8 +107,8 @@ SIX_DOF = FileKind(
             key("profile_length_m", "float", "m", "Correlation length in altitude of the profile errors",
                source=AtmosphereConfig, attr="atmosphere.profile_length_m"),
             key("profile_step_m", "float", "m", "Altitude step of the grid the profile errors are estimated on "
-               "(linear in between), at most profile_length_m", source=AtmosphereConfig,
-               attr="atmosphere.profile_step_m"),
+               "(the knots of the cubic B-spline the corrections are), at most profile_length_m",
+               source=AtmosphereConfig, attr="atmosphere.profile_step_m"),
         ), required=True),
         DYNAMICS_TABLE,
         Table("release", (

@@ -3,6 +3,7 @@ profile grid's geometry and interpolation, and their problem.toml keys."""
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -57,21 +58,63 @@ def test_white_model_and_defaults():
         GpsErrorModel(10.0, 1.0, 1.0, 0.5)
 
 
-def test_profile_grid_covers_the_altitudes_with_a_margin_and_interpolates_linearly():
+def test_profile_grid_covers_the_altitudes_with_a_margin():
     grid = ProfileGrid.covering(np.array([1312.0, 2980.5]), 10.0, (0.5, 0.5, 0.005), 300.0)
-    assert grid.altitudes_msl_m[0] <= 1312.0 - 20 and grid.altitudes_msl_m[-1] >= 2980.5 + 20
+    assert grid.altitudes_msl_m[0] <= 1312.0 - 30 and grid.altitudes_msl_m[-1] >= 2980.5 + 30
     assert grid.size == 3 * grid.n_levels and grid.phi == pytest.approx(np.exp(-10 / 300))
     cells = grid.cell_of(np.array([1312.0, 2000.0, 1e6, -1e6]))
     assert grid.altitudes_msl_m[cells[0]] <= 1312.0 < grid.altitudes_msl_m[cells[0] + 1]
     assert cells[2] == grid.n_levels - 2 and cells[3] == 0
-    lower, upper = np.array([1.0, -2.0, 0.5]), np.array([3.0, 0.0, -0.5])
-    base = grid.altitudes_msl_m[cells[1]]
-    got = np.asarray(grid.correction(np.r_[lower, upper], base + 2.5, base)).ravel()
-    np.testing.assert_allclose(got, (lower + 0.25 * (upper - lower)) * grid.sigma)
+    assert ProfileGrid.covering(np.array([0.0, 1.0]), 10.0, (0.0, 0.0, 0.0), 300.0) is None
+
+
+def whole_grid_spline(grid, coefficients, alt):
+    """sum_j g_j B((h - h_j) / step) over every level (numpy; coefficients (n_levels, n_c) SI)."""
+    x = (alt - grid.altitudes_msl_m) / grid.step_m
+    d = np.abs(x)
+    b = (np.maximum(0, 2 - d) ** 3 - 4 * np.maximum(0, 1 - d) ** 3) / 6
+    return b @ coefficients
+
+
+@pytest.mark.parametrize("step", [10.0, 5.0, 30.0])
+def test_profile_window_equals_the_whole_grid_spline_within_its_tolerance(step):
+    grid = ProfileGrid.covering(np.array([1312.0, 1480.0]), step, (0.5, 0.5, 0.005), 300.0, tolerance_m=10.0)
+    assert grid.window_levels == 4 + 2 * int(np.ceil(10.0 / step))
+    z = np.random.default_rng(1).normal(size=grid.size)
+    g = grid.coefficients(z)
+    for guess in (1312.0, 1317.5, 1400.2, 1480.0, grid.altitudes_msl_m[0] + 1, grid.altitudes_msl_m[-1] - 1):
+        cell = grid.cell_of(np.array([guess]))
+        cols = grid.window_columns(0, cell)[0]
+        base = grid.window_base_msl_m(cell)[0]
+        for alt in np.linspace(guess - 9.9, guess + 9.9, 7):
+            assert not grid.outside_windows(np.array([alt]), cell)[0]
+            got = np.asarray(grid.correction(z[cols], alt, base)).ravel()
+            np.testing.assert_allclose(got, whole_grid_spline(grid, g, alt), rtol=1e-12, atol=1e-15)
+    # an altitude a step beyond the window's reach is flagged (inside the grid, away from its ends)
+    cell = grid.cell_of(np.array([1400.0]))
+    reach = step * ((grid.window_levels - 4) // 2)
+    far = np.array([1400.0 - reach - step - 0.5, 1400.0 + reach + step + 0.5])
+    assert grid.outside_windows(far, np.r_[cell, cell]).all()
+    # the level values are the spline at the levels, and a correction is added to its parameter
+    np.testing.assert_allclose(grid.level_values(z), whole_grid_spline(grid, g, grid.altitudes_msl_m[:, None]),
+                               rtol=1e-12, atol=1e-15)
+    got = np.array([0.1, -0.2, 0.003])
     p = np.asarray(grid.add_to_parameters(np.zeros(len(PARAMETER_NAMES)), got)).ravel()
     for c, name in enumerate(PROFILE_PARAMETERS):
         assert p[PARAMETER_NAMES.index(name)] == pytest.approx(got[c])
-    assert ProfileGrid.covering(np.array([0.0, 1.0]), 10.0, (0.0, 0.0, 0.0), 300.0) is None
+
+
+def test_profile_correction_is_twice_differentiable_across_levels():
+    grid = ProfileGrid.covering(np.array([100.0, 300.0]), 10.0, (0.5, 0.0, 0.0), 300.0)
+    h = ca.SX.sym("h")
+    cell = grid.cell_of(np.array([200.0]))
+    w = ca.SX.sym("w", 6)
+    c = grid.correction(w, h, float(grid.window_base_msl_m(cell)[0]))
+    d2 = ca.Function("d2", [h, w], [ca.hessian(c, h)[0]])
+    values = np.random.default_rng(2).normal(size=6)
+    level = float(grid.altitudes_msl_m[cell[0]])
+    left, right = float(d2(level - 1e-9, values)), float(d2(level + 1e-9, values))
+    assert left == pytest.approx(right, rel=1e-6, abs=1e-9)
 
 
 def test_density_only_grid_corrects_only_the_density_factor():
@@ -79,3 +122,15 @@ def test_density_only_grid_corrects_only_the_density_factor():
     assert grid.components == (2,) and grid.n_components == 1
     p = np.asarray(grid.add_to_parameters(np.zeros(len(PARAMETER_NAMES)), np.array([0.002]))).ravel()
     assert p[PARAMETER_NAMES.index("density_factor")] == pytest.approx(0.002) and np.count_nonzero(p) == 1
+
+
+def test_profile_common_columns_match_levels_by_altitude():
+    a = ProfileGrid.covering(np.array([1312.0, 1480.0]), 10.0, (0.5, 0.5, 0.005), 300.0)
+    b = ProfileGrid.covering(np.array([1295.0, 1470.0]), 10.0, (0.5, 0.5, 0.005), 300.0)
+    to, frm = b.common_columns(100, a, 7)
+    assert to.size == frm.size > 0
+    level_b, level_a = (to - 100) // 3, (frm - 7) // 3
+    np.testing.assert_array_equal(b.altitudes_msl_m[level_b], a.altitudes_msl_m[level_a])
+    np.testing.assert_array_equal((to - 100) % 3, (frm - 7) % 3)
+    coarse = ProfileGrid.covering(np.array([1312.0, 1480.0]), 20.0, (0.5, 0.5, 0.005), 300.0)
+    assert coarse.common_columns(0, a, 0)[0].size == 0
