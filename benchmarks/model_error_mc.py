@@ -11,7 +11,7 @@ Euler angles, body rates, qbar and alpha_T (target >= 98 %), the adequacy verdic
 per fit (median and max).
 
 Run: python benchmarks/model_error_mc.py [--problem DIR] [--cases 30] [--workers 2] [--seed 0]
-     [--json out.json]
+     [--json out.json] [--variants with_models without_models]
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.model_error_mc import COVERAGE_GROUPS, model_error_montecarlo
+from casrecon.analysis.model_error_mc import COVERAGE_GROUPS, VARIANTS, model_error_montecarlo
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
@@ -51,11 +51,14 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS,
+                    help="which fits of each case to run (default both)")
     a = ap.parse_args()
     t0 = time.perf_counter()
-    study = model_error_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers)
+    study = model_error_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, variants=tuple(a.variants))
     print(f"{a.problem.name}: {a.cases} cases in {time.perf_counter() - t0:.0f} s ({a.workers} workers)")
-    for name, label in (("with_models", "WITH the error models"), ("without_models", "WITHOUT the error models")):
+    labels = {"with_models": "WITH the error models", "without_models": "WITHOUT the error models"}
+    for name, label in ((v, labels[v]) for v in a.variants):
         print_variant(label, study.variant(name))
         for c in study.cases:
             if "failed" in c.get(name, {}):
