@@ -101,7 +101,7 @@ def solve_fit(build: Callable[[dict[str, float], dict[str, np.ndarray]], FitNlp]
             altitudes.update(stray)
             placements += 1
             continue
-        sol = with_earlier(sol, earlier)
+        sol = dataclasses.replace(with_earlier(sol, earlier), profile_placements=placements)
         if settings.method == "marginal":
             sol = marginal_solution(nlp, sol, bounds)
         return fit_nlp, sol, build_s

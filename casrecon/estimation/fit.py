@@ -118,7 +118,8 @@ def drop_result(scenario: Scenario, data: FitData, fit_nlp: FitNlp, index: int, 
         n_measurements=counts, dof=dof, reduced_chi2=sum(chi2.values()) / max(dof, 1), solver=sol, timings=timings,
         condition=cov.condition, covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r,
         measurements=dict(fit_nlp.contexts[index].measurements),
-        notes=data.notes + _weak_constraint_notes(part) + error_model_notes(scenario, part), fit_nlp=fit_nlp)
+        notes=data.notes + _weak_constraint_notes(part) + error_model_notes(scenario, part) + _placement_notes(sol),
+        fit_nlp=fit_nlp)
     return result
 
 
@@ -156,6 +157,14 @@ def error_model_notes(scenario: Scenario, part: DropLayout) -> tuple[str, ...]:
     if errors.enabled:
         notes.append(errors.describe() + ", estimated at every fix")
     return tuple(notes)
+
+
+def _placement_notes(sol: SolveResult) -> tuple[str, ...]:
+    """A note when the atmosphere-profile windows had to be placed again by the fitted altitudes."""
+    if not sol.profile_placements:
+        return ()
+    return (f"atmosphere-profile windows placed again by the fitted altitudes {sol.profile_placements} time(s): "
+            "the GPS altitudes differ from the fitted ones by more than the windows' tolerance",)
 
 
 def _weak_constraint_notes(part: DropLayout) -> tuple[str, ...]:

@@ -68,6 +68,7 @@ class SolveResult:
     method: str = "ipopt"
     linear_algebra_s: float = 0.0
     marginal: object | None = None  # laplace.MarginalRun when the marginal-likelihood estimator moved z
+    profile_placements: int = 0     # times the atmosphere-profile windows were placed again (continuation)
 
 
 #: Ipopt stops "at an acceptable level" after ACCEPTABLE_ITER successive iterates whose scaled
