@@ -157,3 +157,19 @@ def test_side_null_basis_keeps_groups_of_side_rows_apart():
     assert not np.any(first & second)
     assert first.sum() == 3 and second.sum() == 3
     np.testing.assert_array_equal(side_null_basis(np.zeros((0, 3))), np.eye(3))
+
+
+def test_scaled_condition_judges_determinacy_not_stiffness():
+    from casrecon.estimation.engine.covariance import MAX_CONDITION, scaled_condition
+
+    # a stiff unknown next to one held only by its prior: condition 1.01e13 unscaled, 1 scaled
+    stiff = np.diag([3.44e11, 0.0341])  # the measured extremes of a model-error drop
+    cond, _ = scaled_condition(stiff)
+    assert cond == pytest.approx(1.0) and np.linalg.cond(stiff) > MAX_CONDITION
+    # two unknowns that only their sum determines: undetermined however they are scaled
+    h = np.array([[1.0, 1.0], [1.0, 1.0 + 1e-15]]) * np.array([[1e6, 1e3], [1e3, 1.0]])
+    cond, weakest = scaled_condition(h)
+    assert cond > MAX_CONDITION
+    d = np.sqrt(np.diag(h))
+    np.testing.assert_allclose(np.abs(weakest * d) / np.linalg.norm(weakest * d), [2**-0.5, 2**-0.5], rtol=1e-6)
+    assert scaled_condition(np.array([[1.0, 2.0], [2.0, 1.0]]))[0] == float("inf")

@@ -45,7 +45,8 @@ from casrecon.parallel import single_threaded_blas
 
 LOG = logging.getLogger(__name__)
 
-#: A reduced Hessian with condition number above this is reported as singular.
+#: A reduced Hessian whose condition number, after scaling it to a unit diagonal, is above this
+#: is reported as singular.
 MAX_CONDITION = 1e13
 
 
@@ -391,10 +392,26 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,
     system = reduced if reduced is not None else reduced_system_at(nlp, z)
     eig, vec = np.linalg.eigh(system.hessian)
     cond = float(eig[-1] / max(eig[0], 1e-300))
-    if eig[0] <= 0 or cond > MAX_CONDITION:
-        raise SingularCovariance(_weakest_direction(nlp, system.basis, vec[:, 0], cond))
+    # Undetermined is judged on the Hessian scaled to a unit diagonal (a correlation-like matrix):
+    # its condition does not grow with how stiff the best-determined unknowns are. Unscaled, a
+    # drop whose weakest combination was held by its priors alone (eigenvalue 0.034, the priors'
+    # own curvature there: the density factor against the density profile's constant part) was
+    # refused at condition 1.01e13 because its stiffest was 3.4e11.
+    cond_s, weakest = scaled_condition(system.hessian)
+    if eig[0] <= 0 or cond_s > MAX_CONDITION:
+        raise SingularCovariance(_weakest_direction(nlp, system.basis, weakest, cond_s))
     cov_w = (vec / eig) @ vec.T
     return Covariance(system.basis, cov_w, chi2 / max(dof, 1), cond, system.elimination)
+
+
+def scaled_condition(hessian: np.ndarray) -> tuple[float, np.ndarray]:
+    """(condition number, weakest direction) of a symmetric matrix scaled to a unit diagonal,
+    D^-1 H D^-1 with D = sqrt(diag H); the direction in the unscaled coordinates. The condition is
+    inf when the scaled matrix is not positive definite."""
+    diag = np.sqrt(np.clip(np.diag(hessian), np.finfo(float).tiny, None))
+    eig, vec = np.linalg.eigh(hessian / np.outer(diag, diag))
+    cond = float(eig[-1] / eig[0]) if eig[0] > 0 else float("inf")
+    return cond, vec[:, 0] / diag
 
 
 def kkt_matrix(h: sps.spmatrix, a: sps.spmatrix) -> sps.csc_matrix:
@@ -420,5 +437,5 @@ def _weakest_direction(nlp: Nlp, basis: np.ndarray, v: np.ndarray, cond: float) 
     cols = np.array(list(names))
     order = cols[np.argsort(-np.abs(dz[cols]))[:3]]
     combo = ", ".join(f"{names[int(c)]} ({dz[c]:+.2f})" for c in order)
-    return (f"KKT matrix singular (reduced Hessian condition {cond:.3g}): the combination of {combo} "
+    return (f"KKT matrix singular (reduced Hessian condition {cond:.3g} at unit diagonal): the combination of {combo} "
             f"is not determined by the data; fix one of them or switch its prior on")
