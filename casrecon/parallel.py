@@ -170,6 +170,17 @@ def ignore_interrupts(counts: Any = None) -> None:
     if counts is not None:
         counts.cancel_join_thread()  # a count not yet sent when the worker exits is not waited for
         _REPORTER = lambda key, n: counts.put((key, n))  # noqa: E731
+    threading.Thread(target=exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def exit_with_parent(parent_pid: int, poll_s: float = 2.0) -> None:
+    """End this worker once its parent ``parent_pid`` is gone (checked every ``poll_s`` s). A
+    parent killed by SIGTERM or SIGKILL cannot stop its pool; without this its workers ran on as
+    orphans, each finishing its case of a study nobody would read (measured: a Monte Carlo killed
+    with ``pkill`` left 6 workers fitting for 30 minutes)."""
+    while os.getppid() == parent_pid:
+        time.sleep(poll_s)
+    os._exit(1)
 
 
 class ProgressCounter:
