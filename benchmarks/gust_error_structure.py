@@ -13,18 +13,17 @@ Run: python benchmarks/gust_error_structure.py [--seeds 2] [--first 7] [--worker
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from gust_cases import case_arguments, whole_drop_cases
 
 from casrecon.analysis.gust_calibration import AXES, GustCase, case_scenario
 from casrecon.estimation.fit import fit_drop, with_marginal_estimate
 from casrecon.parallel import parallel_map
 from casrecon.simulation.synthetic import truth_disturbance
 
-PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 SPACINGS_S = (1.0, 0.25)
 
 
@@ -53,13 +52,8 @@ def error_structure(case: GustCase) -> list[str]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=2)
-    ap.add_argument("--first", type=int, default=7)
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--start", type=float, default=3.5, help="fit window start after release, s")
-    a = ap.parse_args()
-    cases = [GustCase(PROBLEMS / "ees-drop-3", s, start_s=a.start) for s in range(a.first, a.first + a.seeds)]
+    a = case_arguments(__doc__.splitlines()[0]).parse_args()
+    cases = whole_drop_cases(a)
     for lines in parallel_map(error_structure, cases, workers=a.workers):
         print("\n".join(lines))
 

@@ -13,25 +13,16 @@ Run: python benchmarks/marginal_curvature.py [--seeds 2] [--first 7] [--workers 
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import numpy as np
+from gust_cases import case_arguments, whole_drop_cases
 
-from casrecon.analysis.gust_calibration import AXES, GustCase, curvature_case
+from casrecon.analysis.gust_calibration import AXES, curvature_case
 from casrecon.parallel import parallel_map
-
-PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=2)
-    ap.add_argument("--first", type=int, default=7)
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--start", type=float, default=3.5, help="fit window start after release, s")
-    a = ap.parse_args()
-    cases = [GustCase(PROBLEMS / "ees-drop-3", s, start_s=a.start) for s in range(a.first, a.first + a.seeds)]
+    a = case_arguments(__doc__.splitlines()[0]).parse_args()
+    cases = whole_drop_cases(a)
     for row in parallel_map(curvature_case, cases, workers=a.workers):
         ev = np.array(row["eigenvalues"])
         ratios = row["sigma_ratio"]

@@ -91,14 +91,12 @@ def solve_fit(build: Callable[[dict[str, float], dict[str, np.ndarray]], FitNlp]
             guesses.update(moved)
             attempt += 1
             continue
-        stray = {part.name: part.ground_alt_msl_m - part.states(sol.z)[:, 2] for part in fit_nlp.parts
-                 if part.profile_window_violation(sol.z) is not None}
+        stray = [(part, why) for part in fit_nlp.parts if (why := part.profile_window_violation(sol.z)) is not None]
         if stray:
             if placements == MAX_PROFILE_PLACEMENTS:
-                raise FitError(next(why for part in fit_nlp.parts
-                                    if (why := part.profile_window_violation(sol.z)) is not None))
+                raise FitError(stray[0][1])
             earlier.append(sol)
-            altitudes.update(stray)
+            altitudes.update({part.name: part.ground_alt_msl_m - part.states(sol.z)[:, 2] for part, _ in stray})
             placements += 1
             continue
         sol = dataclasses.replace(with_earlier(sol, earlier), profile_placements=placements)
