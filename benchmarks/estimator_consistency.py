@@ -7,7 +7,8 @@ the normalised errors per parameter, the worst case, the solvers used, and the w
 and per case (its distribution and the slowest case against the median).
 
 Run: python benchmarks/estimator_consistency.py [--problem problems/ees-drop-3] [--cases 50]
-     [--workers 2] [--seed 0] [--method map|marginal] [--json out.json]
+     [--workers 2] [--seed 0] [--method map|marginal] [--information observed|expected]
+     [--json out.json]
 """
 
 from __future__ import annotations
@@ -33,10 +34,13 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--method", choices=("map", "marginal"), default=None,
                     help="the fits' estimator (default: the problem's [estimation] method)")
+    ap.add_argument("--information", choices=("observed", "expected"), default=None,
+                    help="curvature the covariance inverts (default: the problem's [estimation] information)")
     ap.add_argument("--json", type=Path)
     a = ap.parse_args()
     t0 = time.perf_counter()
-    res = estimator_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, method=a.method)
+    res = estimator_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, method=a.method,
+                               information=a.information)
     wall = time.perf_counter() - t0
     ok = [c for c in res.cases if "nees" in c]
     print(f"{a.problem.name}: {len(ok)} of {a.cases} fits converged in {wall:.0f} s ({a.workers} workers)")

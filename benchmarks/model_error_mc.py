@@ -12,6 +12,7 @@ per fit (median and max).
 
 Run: python benchmarks/model_error_mc.py [--problem DIR] [--cases 30] [--workers 2] [--seed 0]
      [--json out.json] [--variants with_models without_models] [--method map|marginal]
+     [--information observed|expected]
 """
 
 from __future__ import annotations
@@ -54,12 +55,14 @@ def main() -> None:
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS,
                     help="which fits of each case to run (default both)")
     ap.add_argument("--method", choices=("map", "marginal"), help="estimator (default: the problem's)")
+    ap.add_argument("--information", choices=("observed", "expected"),
+                    help="curvature the covariance inverts (default: the problem's)")
     a = ap.parse_args()
     t0 = time.perf_counter()
     study = model_error_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, variants=tuple(a.variants),
-                                   method=a.method)
+                                   method=a.method, information=a.information)
     print(f"{a.problem.name}: {a.cases} cases in {time.perf_counter() - t0:.0f} s ({a.workers} workers, "
-          f"method {a.method or 'as the problem says'})")
+          f"method {a.method or 'as the problem says'}, information {a.information or 'as the problem says'})")
     labels = {"with_models": "WITH the error models", "without_models": "WITHOUT the error models"}
     for name, label in ((v, labels[v]) for v in a.variants):
         print_variant(label, study.variant(name))

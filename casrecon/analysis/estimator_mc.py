@@ -73,10 +73,11 @@ def parameter_errors(result, truth: dict[str, float]) -> tuple[np.ndarray, float
     return e, float(e @ np.linalg.solve(cov, e))
 
 
-def run_case(problem: str, seed: int, index: int, method: str | None = None) -> dict:
+def run_case(problem: str, seed: int, index: int, method: str | None = None, information: str | None = None) -> dict:
     """Draw a truth, simulate, fit; returns the errors, sigmas and NEES of case ``index``, its
-    chi-square and its wall time ``case_s`` (s). ``method`` ("map" or "marginal") overrides the
-    problem's ``[estimation] method``. The fit's iteration lines are logged at DEBUG."""
+    chi-square and its wall time ``case_s`` (s). ``method`` ("map" or "marginal") and
+    ``information`` ("observed" or "expected") override the problem's ``[estimation]``. The
+    fit's iteration lines are logged at DEBUG."""
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.simulation.synthetic import truth_parameters_by_name, with_synthetic_data
 
@@ -86,7 +87,7 @@ def run_case(problem: str, seed: int, index: int, method: str | None = None) -> 
     with tempfile.TemporaryDirectory() as tmp, iteration_logging(logging.DEBUG, f"case {index}"):
         sc = with_synthetic_data(scenario, Path(tmp), seed=int(rng.integers(2**31)))
         try:
-            r = fit_drop(sc, method=method)
+            r = fit_drop(sc, method=method, information=information)
         except FitError as err:
             return {"index": index, "failed": str(err), "case_s": time.perf_counter() - t0}
         truth = truth_parameters_by_name(sc)
@@ -133,14 +134,15 @@ class ConsistencyResult:
 
 def estimator_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
                          scheduler: str | None = None, progress: bool = False,
-                         method: str | None = None) -> ConsistencyResult:
+                         method: str | None = None, information: str | None = None) -> ConsistencyResult:
     """Run ``n_cases`` simulate-and-fit cases and test the NEES sum against chi2 at 95 %.
 
     Local spawn processes (``workers``) or, given a Dask scheduler address, that cluster; case i
     is reproducible from (seed, i) alone. Each finished case is logged, at INFO with ``progress``
-    (else at DEBUG). ``method`` overrides the problem's ``[estimation] method``.
+    (else at DEBUG). ``method`` and ``information`` override the problem's ``[estimation]``.
     """
-    cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed, method=method), range(n_cases),
+    cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed, method=method, information=information),
+                         range(n_cases),
                          workers=workers,
                          scheduler=scheduler, on_done=CaseLog(n_cases, logging.INFO if progress else logging.DEBUG))
     ok = [c for c in cases if "nees" in c]

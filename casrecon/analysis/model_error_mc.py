@@ -129,15 +129,16 @@ def band_coverage(result, trajectory, release_imu_s: float) -> dict[str, tuple[i
 
 
 def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release_imu_s: float,
-                method: str | None = None) -> dict:
-    """Fit ``scenario`` (by ``method``, "map" or "marginal"; default its ``[estimation]``'s) and
-    summarise it against the truth (or the failure)."""
+                method: str | None = None, information: str | None = None) -> dict:
+    """Fit ``scenario`` (by ``method``, "map" or "marginal", its covariance from ``information``,
+    "observed" or "expected"; defaults its ``[estimation]``'s) and summarise it against the truth
+    (or the failure)."""
     from casrecon.analysis.fit_products import result_adequacy
     from casrecon.estimation.fit import FitError, fit_drop
 
     t0 = time.perf_counter()
     try:
-        r = fit_drop(scenario, method=method)
+        r = fit_drop(scenario, method=method, information=information)
     except FitError as err:
         return {"failed": str(err), "seconds": time.perf_counter() - t0}
     e, nees = parameter_errors(r, truth)
@@ -151,9 +152,10 @@ VARIANTS = ("with_models", "without_models")
 
 
 def run_case(problem: str, seed: int, index: int, variants: tuple[str, ...] = VARIANTS,
-             method: str | None = None) -> dict:
+             method: str | None = None, information: str | None = None) -> dict:
     """Case ``index``: draw a truth, simulate with the problem's error processes, fit (by
-    ``method``, default the problem's) with and without the error models (those of ``variants``)."""
+    ``method`` and ``information``, defaults the problem's) with and without the error models
+    (those of ``variants``)."""
     from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 
     rng = np.random.default_rng([seed, index])
@@ -164,9 +166,10 @@ def run_case(problem: str, seed: int, index: int, variants: tuple[str, ...] = VA
         truth = truth_parameters_by_name(sc)
         release = float(data.truth["release_imu_time_s"])
         if "with_models" in variants:
-            out["with_models"] = fit_summary(sc, truth, data.trajectory, release, method)
+            out["with_models"] = fit_summary(sc, truth, data.trajectory, release, method, information)
         if "without_models" in variants:
-            out["without_models"] = fit_summary(without_error_models(sc), truth, data.trajectory, release, method)
+            out["without_models"] = fit_summary(without_error_models(sc), truth, data.trajectory, release, method,
+                                              information)
     return out
 
 
@@ -196,14 +199,15 @@ class ModelErrorStudy:
 
 def model_error_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
                            scheduler: str | None = None, variants: tuple[str, ...] = VARIANTS,
-                           method: str | None = None) -> ModelErrorStudy:
+                           method: str | None = None, information: str | None = None) -> ModelErrorStudy:
     """Run ``n_cases`` cases of :func:`run_case` (reproducible from (seed, index)), fitting the
-    ``variants`` of :data:`VARIANTS` by ``method`` ("map", "marginal"; default the problem's)."""
+    ``variants`` of :data:`VARIANTS` by ``method`` ("map", "marginal") with the covariance from
+    ``information`` ("observed", "expected"; defaults the problem's)."""
     unknown = set(variants) - set(VARIANTS)
     if unknown:
         raise ValueError(f"unknown variants {sorted(unknown)}; expected some of {VARIANTS}")
     cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed, variants=tuple(variants),
-                                 method=method),
+                                 method=method, information=information),
                          range(n_cases), workers=workers,
                          scheduler=scheduler, progress="model-error montecarlo")
     return ModelErrorStudy(cases)

@@ -133,7 +133,9 @@ def with_marginal_estimate(result: FitResult) -> FitResult:
     nlp = result.nlp
     sol = marginal_solution(nlp, result.solver, clock_bounds(result.fit_nlp.parts, nlp.n_z))
     r = nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(nlp, sol.z, r)
+    # the curvature the MAP fit's covariance was asked for (a fallback there is tried again here)
+    information = "expected" if result.covariance.information == "expected" else "observed"
+    cov = covariance_or_fail(nlp, sol.z, r, information=information, lam_g=sol.lam_g)
     timings = dict(result.timings, marginal_s=time.perf_counter() - t0)
     return drop_result(result.scenario, result.data, result.fit_nlp, 0, sol, cov, r, timings)
 
@@ -203,15 +205,17 @@ def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
 
 
 def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-             print_level: int = 0, solver: str | None = None, method: str | None = None) -> FitResult:
+             print_level: int = 0, solver: str | None = None, method: str | None = None,
+             information: str | None = None) -> FitResult:
     """Reconstruct one drop (see docs/design.md). Raises FitError when the result is not usable.
 
-    ``linear_solver``, ``hessian``, ``solver`` and ``method`` ("map" or "marginal") override the
-    problem's ``[estimation]`` settings.
+    ``linear_solver``, ``hessian``, ``solver``, ``method`` ("map" or "marginal") and
+    ``information`` ("auto", "observed" or "expected") override the problem's ``[estimation]`` settings.
     """
     cfg = scenario.config
     settings = FitSettings.from_estimation(cfg.estimation, linear_solver=linear_solver, hessian=hessian,
-                                           print_level=print_level, solver=solver, method=method)
+                                           print_level=print_level, solver=solver, method=method,
+                                           information=information)
     t0 = time.perf_counter()
     data, mesh = prepare_drop(scenario)
     params = parameter_set(cfg)
@@ -230,7 +234,8 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: cfg.estimation.clock_offset_guess_s}, settings)
     t3 = time.perf_counter()
     r = fit_nlp.nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced)
+    cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced,
+                             information=settings.information_for(fit_nlp.parts), lam_g=sol.lam_g)
     timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
                "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s,
                "solve_linear_algebra_s": sol.linear_algebra_s}

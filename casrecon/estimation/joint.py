@@ -205,7 +205,8 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     nlp = fit_nlp.nlp
     t2 = time.perf_counter()
     r = nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(nlp, sol.z, r, sol.reduced)
+    cov = covariance_or_fail(nlp, sol.z, r, sol.reduced, information=settings.information_for(fit_nlp.parts),
+                             lam_g=sol.lam_g)
     timings = {"build_s": build_s, "solve_s": sol.solve_s}
     drops = [drop_result(sc, data, fit_nlp, i, sol, cov, r, timings)
              for i, (sc, (data, _)) in enumerate(zip(scenarios, prepared))]

@@ -7,7 +7,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from casrecon.io.problem import EstimationConfig
+from casrecon.io.estimation_config import EstimationConfig
 
 
 @dataclass(frozen=True)
@@ -18,6 +18,10 @@ class FitSettings:
     ----------
     hessian : {"gauss-newton", "exact"}
         Hessian given to Ipopt ("auto" already resolved).
+    information : {"auto", "observed", "expected"}
+        Curvature the covariance inverts (see
+        :func:`~casrecon.estimation.engine.covariance.compute_covariance`); "auto" is resolved
+        per NLP by :meth:`information_for`.
     linear_solver : {"mumps", "spral"}
         Ipopt's linear solver.
     solver : {"auto", "ipopt"}
@@ -34,6 +38,7 @@ class FitSettings:
     """
 
     hessian: str = "gauss-newton"
+    information: str = "auto"
     linear_solver: str = "mumps"
     solver: str = "auto"
     method: str = "map"
@@ -44,5 +49,16 @@ class FitSettings:
     @classmethod
     def from_estimation(cls, est: EstimationConfig, **overrides) -> FitSettings:
         """The settings of an ``[estimation]`` table; keyword overrides that are None are ignored."""
-        base = cls(est.resolved_hessian(), est.linear_solver, est.solver, est.method, est.max_iter, est.tol)
+        base = cls(est.resolved_hessian(), est.information, est.linear_solver, est.solver, est.method, est.max_iter,
+                   est.tol)
         return dataclasses.replace(base, **{k: v for k, v in overrides.items() if v is not None})
+
+    def information_for(self, parts) -> str:
+        """The covariance's curvature for an NLP of these drop ``parts``
+        (:class:`~casrecon.estimation.layout.DropLayout`): ``information`` unless "auto", which
+        is "observed" when a drop has atmosphere-profile or GPS-error unknowns (the fits for data
+        the plain model does not fit, where the two curvatures part) and "expected" otherwise."""
+        if self.information != "auto":
+            return self.information
+        with_errors = any(p.profile is not None or p.eliminated_cols.size for p in parts)
+        return "observed" if with_errors else "expected"

@@ -12,7 +12,7 @@ Where the values come from (one source of truth for each):
   parser converts, like ``gyro_noise_dps``, or whose default lives only in the parser) it is
   written in the record here;
 - **meaning**: for keys whose dataclass documents its fields in a numpydoc ``Parameters`` or
-  ``Attributes`` section (:class:`~casrecon.io.problem.EstimationConfig`,
+  ``Attributes`` section (:class:`~casrecon.io.estimation_config.EstimationConfig`,
   :class:`~casrecon.physics.dynamics.DynamicsOptions`, :class:`~casrecon.io.imu.ImuCsvSpec`), the
   meaning is that docstring entry, parsed at render time; the other meanings are written here.
 """
@@ -26,10 +26,10 @@ from casrecon.io.baro import BaroConfig
 from casrecon.io.config_records import FROM_FIELD, REQUIRED, FileKind, Key, Table
 from casrecon.io.config_reference_gnss import KINEMATIC, POINT_MASS
 from casrecon.io.config_reference_shared import DYNAMICS_TABLE, SITE_TABLE, gps_error_keys, key
+from casrecon.io.estimation_config import EstimationConfig
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.montecarlo_config import DISPERSION_KEYS, Dispersions, MonteCarloConfig
 from casrecon.io.problem import (
-    EstimationConfig,
     GpsConfig,
     ReleaseConfig,
     SimulationConfig,
@@ -64,7 +64,8 @@ _TRUTH_ERRORS = tuple(
 _ESTIMATION_KEYS = (
     ("start_after_release_s", "float", "s"), ("end_before_impact_s", "float", "s"),
     ("release_imu_s", "float", "s"), ("impact_imu_s", "float", "s"), ("interval_s", "float", "s"),
-    ("samples_per_interval", "int", ""), ("hessian", "string", ""), ("linear_solver", "string", ""),
+    ("samples_per_interval", "int", ""), ("hessian", "string", ""), ("information", "string", ""),
+    ("linear_solver", "string", ""),
     ("solver", "string", ""), ("method", "string", ""),
     ("max_iter", "int", ""), ("tol", "float", ""), ("saturation", "string", ""),
     ("estimate", "[string]", ""), ("dispersion_prior", "bool", ""), ("atmosphere_prior", "bool", ""),

@@ -44,13 +44,16 @@ def parameters_document(result) -> dict:
     Every float is stored at full precision (Python's ``json`` writes the shortest repr, which reads
     back bit-identical), so a loaded result's values, sigmas and correlations equal the fit's.
     """
+    from casrecon.estimation.engine.covariance import information_text
+
     scale = float(np.sqrt(result.reduced_chi2))
     params = {spec.name: parameter_record(spec, result.values[i], result.sigma[i], scale)
               for i, spec in enumerate(result.params.specs)}
     return {"parameters": params,
             "correlation": {"names": list(result.params.names),
                             "matrix": np.asarray(result.correlation, dtype=float).tolist()},
-            "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix",
+            "covariance": {"information": result.covariance.information,
+                           "hessian": f"{information_text(result.covariance.information)}, in the KKT matrix",
                            "sigma": "absolute (noise sigmas as given)",
                            "sigma_chi2_scaled": f"absolute times sqrt(reduced chi2) = {scale:.5f}"}}
 

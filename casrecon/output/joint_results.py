@@ -33,14 +33,18 @@ def joint_parameters_document(result) -> dict:
     """``parameters.json`` of a joint fit: per global parameter the record of
     :func:`~casrecon.output.fit_results.parameter_record` (values in its ``unit``; gyro biases in
     deg/s) and ``shared``; the correlation matrix over all (full precision)."""
+    from casrecon.estimation.engine.covariance import information_text
+
     scale = float(np.sqrt(result.reduced_chi2))
     specs = joint_specs(result)
+    information = result.drops[0].covariance.information  # one covariance, shared by every drop
     params = {n: {**parameter_record(specs[n], v, s, scale), "shared": n in result.shared}
               for n, v, s in zip(result.names, result.values, result.sigma)}
     return {"parameters": params,
             "correlation": {"names": list(result.names),
                             "matrix": np.asarray(result.correlation, dtype=float).tolist()},
-            "covariance": {"hessian": "gauss-newton J^T J (Fisher information) in the KKT matrix"}}
+            "covariance": {"information": information,
+                           "hessian": f"{information_text(information)}, in the KKT matrix"}}
 
 
 def joint_summary_document(result, single: dict[str, dict[str, float]], reconciled: dict[str, dict],

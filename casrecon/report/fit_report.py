@@ -7,6 +7,7 @@ import numpy as np
 
 from casrecon.analysis.adequacy import Adequacy, report_lines
 from casrecon.analysis.fit_products import result_adequacy
+from casrecon.estimation.engine.covariance import information_text
 from casrecon.io.units import output_unit
 from casrecon.physics.aero import DISPERSION_NAMES
 
@@ -62,7 +63,8 @@ def fit_report(result, adequacy: Adequacy | None = None) -> str:
     t = result.timings
     lines = [f"[[Fit: {cfg.name}]]",
              f"    {sol.status} in {sol.iterations} iterations ({sol.method}); Hessian {sol.hessian}, linear solver "
-             f"{sol.linear_solver}; covariance from the KKT matrix with J^T J",
+             f"{sol.linear_solver}; covariance from the KKT matrix with the "
+             f"{information_text(result.covariance.information)}",
              f"    estimator: {estimator_text(sol)}",
              f"    window {d.window[0]:.3f} to {d.window[1]:.3f} s IMU clock "
              f"({d.window[0] - d.release_imu_s:.2f} s after release to "

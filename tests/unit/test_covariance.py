@@ -173,3 +173,61 @@ def test_scaled_condition_judges_determinacy_not_stiffness():
     d = np.sqrt(np.diag(h))
     np.testing.assert_allclose(np.abs(weakest * d) / np.linalg.norm(weakest * d), [2**-0.5, 2**-0.5], rtol=1e-6)
     assert scaled_condition(np.array([[1.0, 2.0], [2.0, 1.0]]))[0] == float("inf")
+
+
+def lagrangian_gradient(nlp, z: np.ndarray, lam_g: np.ndarray) -> np.ndarray:
+    """grad of |r|^2 / 2 + lam_g^T g at z (scaled), from the residual and constraint Jacobians."""
+    d = nlp.derivatives
+    return d.jacobian_r(z).T @ d.residuals(z) + d.jacobian_g(z).T @ lam_g
+
+
+def test_solver_multipliers_make_the_lagrangian_stationary(short_fit):
+    nlp, z, lam = short_fit.nlp, short_fit.solver.z, short_fit.solver.lam_g
+    grad_f = nlp.derivatives.jacobian_r(z).T @ nlp.derivatives.residuals(z)
+    assert np.abs(grad_f).max() > 1.0  # the constraints do hold the data back here
+    grad_l = lagrangian_gradient(nlp, z, lam)
+    # exactly zero (to the LU's round-off) in the dependent columns, which fix the multipliers
+    assert np.abs(grad_l[nlp.dependent]).max() < 1e-9 * np.abs(grad_f).max()
+    # and what is left is the converged fit's last step, far inside every sigma
+    cov = short_fit.covariance
+    step = cov.basis @ (cov.cov_w @ (cov.basis.T @ grad_l))
+    sigma = np.sqrt(np.einsum("ij,jk,ik->i", cov.basis, cov.cov_w, cov.basis))
+    moving = sigma > 0
+    assert np.abs(step[moving] / sigma[moving]).max() < 1e-3
+
+
+def test_observed_information_is_the_lagrangian_hessian_and_its_covariance_the_kkt_inverse(short_fit, dense_kkt):
+    """The assembled exact Hessian of the Lagrangian equals central differences of its gradient,
+    and the observed-information covariance equals the z-block of the dense inverse of
+    [[H_exact, A^T], [A, 0]]; it differs from the expected-information one."""
+    nlp, z, lam = short_fit.nlp, short_fit.solver.z, short_fit.solver.lam_g
+    h = nlp.derivatives.observed_information(z, lam).toarray()
+    eps = 1e-6
+    cols = np.r_[np.arange(0, z.size, 7), np.arange(short_fit.part.n_state_vars, z.size)]
+    for j in cols:
+        e = np.zeros(z.size)
+        e[j] = eps
+        fd = (lagrangian_gradient(nlp, z + e, lam) - lagrangian_gradient(nlp, z - e, lam)) / (2 * eps)
+        np.testing.assert_allclose(h[:, j], fd, rtol=1e-5, atol=1e-5 * max(1.0, np.abs(h[:, j]).max()))
+    _, n_z = dense_kkt
+    a = nlp.derivatives.jacobian_g(z).toarray()
+    kkt = np.block([[h, a.T], [a, np.zeros((a.shape[0], a.shape[0]))]])
+    want = np.linalg.inv(kkt)[:n_z, :n_z]
+    cov = compute_covariance(nlp, z, 1.0, 1, information="observed", lam_g=lam)
+    assert cov.information == "observed"
+    idx = np.r_[NS * 5 + np.arange(NS), np.arange(short_fit.part.n_state_vars, n_z)]
+    assert relative_gap(cov.covariance_of(idx), want[np.ix_(idx, idx)]) < 1e-6
+    expected = short_fit.covariance.covariance_of(idx)
+    assert relative_gap(expected, want[np.ix_(idx, idx)]) > 1e-4
+
+
+def test_observed_information_falls_back_where_it_is_not_positive_definite(short_fit):
+    """Multipliers that make the Lagrangian's curvature indefinite: the expected information is
+    inverted, and the covariance says why."""
+    nlp, z, lam = short_fit.nlp, short_fit.solver.z, short_fit.solver.lam_g
+    cov = compute_covariance(nlp, z, 1.0, 1, information="observed", lam_g=-1e6 * lam)
+    assert cov.information.startswith("expected (the observed information is not positive definite")
+    ref = short_fit.covariance
+    np.testing.assert_allclose(cov.cov_w, ref.cov_w, rtol=1e-9, atol=0)
+    with pytest.raises(ValueError, match="information must be one of"):
+        compute_covariance(nlp, z, 1.0, 1, information="fisher")

@@ -1,5 +1,6 @@
-"""With latent GPS errors (eliminated columns) the Schur-complement covariance and the
-Gauss-Newton decrement equal those of the dense KKT system, on a ~1.5 s window of ees-drop-3."""
+"""With latent GPS errors (eliminated columns) the Schur-complement covariance (of the observed and
+of the expected information) and the Gauss-Newton decrement equal those of the dense KKT system, on
+a ~1.5 s window of ees-drop-3."""
 
 from __future__ import annotations
 
@@ -49,18 +50,38 @@ def test_the_gps_errors_are_eliminated(gm_fit):
     assert gm_fit.covariance.basis.shape[1] < 40      # Z has the free directions of nodes and parameters only
 
 
-def test_covariance_blocks_equal_the_dense_kkt_inverse(gm_fit, dense):
-    _, _, cov = dense
+@pytest.fixture(scope="module")
+def dense_observed(gm_fit, dense):
+    """The dense KKT inverse with the exact Hessian of the Lagrangian (the observed information,
+    which "auto" picks for a fit with the GPS error model)."""
+    nlp, z = gm_fit.nlp, gm_fit.solver.z
+    h = nlp.derivatives.observed_information(z, gm_fit.solver.lam_g).toarray()
+    _, a, _ = dense
+    n_g = a.shape[0]
+    kkt = np.block([[h, a.T], [a, np.zeros((n_g, n_g))]])
+    return np.linalg.inv(kkt)[:h.shape[0], :h.shape[0]]
+
+
+@pytest.mark.parametrize("information", ["observed", "expected"])
+def test_covariance_blocks_equal_the_dense_kkt_inverse(gm_fit, dense, dense_observed, information):
+    from casrecon.estimation.engine.covariance import compute_covariance
+
+    if information == "observed":
+        assert gm_fit.covariance.information == "observed"
+        covariance, cov = gm_fit.covariance, dense_observed
+    else:
+        covariance = compute_covariance(gm_fit.nlp, gm_fit.solver.z, 1.0, 1, information="expected")
+        cov = dense[2]
     part = gm_fit.part
     e = part.extra("gps").cols
     sets = [np.r_[part.theta_cols, e[:12]],                                   # parameters and two fixes' errors
             np.r_[part.node_offset + NS * 20 + np.arange(NS), part.theta_cols, e[-6:]],
             np.r_[e[5:40]]]
     for idx in sets:
-        assert relative_gap(gm_fit.covariance.covariance_of(idx), cov[np.ix_(idx, idx)]) < 1e-6
+        assert relative_gap(covariance.covariance_of(idx), cov[np.ix_(idx, idx)]) < 1e-6
     w = np.linspace(-1, 1, sets[1].size)
     want = w @ cov[np.ix_(sets[1], sets[1])] @ w
-    assert gm_fit.covariance.variance_of_combination(sets[1], w) == pytest.approx(want, rel=1e-6)
+    assert covariance.variance_of_combination(sets[1], w) == pytest.approx(want, rel=1e-6)
 
 
 def test_decrement_equals_the_dense_constrained_newton_step(gm_fit, dense):

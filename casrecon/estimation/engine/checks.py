@@ -49,11 +49,13 @@ def check_converged(sol: SolveResult, nlp: Nlp | None = None) -> None:
                    f"(objective {sol.objective:.6g}){why}; no result written")
 
 
-def covariance_or_fail(nlp: Nlp, z: np.ndarray, r: np.ndarray, reduced=None) -> Covariance | KktCovariance:
+def covariance_or_fail(nlp: Nlp, z: np.ndarray, r: np.ndarray, reduced=None, *, information: str = "expected",
+                       lam_g: np.ndarray | None = None) -> Covariance | KktCovariance:
     """KKT covariance at ``z`` with the chi-square (group constants included) and dof of ``nlp``
-    (``reduced``: the reduced system already formed at ``z``, e.g. ``SolveResult.reduced``);
+    (``reduced``: the reduced system already formed at ``z``, e.g. ``SolveResult.reduced``;
+    ``information`` and the multipliers ``lam_g``: see :func:`.covariance.compute_covariance`);
     FitError when singular."""
     try:
-        return compute_covariance(nlp, z, nlp.chi2(r), nlp.dof(), reduced)
+        return compute_covariance(nlp, z, nlp.chi2(r), nlp.dof(), reduced, information=information, lam_g=lam_g)
     except SingularCovariance as err:
         raise FitError(str(err)) from None

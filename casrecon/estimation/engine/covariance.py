@@ -45,6 +45,19 @@ from casrecon.parallel import single_threaded_blas
 
 LOG = logging.getLogger(__name__)
 
+#: Curvatures the covariance can invert (see :func:`compute_covariance`).
+INFORMATION = ("observed", "expected")
+
+
+def information_text(information: str) -> str:
+    """What a covariance's ``information`` ("observed", "expected" or "expected (reason)") means,
+    for reports: the matrix inverted in the KKT matrix, and the reason for a fallback."""
+    kind, _, reason = information.partition(" (")
+    text = {"observed": "observed information (exact Hessian of the Lagrangian at the solution)",
+            "expected": "expected information (Gauss-Newton J^T J, the Fisher information)"}[kind]
+    return f"{text}; {reason.rstrip(')')}" if reason else text
+
+
 #: A reduced Hessian whose condition number, after scaling it to a unit diagonal, is above this
 #: is reported as singular.
 MAX_CONDITION = 1e13
@@ -112,6 +125,10 @@ class Covariance:
         Condition number of Z^T H Z (of S).
     elimination : Elimination or None
         The eliminated columns and the LU of their Hessian block.
+    information : str
+        Which curvature was inverted: "observed" (exact Hessian of the Lagrangian) or "expected"
+        (J^T J), the latter with the reason when the observed one was asked for (see
+        :func:`compute_covariance`).
     """
 
     basis: np.ndarray
@@ -119,6 +136,7 @@ class Covariance:
     reduced_chi2: float
     condition: float
     elimination: Elimination | None = None
+    information: str = "expected"
 
     def rows(self, idx) -> np.ndarray:
         """Z rows of the given z indices (scaled units)."""
@@ -215,6 +233,7 @@ class KktCovariance:
                 raise SingularCovariance(f"KKT matrix singular ({err}): some combination of the unknowns is not "
                                          "determined by the data") from None
         self.condition = float("nan")
+        self.information = "expected"  # see Covariance.information
         self._blocks: dict[bytes, np.ndarray] = {}  # blocks already computed, by their index set
 
     def _columns(self, idx: np.ndarray) -> np.ndarray:
@@ -382,16 +401,46 @@ def _reduced(split: ConstraintSplit, hr: np.ndarray, b: np.ndarray, h_ee, elim: 
     return ReducedSystem(basis, 0.5 * (hr + hr.T), Elimination(elim, lu), m, split)
 
 
-def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,
-                       reduced: ReducedSystem | None = None) -> Covariance | KktCovariance:
-    """Covariance at the solution ``z`` (scaled), with the Gauss-Newton Hessian J^T J; ``reduced``
-    is the reduced system already formed at ``z`` (the convergence test's), if any."""
+def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int, reduced: ReducedSystem | None = None, *,
+                       information: str = "expected", lam_g: np.ndarray | None = None) -> Covariance | KktCovariance:
+    """Covariance at the solution ``z`` (scaled).
+
+    ``information="expected"`` inverts the Gauss-Newton Hessian J^T J (the Fisher information);
+    ``reduced`` is the reduced system already formed at ``z`` (the convergence test's), if any.
+    ``"observed"`` inverts the exact Hessian of the Lagrangian at ``z`` with the multipliers
+    ``lam_g`` on the constraints' null space (the curvature of the objective itself, the Laplace
+    approximation's), and falls back to the expected information where that is not positive definite,
+    or for fits with disturbance states (their KKT path checks definiteness of the parameter
+    block only). The returned covariance's ``information`` says which was inverted and why.
+    """
+    if information not in INFORMATION:
+        raise ValueError(f"information must be one of {', '.join(INFORMATION)}, not {information!r}")
+    fallback = "expected"
+    if information == "observed":
+        if nlp.latent:
+            fallback = "expected (the observed information is not used with disturbance states)"
+        elif lam_g is None:
+            fallback = "expected (no constraint multipliers for the observed information)"
+        else:
+            d = nlp.derivatives
+            observed = reduced_hessian(nlp, d.observed_information(z, lam_g), d.jacobian_g(z))
+            try:
+                return _null_space_covariance(nlp, observed, chi2, dof, "observed")
+            except SingularCovariance as err:
+                LOG.info("observed information not usable (%s): the expected information is inverted", err)
+                fallback = "expected (the observed information is not positive definite at the solution)"
     if nlp.latent:
         h, a = fisher_and_jacobian(nlp, z)
-        return _kkt_covariance(nlp, h, a, chi2, dof)
+        cov = _kkt_covariance(nlp, h, a, chi2, dof)
+        cov.information = fallback
+        return cov
     system = reduced if reduced is not None else reduced_system_at(nlp, z)
+    return _null_space_covariance(nlp, system, chi2, dof, fallback)
+
+
+def _null_space_covariance(nlp: Nlp, system: ReducedSystem, chi2: float, dof: int, information: str) -> Covariance:
     eig, vec = np.linalg.eigh(system.hessian)
-    cond = float(eig[-1] / max(eig[0], 1e-300))
+    cond = float(eig[-1] / eig[0]) if eig[0] > 0 else float("inf")
     # Undetermined is judged on the Hessian scaled to a unit diagonal (a correlation-like matrix):
     # its condition does not grow with how stiff the best-determined unknowns are. Unscaled, a
     # drop whose weakest combination was held by its priors alone (eigenvalue 0.034, the priors'
@@ -401,14 +450,15 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int,
     if eig[0] <= 0 or cond_s > MAX_CONDITION:
         raise SingularCovariance(_weakest_direction(nlp, system.basis, weakest, cond_s))
     cov_w = (vec / eig) @ vec.T
-    return Covariance(system.basis, cov_w, chi2 / max(dof, 1), cond, system.elimination)
+    return Covariance(system.basis, cov_w, chi2 / max(dof, 1), cond, system.elimination, information)
 
 
 def scaled_condition(hessian: np.ndarray) -> tuple[float, np.ndarray]:
     """(condition number, weakest direction) of a symmetric matrix scaled to a unit diagonal,
     D^-1 H D^-1 with D = sqrt(diag H); the direction in the unscaled coordinates. The condition is
     inf when the scaled matrix is not positive definite."""
-    diag = np.sqrt(np.clip(np.diag(hessian), np.finfo(float).tiny, None))
+    # a diagonal entry <= 0 (an indefinite matrix) is scaled by 1 instead
+    diag = np.sqrt(np.where(np.diag(hessian) > 0, np.diag(hessian), 1.0))
     eig, vec = np.linalg.eigh(hessian / np.outer(diag, diag))
     cond = float(eig[-1] / eig[0]) if eig[0] > 0 else float("inf")
     return cond, vec[:, 0] / diag

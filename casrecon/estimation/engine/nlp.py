@@ -168,6 +168,12 @@ class BlockDerivatives:
         uses J^T J, whatever Hessian Ipopt was given)."""
         if self.hessian == "gauss-newton":
             return self.jtj_target
+        return self.exact_target
+
+    @cached_property
+    def exact_target(self) -> SparseTarget:
+        """Where the blocks' exact-Hessian nonzeros land in the global upper triangle (built at
+        first use: fits whose covariance takes the expected information never assemble it)."""
         rows, cols = self._stack("hess")
         return SparseTarget((self.n_z, self.n_z), np.minimum(rows, cols), np.maximum(rows, cols))
 
@@ -304,13 +310,27 @@ class BlockDerivatives:
         if self.hessian == "gauss-newton":
             self.evaluate(z)
             return self.hess_target.values(sigma * self._jtj)
+        return self._exact_values(z, sigma, lam_g)
+
+    def _exact_values(self, z, sigma: float, lam_g: np.ndarray) -> np.ndarray:
+        """Nonzeros (in ``exact_target.sparsity`` order) of the upper triangle of the exact Hessian
+        of sigma f + lam_g^T g, assembled from the blocks' exact Hessians."""
         z = np.asarray(z, float).ravel()
+        lam_g = np.asarray(lam_g, float).ravel()
         parts = [np.zeros(0)]
         for bs, g_rows in zip(self.sets, self.g_rows):
             n_c = bs.kind.n_constraints
             lam = lam_g[g_rows[:, None] + np.arange(n_c)[None, :]].T if n_c else np.zeros((0, bs.n_blocks))
             parts.append(np.asarray(bs.hess(bs.local(z), *bs.data, sigma, lam)).T.ravel())
-        return self.hess_target.values(np.concatenate(parts))
+        return self.exact_target.values(np.concatenate(parts))
+
+    def observed_information(self, z, lam_g: np.ndarray) -> sps.csc_matrix:
+        """The full symmetric exact Hessian of the Lagrangian f + lam_g^T g at ``z`` (f = |r|^2 / 2),
+        whatever Hessian Ipopt is given: the observed information (see
+        :func:`~casrecon.estimation.engine.covariance.compute_covariance`). ``lam_g``: the
+        constraint multipliers at ``z`` (grad f + J_g^T lam_g = 0)."""
+        upper = self.exact_target.matrix(self._exact_values(z, 1.0, lam_g))
+        return (upper + sps.triu(upper, 1).T).tocsc()
 
     def hessian_lagrangian(self, z, sigma: float, lam_g: np.ndarray) -> sps.csc_matrix:
         """Upper triangle of the Hessian of sigma f + lam_g^T g (Gauss-Newton or exact)."""
