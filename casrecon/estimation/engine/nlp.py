@@ -161,14 +161,11 @@ class BlockDerivatives:
         # a block's upper triangle maps to the global upper triangle once each pair is ordered
         return SparseTarget((self.n_z, self.n_z), np.minimum(rows, cols), np.maximum(rows, cols))
 
-    @cached_property
-    def hess_target(self) -> SparseTarget:
+    def hess_target(self, hessian: str | None = None) -> SparseTarget:
         """Where the nonzeros of the Hessian given to Ipopt land: :attr:`jtj_target` for the
-        Gauss-Newton Hessian, the blocks' exact Hessians' pattern otherwise (the covariance always
-        uses J^T J, whatever Hessian Ipopt was given)."""
-        if self.hessian == "gauss-newton":
-            return self.jtj_target
-        return self.exact_target
+        Gauss-Newton Hessian, the blocks' exact Hessians' pattern for the exact one (``hessian``:
+        "gauss-newton" or "exact", default the NLP's)."""
+        return self.jtj_target if (hessian or self.hessian) == "gauss-newton" else self.exact_target
 
     @cached_property
     def exact_target(self) -> SparseTarget:
@@ -304,12 +301,12 @@ class BlockDerivatives:
         self.evaluate(z)
         return self.jtj_target.assemble(self._jtj)
 
-    def hessian_values(self, z, sigma: float, lam_g: np.ndarray) -> np.ndarray:
-        """Nonzeros (in ``hess_target.sparsity`` order) of the upper triangle of the Hessian of
-        sigma f + lam_g^T g (Gauss-Newton or exact)."""
-        if self.hessian == "gauss-newton":
+    def hessian_values(self, z, sigma: float, lam_g: np.ndarray, hessian: str | None = None) -> np.ndarray:
+        """Nonzeros (in ``hess_target(hessian).sparsity`` order) of the upper triangle of the Hessian
+        of sigma f + lam_g^T g (``hessian``: "gauss-newton" or "exact", default the NLP's)."""
+        if (hessian or self.hessian) == "gauss-newton":
             self.evaluate(z)
-            return self.hess_target.values(sigma * self._jtj)
+            return self.jtj_target.values(sigma * self._jtj)
         return self._exact_values(z, sigma, lam_g)
 
     def _exact_values(self, z, sigma: float, lam_g: np.ndarray) -> np.ndarray:
@@ -334,7 +331,7 @@ class BlockDerivatives:
 
     def hessian_lagrangian(self, z, sigma: float, lam_g: np.ndarray) -> sps.csc_matrix:
         """Upper triangle of the Hessian of sigma f + lam_g^T g (Gauss-Newton or exact)."""
-        return self.hess_target.matrix(self.hessian_values(z, sigma, lam_g))
+        return self.hess_target().matrix(self.hessian_values(z, sigma, lam_g))
 
 
 def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, parameter_names: dict[int, str],
