@@ -12,7 +12,7 @@ per fit (median and max).
 
 Run: python benchmarks/model_error_mc.py [--problem DIR] [--cases 30] [--workers 2] [--seed 0]
      [--json out.json] [--variants with_models without_models] [--method map|marginal]
-     [--information observed|expected]
+     [--information auto|observed|expected] [--exact-air] [--white-gps]
 """
 
 from __future__ import annotations
@@ -38,6 +38,8 @@ def print_variant(label: str, v: dict) -> None:
     print("  aero mean z: " + ", ".join(z))
     others = [f"{n} {m:+.2f}" for n, m in zip(v["names"], v["mean_z"]) if not n.endswith(("_mult", "_add"))]
     print("  other mean z: " + ", ".join(others))
+    wide = [f"{n} {r:.2f}" for n, r in zip(v["names"], v["rms_z"]) if r > 1.5]
+    print("  RMS z above 1.5 (1 expected): " + (", ".join(wide) or "none"))
     print("  3-sigma band coverage: " + ", ".join(f"{g} {100 * v['coverage'][g]:.1f} %" for g in COVERAGE_GROUPS))
     print(f"  adequacy verdict 'trusted' on {v['trusted']} of {v['converged']}")
     s = np.asarray(v["seconds"])
@@ -55,14 +57,19 @@ def main() -> None:
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS,
                     help="which fits of each case to run (default both)")
     ap.add_argument("--method", choices=("map", "marginal"), help="estimator (default: the problem's)")
-    ap.add_argument("--information", choices=("observed", "expected"),
+    ap.add_argument("--information", choices=("auto", "observed", "expected"),
                     help="curvature the covariance inverts (default: the problem's)")
+    ap.add_argument("--exact-air", action="store_true",
+                    help="the air flown is the sounding (no profile error in the data; the fit's model stays on)")
+    ap.add_argument("--white-gps", action="store_true", help="white GPS errors in the data, and the fit told so")
     a = ap.parse_args()
     t0 = time.perf_counter()
     study = model_error_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, variants=tuple(a.variants),
-                                   method=a.method, information=a.information)
+                                   method=a.method, information=a.information, exact_air=a.exact_air,
+                                   white_gps=a.white_gps)
     print(f"{a.problem.name}: {a.cases} cases in {time.perf_counter() - t0:.0f} s ({a.workers} workers, "
-          f"method {a.method or 'as the problem says'}, information {a.information or 'as the problem says'})")
+          f"method {a.method or 'as the problem says'}, information {a.information or 'as the problem says'}"
+          + (", air flown = sounding" if a.exact_air else "") + (", white GPS errors" if a.white_gps else "") + ")")
     labels = {"with_models": "WITH the error models", "without_models": "WITHOUT the error models"}
     for name, label in ((v, labels[v]) for v in a.variants):
         print_variant(label, study.variant(name))

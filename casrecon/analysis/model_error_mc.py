@@ -151,15 +151,31 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
 VARIANTS = ("with_models", "without_models")
 
 
+def in_world(scenario: Scenario, exact_air: bool = False, white_gps: bool = False) -> Scenario:
+    """The scenario with some of its ``[truth]`` error processes off: ``exact_air``, the air flown
+    is the sounding (no profile error; the fit's profile model stays on); ``white_gps``, the GPS
+    errors are white, and the fit is told so (its GPS error model white too)."""
+    cfg = scenario.config
+    errors = cfg.truth.errors
+    if exact_air:
+        errors = dataclasses.replace(errors, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
+    gps = cfg.gps
+    if white_gps:
+        errors = dataclasses.replace(errors, gps_position_time_s=0.0, gps_velocity_time_s=0.0)
+        gps = dataclasses.replace(gps, error_model=GpsErrorModel.white())
+    return Scenario.from_config(dataclasses.replace(cfg, truth=dataclasses.replace(cfg.truth, errors=errors), gps=gps))
+
+
 def run_case(problem: str, seed: int, index: int, variants: tuple[str, ...] = VARIANTS,
-             method: str | None = None, information: str | None = None) -> dict:
-    """Case ``index``: draw a truth, simulate with the problem's error processes, fit (by
-    ``method`` and ``information``, defaults the problem's) with and without the error models
-    (those of ``variants``)."""
+             method: str | None = None, information: str | None = None, exact_air: bool = False,
+             white_gps: bool = False) -> dict:
+    """Case ``index``: draw a truth, simulate with the problem's error processes (those
+    :func:`in_world` leaves on), fit (by ``method`` and ``information``, defaults the problem's)
+    with and without the error models (those of ``variants``)."""
     from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 
     rng = np.random.default_rng([seed, index])
-    scenario = draw_truth(Scenario.load(problem), rng)
+    scenario = in_world(draw_truth(Scenario.load(problem), rng), exact_air, white_gps)
     out = {"index": index}
     with tempfile.TemporaryDirectory() as tmp:
         sc, data = synthetic_scenario(scenario, Path(tmp), seed=int(rng.integers(2**31)))
@@ -181,7 +197,7 @@ class ModelErrorStudy:
 
     def variant(self, name: str) -> dict:
         """Pooled figures of ``"with_models"`` or ``"without_models"``: converged cases, NEES sum and
-        its 95 % interval, per-parameter mean z, coverage per band group, trusted verdicts."""
+        its 95 % interval, per-parameter mean and RMS z, coverage per band group, trusted verdicts."""
         fits = [c[name] for c in self.cases if name in c]
         ok = [f for f in fits if "nees" in f]
         n_params = len(ok[0]["names"]) if ok else 0
@@ -193,21 +209,25 @@ class ModelErrorStudy:
         z = np.array([np.asarray(f["error"]) / np.asarray(f["sigma"]) for f in ok]) if ok else np.zeros((0, 0))
         return {"converged": len(ok), "cases": len(fits), "nees_sum": float(sum(f["nees"] for f in ok)),
                 "interval": chi2_interval(n_params * len(ok)), "names": ok[0]["names"] if ok else [],
-                "mean_z": z.mean(axis=0).tolist() if ok else [], "coverage": coverage,
+                "mean_z": z.mean(axis=0).tolist() if ok else [],
+                "rms_z": np.sqrt((z**2).mean(axis=0)).tolist() if ok else [], "coverage": coverage,
                 "trusted": sum(f["trusted"] for f in ok), "seconds": [f["seconds"] for f in fits]}
 
 
 def model_error_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
                            scheduler: str | None = None, variants: tuple[str, ...] = VARIANTS,
-                           method: str | None = None, information: str | None = None) -> ModelErrorStudy:
+                           method: str | None = None, information: str | None = None, exact_air: bool = False,
+                           white_gps: bool = False) -> ModelErrorStudy:
     """Run ``n_cases`` cases of :func:`run_case` (reproducible from (seed, index)), fitting the
     ``variants`` of :data:`VARIANTS` by ``method`` ("map", "marginal") with the covariance from
-    ``information`` ("observed", "expected"; defaults the problem's)."""
+    ``information`` ("auto", "observed", "expected"; defaults the problem's), in the world
+    :func:`in_world` makes of ``exact_air`` and ``white_gps``."""
     unknown = set(variants) - set(VARIANTS)
     if unknown:
         raise ValueError(f"unknown variants {sorted(unknown)}; expected some of {VARIANTS}")
     cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed, variants=tuple(variants),
-                                 method=method, information=information),
+                                 method=method, information=information, exact_air=exact_air,
+                                 white_gps=white_gps),
                          range(n_cases), workers=workers,
                          scheduler=scheduler, progress="model-error montecarlo")
     return ModelErrorStudy(cases)

@@ -134,3 +134,22 @@ def test_profile_common_columns_match_levels_by_altitude():
     np.testing.assert_array_equal((to - 100) % 3, (frm - 7) % 3)
     coarse = ProfileGrid.covering(np.array([1312.0, 1480.0]), 20.0, (0.5, 0.5, 0.005), 300.0)
     assert coarse.common_columns(0, a, 0)[0].size == 0
+
+
+def test_model_error_study_worlds_switch_the_truth_errors_off():
+    """The model-error study's worlds: exact air drops the drawn profile error only (the fit's profile
+    model stays on); white GPS drops the correlated GPS errors and tells the fit."""
+    from conftest import PROBLEMS
+
+    from casrecon.analysis.model_error_mc import in_world
+    from casrecon.scenario import Scenario
+
+    sc = Scenario.load(PROBLEMS / "ees-drop-3-model-error")
+    assert sc.config.truth.errors.profile and sc.config.truth.errors.coloured_gps
+    air = in_world(sc, exact_air=True).config
+    assert not air.truth.errors.profile and air.truth.errors.coloured_gps
+    assert air.atmosphere.profile_wind_sigma_mps == sc.config.atmosphere.profile_wind_sigma_mps > 0
+    assert air.gps.error_model == sc.config.gps.error_model
+    white = in_world(sc, white_gps=True).config
+    assert white.truth.errors.profile and not white.truth.errors.coloured_gps
+    assert white.gps.error_model == GpsErrorModel.white()
