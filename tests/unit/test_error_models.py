@@ -153,3 +153,35 @@ def test_model_error_study_worlds_switch_the_truth_errors_off():
     white = in_world(sc, white_gps=True).config
     assert white.truth.errors.profile and not white.truth.errors.coloured_gps
     assert white.gps.error_model == GpsErrorModel.white()
+
+
+@pytest.mark.parametrize("n_levels", [3, 4, 9])
+def test_profile_prior_whitens_the_level_values(n_levels):
+    """The profile prior's rows are v_0 and (v_k - phi v_k-1) / sqrt(1 - phi^2) of the spline's
+    values at the levels, v = (g_k-1 + 4 g_k + g_k+1) / 6, so the values (not the coefficients)
+    are the Gauss-Markov process: their implied covariance is phi^|i-j|."""
+    from casrecon.estimation.kinds.disturbance import spline_level_prior_terms
+
+    n, phi = 3, 0.967
+    cols = np.arange(n_levels * n).reshape(n_levels, n)
+    terms = spline_level_prior_terms(cols, phi, "profile_start", "profile")
+    rows = []  # the prior's (linear) rows as a matrix over z
+    for term in terms:
+        for bs in term.sets:
+            f = bs.kind.values
+            for b in range(bs.n_blocks):
+                data = [np.asarray(d)[:, b] for d in bs.data]
+                # linear rows: the column of local unknown j is their value at the unit vector e_j
+                jac = np.column_stack([np.asarray(f(e, *data)).ravel() for e in np.eye(bs.kind.n_local)])
+                block = np.zeros((jac.shape[0], cols.size))
+                block[:, bs.cols[b]] = jac
+                rows.append(block)
+    r = np.vstack(rows)
+    assert r.shape == (n_levels * n, n_levels * n)
+    m = (4 * np.eye(n_levels) + np.eye(n_levels, k=1) + np.eye(n_levels, k=-1)) / 6
+    values = np.kron(m, np.eye(n))  # v = values @ g (levels major, processes minor)
+    cov_g = np.linalg.inv(r.T @ r)
+    cov_v = values @ cov_g @ values.T
+    k = np.arange(n_levels)
+    want = np.kron(phi ** np.abs(k[:, None] - k[None, :]), np.eye(n))
+    np.testing.assert_allclose(cov_v, want, atol=1e-10)

@@ -1,7 +1,9 @@
 """Covariance of an NLP's estimate from the KKT matrix at the solution.
 
 For min 1/2 |r(z)|^2 s.t. g(z) = 0 the covariance of z is the z-block of the inverse of
-K = [[H, A^T], [A, 0]], H the Gauss-Newton Hessian J^T J (the Fisher information) and A = dg/dz.
+K = [[H, A^T], [A, 0]], A = dg/dz and H the Gauss-Newton Hessian J^T J (the expected, Fisher
+information) or the exact Hessian of the Lagrangian at the solution (the observed information; see
+:func:`compute_covariance`).
 With Z a basis of the null space of A that block equals Z (Z^T H Z)^-1 Z^T, which is how it is
 computed when the null space is small: the determining constraints (collocation defects) fix the
 ``dependent`` columns given the others, so Z = [-A_D^-1 A_I N; N] with A_D their (sparse LU)

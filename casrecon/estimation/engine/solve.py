@@ -13,9 +13,10 @@ functions per point Ipopt visits, shared by the five; no symbolic graph of the w
 Hessian choices
     ``"gauss-newton"`` (default): sigma triu(J^T J), the constraint curvature left out. Residuals
     are sensor noise, so the multipliers are small and this constrained Gauss-Newton method
-    converges nearly as fast as Newton's method at a fraction of the cost; J^T J is also the Fisher
-    information the covariance uses. ``"exact"``: the exact Hessian of the Lagrangian assembled
-    from per-block exact Hessians.
+    converges nearly as fast as Newton's method at a fraction of the cost. ``"exact"``: the exact
+    Hessian of the Lagrangian assembled from per-block exact Hessians. An Ipopt run with the
+    Gauss-Newton Hessian that has not converged after :data:`GAUSS_NEWTON_IPOPT_ITER` iterations
+    continues with the exact one (:func:`ipopt_then_exact`).
 
 Stopping: Ipopt's own test (``tol``), or, for strong-constraint fits, the statistical test of
 :mod:`casrecon.estimation.engine.convergence` (a full Gauss-Newton step would lower chi-square by less
@@ -82,7 +83,7 @@ ACCEPTABLE_ITER = 8
 #: 3 to 10 on the shipped drops).
 GAUSS_NEWTON_MAX_ITER = 50
 #: Ipopt iterations with the Gauss-Newton Hessian before :func:`ipopt_then_exact` switches to the
-#: exact one: the profile fits of the model-error study converge in 20 to 46 with Gauss-Newton; one
+#: exact one: the profile fits of the model-error study converge in 11 to 64 with Gauss-Newton; one
 #: drop cycled for 200 between objectives 14434 and 14444, which the exact Hessian ends in 12.
 GAUSS_NEWTON_IPOPT_ITER = 80
 #: Solver choices of :func:`solve`.
@@ -204,7 +205,7 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
         run = gauss_newton.solve_gauss_newton(nlp, z0, min(max_iter, GAUSS_NEWTON_MAX_ITER), bounds)
     except gauss_newton.GaussNewtonFailure as err:
         LOG.info("Gauss-Newton could not start (%s); solving with Ipopt", err)
-        return solve_ipopt(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
+        return ipopt_then_exact(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
     seconds = time.perf_counter() - t0
     if run.converged:
         r = nlp.derivatives.residuals(run.z)
@@ -214,7 +215,7 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
                            evaluation_s=run.evaluation_s, reduced=run.system, method="gauss-newton",
                            linear_algebra_s=run.linear_algebra_s)
     LOG.info("%s after %d iterations; Ipopt continues from its last iterate", run.status, run.iterations)
-    sol = solve_ipopt(nlp, run.z, linear_solver, max_iter, tol, print_level, bounds)
+    sol = ipopt_then_exact(nlp, run.z, linear_solver, max_iter, tol, print_level, bounds)
     return dataclasses.replace(sol, status=f"{sol.status} (after {run.status})", iterations=run.iterations +
                                sol.iterations, solve_s=seconds + sol.solve_s, evaluation_s=run.evaluation_s +
                                sol.evaluation_s, method="gauss-newton, then ipopt",
@@ -225,16 +226,16 @@ def ipopt_then_exact(nlp: Nlp, z0: np.ndarray, linear_solver: str, max_iter: int
                      bounds: tuple[np.ndarray, np.ndarray] | None) -> SolveResult:
     """Ipopt with the NLP's Hessian; when that is Gauss-Newton and Ipopt has not converged (within
     :data:`GAUSS_NEWTON_IPOPT_ITER` iterations, or stopped otherwise), Ipopt again from its last iterate with the exact
-    Hessian (``max_iter`` more at most). Gauss-Newton is the safer start far from the optimum, the
+    Hessian, the two within ``max_iter`` iterations together. Gauss-Newton is the safer start far from the optimum, the
     exact Hessian the faster finish where Gauss-Newton converges only linearly."""
     if nlp.derivatives.hessian != "gauss-newton":
         return solve_ipopt(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
     sol = solve_ipopt(nlp, z0, linear_solver, min(max_iter, GAUSS_NEWTON_IPOPT_ITER), tol, print_level, bounds)
-    if sol.converged:
+    if sol.converged or sol.iterations >= max_iter:
         return sol
     LOG.info("%s after %d iterations with the Gauss-Newton Hessian; Ipopt continues with the exact Hessian",
              sol.status, sol.iterations)
-    end = solve_ipopt(nlp, sol.z, linear_solver, max_iter, tol, print_level, bounds, hessian="exact")
+    end = solve_ipopt(nlp, sol.z, linear_solver, max_iter - sol.iterations, tol, print_level, bounds, hessian="exact")
     return dataclasses.replace(end, status=f"{end.status} (after {sol.status})", iterations=sol.iterations +
                                end.iterations, build_s=sol.build_s + end.build_s, solve_s=sol.solve_s + end.solve_s,
                                evaluation_s=sol.evaluation_s + end.evaluation_s,

@@ -46,12 +46,48 @@ def disturbance_terms(layout: DropLayout, group=lambda g: g) -> list[Term]:
     return gauss_markov_terms(layout.u_cols, phi, group("disturbance_start"), group("disturbance"))
 
 
+def linear_rows(name: str, cols: np.ndarray, weights: np.ndarray) -> BlockSet:
+    """Residual rows sum_j weights[b, j] u[cols[b, j], c] for each block b and each of the n
+    processes c (``cols`` (B, m, n) z columns, ``weights`` (B, m))."""
+    n_blocks, m, n = cols.shape
+    u, w = ca.SX.sym("u", m * n), ca.SX.sym("w", m)
+    rows = sum(w[j] * u[j * n:(j + 1) * n] for j in range(m))
+    kind = BlockKind(name, u, [w], rows, None)
+    return BlockSet(kind, cols.reshape(n_blocks, m * n), [ca.DM(np.asarray(weights, float).T)])
+
+
+def spline_level_prior_terms(cols: np.ndarray, phi: float, start_group: str, step_group: str) -> list[Term]:
+    """Gauss-Markov prior, exactly whitened, of the values at the levels of a cubic B-spline whose
+    coefficients are at the z columns ``cols`` (K levels, n unit-variance processes, K >= 3): the
+    value at level k is v_k = (g_k-1 + 4 g_k + g_k+1) / 6, a coefficient beyond the grid being 0.
+    Rows: v_0, then (v_k - phi v_k-1) / sqrt(1 - phi^2); each step involves the coefficients k-2
+    to k+1, fewer at the grid's ends."""
+    n_levels = cols.shape[0]
+    level = np.zeros((n_levels, n_levels + 2))  # v = level @ [0, g_0 .. g_K-1, 0]
+    for k in range(n_levels):
+        level[k, k:k + 3] = (1 / 6, 4 / 6, 1 / 6)
+    steps = (level[1:] - phi * level[:-1]) / np.sqrt(1.0 - phi * phi)
+    terms = [Term(start_group, (linear_rows(start_group.rsplit("/", 1)[-1], cols[None, :2], level[None, 0, 1:3]),))]
+    sets = []
+    # step k (1..K-1) reaches coefficients k-2..k+1: 3 at k = 1 and k = K-1, 4 in between
+    for ks, first, width in ((np.array([1]), 0, 3), (np.arange(2, n_levels - 1), None, 4),
+                             (np.array([n_levels - 1]), n_levels - 3, 3)):
+        if not ks.size:
+            continue
+        lo = ks - 2 if first is None else np.full(ks.size, first)
+        idx = lo[:, None] + np.arange(width)[None, :]
+        weights = np.take_along_axis(steps[ks - 1], idx + 1, axis=1)  # +1: the padded column 0
+        sets.append(linear_rows(step_group.rsplit("/", 1)[-1], cols[idx], weights))
+    terms.append(Term(step_group, tuple(sets)))
+    return terms
+
+
 def profile_terms(layout: DropLayout, group=lambda g: g) -> list[Term]:
     """The Gauss-Markov-in-altitude prior of a drop's atmosphere-profile corrections (empty
-    without them): level 0, then each step of the grid."""
+    without them), on the corrections themselves at the grid levels (not on the spline's
+    coefficients: that prior is smoother than the process, see :func:`spline_level_prior_terms`)."""
     grid = layout.profile
     if grid is None:
         return []
     cols = layout.extra("profile").cols.reshape(grid.n_levels, grid.n_components)
-    phi = np.full((grid.n_levels - 1, grid.n_components), grid.phi)
-    return gauss_markov_terms(cols, phi, group("profile_start"), group("profile"))
+    return spline_level_prior_terms(cols, grid.phi, group("profile_start"), group("profile"))
