@@ -319,7 +319,13 @@ def _read_kind(path: str | Path, kind: str, cols: dict, units: dict, body: list[
                              f"expected {' or '.join(repr(u) for u in known)}",
                              line=unit_line, field=name)
         raw = parse_floats(path, [r[col[name]] for r in split], numbers, name)
-        out[name] = raw + known[unit] if name == "temperature" else raw * known[unit]
+        with np.errstate(over="ignore"):
+            out[name] = raw + known[unit] if name == "temperature" else raw * known[unit]
+        overflow = np.isfinite(raw) & ~np.isfinite(out[name])
+        if overflow.any():
+            k = int(np.argmax(overflow))
+            raise InputError(path, f"{name} {raw[k]:g} {unit} is beyond the range of numbers in SI units",
+                             line=numbers[k], field=name)
     check_increasing(path, out["time"], numbers, "time")
     return out
 

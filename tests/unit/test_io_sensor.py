@@ -132,6 +132,7 @@ BREAKS = {
     "not a $ line": (HEAD, ROWS[:3] + ["10.3,1,2"] + ROWS[3:], 12, None),
     "no col": ([h for h in HEAD if not h.startswith("$COL,BARO")], ROWS, 10, "$COL,BARO"),
     "negative pressure": (HEAD, ROWS[:2] + ["$BARO,10.2,-5,20"] + ROWS[3:], 11, "pressure"),
+    "overflow in SI": (HEAD, ROWS[:1] + ["$IMU,10.1,1,2,3,1e308,0,1,25"] + ROWS[2:], 10, "ax"),
 }
 
 
