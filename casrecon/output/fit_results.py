@@ -44,7 +44,7 @@ def parameters_document(result) -> dict:
     Every float is stored at full precision (Python's ``json`` writes the shortest repr, which reads
     back bit-identical), so a loaded result's values, sigmas and correlations equal the fit's.
     """
-    from casrecon.estimation.engine.covariance import information_text
+    from casrecon.estimation.engine.information import information_text
 
     scale = float(np.sqrt(result.reduced_chi2))
     params = {spec.name: parameter_record(spec, result.values[i], result.sigma[i], scale)

@@ -33,7 +33,7 @@ def joint_parameters_document(result) -> dict:
     """``parameters.json`` of a joint fit: per global parameter the record of
     :func:`~casrecon.output.fit_results.parameter_record` (values in its ``unit``; gyro biases in
     deg/s) and ``shared``; the correlation matrix over all (full precision)."""
-    from casrecon.estimation.engine.covariance import information_text
+    from casrecon.estimation.engine.information import information_text
 
     scale = float(np.sqrt(result.reduced_chi2))
     specs = joint_specs(result)

@@ -7,7 +7,7 @@ import numpy as np
 
 from casrecon.analysis.adequacy import Adequacy, report_lines
 from casrecon.analysis.fit_products import result_adequacy
-from casrecon.estimation.engine.covariance import information_text
+from casrecon.estimation.engine.information import information_text
 from casrecon.io.units import output_unit
 from casrecon.physics.aero import DISPERSION_NAMES
 

@@ -231,3 +231,11 @@ def test_observed_information_falls_back_where_it_is_not_positive_definite(short
     np.testing.assert_allclose(cov.cov_w, ref.cov_w, rtol=1e-9, atol=0)
     with pytest.raises(ValueError, match="information must be one of"):
         compute_covariance(nlp, z, 1.0, 1, information="fisher")
+
+
+def test_information_text_names_the_matrix_and_the_reason_for_a_fallback():
+    from casrecon.estimation.engine.information import information_text
+
+    assert information_text("observed").startswith("observed information (exact Hessian")
+    text = information_text("expected (the observed information is not positive definite at the solution)")
+    assert text.startswith("expected information (Gauss-Newton J^T J") and text.endswith("at the solution")

@@ -33,6 +33,7 @@ by the reduced chi-square chi2 / dof (as lmfit does), dof = measurements - free 
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -42,23 +43,11 @@ from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 from casrecon.estimation.engine.constraint_split import ConstraintSplit, constraint_split
+from casrecon.estimation.engine.information import INFORMATION
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.parallel import single_threaded_blas
 
 LOG = logging.getLogger(__name__)
-
-#: Curvatures the covariance can invert (see :func:`compute_covariance`).
-INFORMATION = ("observed", "expected")
-
-
-def information_text(information: str) -> str:
-    """What a covariance's ``information`` ("observed", "expected" or "expected (reason)") means,
-    for reports: the matrix inverted in the KKT matrix, and the reason for a fallback."""
-    kind, _, reason = information.partition(" (")
-    text = {"observed": "observed information (exact Hessian of the Lagrangian at the solution)",
-            "expected": "expected information (Gauss-Newton J^T J, the Fisher information)"}[kind]
-    return f"{text}; {reason.rstrip(')')}" if reason else text
-
 
 #: A reduced Hessian whose condition number, after scaling it to a unit diagonal, is above this
 #: is reported as singular.
@@ -321,14 +310,22 @@ def fisher_and_jacobian(nlp: Nlp, z: np.ndarray) -> tuple[sps.csc_matrix, sps.cs
 
 
 @single_threaded_blas()
-def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix) -> ReducedSystem:
+def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix,
+                    split: ConstraintSplit | None = None) -> ReducedSystem:
     """The null-space basis of the constraint Jacobian and the reduced Hessian, the eliminated
     columns' block taken out by its Schur complement (NLPs without latent process values at the
-    nodes: with them Z would have thousands of columns). Computed with BLAS on one thread,
-    whoever calls: the reduced Hessian's condition number reaches 1e10, at which the rounding of a
-    threaded product moves covariances by 1e-9 relative, so the same z must give the same bits."""
+    nodes: with them Z would have thousands of columns). ``split``: the split of ``a`` already
+    made (e.g. a reduced system's at the same z; its basis is copied, not changed). Computed with
+    BLAS on one thread, whoever calls: the reduced Hessian's condition number reaches 1e10, at
+    which the rounding of a threaded product moves covariances by 1e-9 relative, so the same z
+    must give the same bits."""
     elim = np.asarray(nlp.eliminated, np.int64)
-    split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
+    if split is None:
+        split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
+    else:  # a reduced system's basis holds -M in the eliminated rows: start again from zero there
+        basis = split.basis.copy()
+        basis[elim] = 0.0
+        split = dataclasses.replace(split, basis=basis)
     hz = h @ split.basis
     return _reduced(split, split.basis.T @ hz, hz[elim], lambda: h[elim][:, elim].tocsc(), elim, a)
 
@@ -425,7 +422,8 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int, reduced: 
             fallback = "expected (no constraint multipliers for the observed information)"
         else:
             d = nlp.derivatives
-            observed = reduced_hessian(nlp, d.observed_information(z, lam_g), d.jacobian_g(z))
+            split = reduced.split if reduced is not None else None
+            observed = reduced_hessian(nlp, d.observed_information(z, lam_g), d.jacobian_g(z), split)
             try:
                 return _null_space_covariance(nlp, observed, chi2, dof, "observed")
             except SingularCovariance as err:
