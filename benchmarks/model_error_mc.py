@@ -41,7 +41,10 @@ def print_variant(label: str, v: dict) -> None:
     wide = [f"{n} {r:.2f}" for n, r in zip(v["names"], v["rms_z"]) if r > 1.5]
     print("  RMS z above 1.5 (1 expected): " + (", ".join(wide) or "none"))
     print("  3-sigma band coverage: " + ", ".join(f"{g} {100 * v['coverage'][g]:.1f} %" for g in COVERAGE_GROUPS))
-    print(f"  adequacy verdict 'trusted' on {v['trusted']} of {v['converged']}")
+    print(f"  adequacy verdict 'trusted' on {v['trusted']} of {v['converged']} ({v['conservative']} of them "
+          "conservative: residuals smaller than their sigmas)")
+    if v["reasons"]:
+        print(f"  verdict failures ({len(v['reasons'])} in all), the first: " + "; ".join(v["reasons"][:5]))
     s = np.asarray(v["seconds"])
     if s.size:
         print(f"  seconds per fit: median {np.median(s):.1f}, max {s.max():.1f}")

@@ -20,6 +20,10 @@ Every test runs at alpha / (number of tests) (Bonferroni, :data:`FAMILY_ALPHA` =
 a fit of an exact model is declared trusted with probability at least 99 % (the ground check is a
 tolerance, not a probability, and is not counted). Parameters beyond 3 sigma of their prior are
 always named; they fail the verdict beyond the family-wise limit.
+
+A reduced chi-square *below* its interval does not fail the verdict: residuals smaller than their
+sigmas make the bands wider than the data need, not narrower. Such a channel is a caution
+(:attr:`Adequacy.cautions`) and the line says the bands are conservative.
 """
 
 from __future__ import annotations
@@ -260,6 +264,12 @@ class Adequacy:
         Tests it is shared among (2 per channel, the NEES, one per prior).
     notes : tuple of str
         What was not tested and why.
+    cautions : tuple of str
+        Channels whose residuals are smaller than their sigmas (reduced chi-square below its
+        interval): those sigmas are pessimistic, the bands wider than the data need. Under the
+        fit's model that can happen only by chance (at the per-test level's lower half) or where the
+        fit's own unknowns absorb a channel; neither makes a band too narrow, so a caution does not
+        fail the verdict.
     """
 
     trusted: bool
@@ -273,6 +283,7 @@ class Adequacy:
     alpha: float
     n_tests: int
     notes: tuple[str, ...] = field(default=())
+    cautions: tuple[str, ...] = field(default=())
 
     def channel(self, name: str) -> ChannelTest:
         """The test of channel ``name`` (KeyError listing the channels)."""
@@ -299,7 +310,8 @@ class Adequacy:
                    z_limit=float(doc["z_limit"]),
                    nees=PriorNees(**{**nees, "interval": tuple(nees["interval"])}) if nees else None,
                    ground=GroundCheck(**ground) if ground else None, alpha=float(doc["alpha"]),
-                   n_tests=int(doc["n_tests"]), notes=tuple(doc.get("notes", ())))
+                   n_tests=int(doc["n_tests"]), notes=tuple(doc.get("notes", ())),
+                   cautions=tuple(doc.get("cautions", ())))
 
 
 #: Why a kind of failure matters, appended once to the verdict line.
@@ -312,9 +324,9 @@ HINTS = {
     "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
              "moved parameters far to make up for it",
     "ground": "the site's ground altitude or the GPS height is wrong",
-    "pessimistic": "residuals smaller than their stated sigmas: those sigmas are pessimistic for these data (a "
-                   "receiver's accuracy estimate, a noise figure given as an upper bound), so these channels weigh "
-                   "too little and the bands are wider than the data need",
+    "pessimistic": "those sigmas are pessimistic for these data (a receiver's accuracy estimate, a noise figure "
+                   "given as an upper bound, a GPS error model whose white part is larger than the receiver's), so "
+                   "these channels weigh too little and the bands are wider than the data need",
 }
 #: Items of one kind named in the verdict line before "+N more".
 LINE_ITEMS = 3
@@ -340,16 +352,11 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
                     f"{p_text(worst_p) if len(lag1) == 1 or worst_p < 1e-10 else f'p<={worst_p:.2g}'})")
         if all(c.name.startswith("GPS") for c in correlated):
             kinds.add("gps_correlated")
-    off = sorted((c for c in tests if not c.scale_ok), key=lambda c: -abs(np.log(c.reduced_chi2)))
-    for c in off:
-        side = "above" if c.reduced_chi2 > c.chi2_interval[1] else "below"
-        reasons.append(f"{c.name} reduced chi-square {c.reduced_chi2:.3g} {side} "
-                       f"[{c.chi2_interval[0]:.3g}, {c.chi2_interval[1]:.3g}]")
+    off = sorted((c for c in tests if c.reduced_chi2 > c.chi2_interval[1]), key=lambda c: -c.reduced_chi2)
+    reasons += [f"{c.name} reduced chi-square {c.reduced_chi2:.3g} above [{c.chi2_interval[0]:.3g}, "
+                f"{c.chi2_interval[1]:.3g}]" for c in off]
     if off:
-        line.append("reduced chi-square outside its interval: "
-                    + _some([f"{c.name} {c.reduced_chi2:.3g}" for c in off]))
-        if any(c.reduced_chi2 < c.chi2_interval[0] for c in off):
-            kinds.add("pessimistic")
+        line.append("reduced chi-square above its interval: " + _some([f"{c.name} {c.reduced_chi2:.3g}" for c in off]))
     far = [d for d in deviations if abs(d.z) > z_limit]
     reasons += [f"{d.name} {d.z:+.1f} sigma from its prior" for d in far]
     if far:
@@ -368,6 +375,18 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
         line.append(text)
         kinds.add("ground")
     return reasons, line, kinds
+
+
+def _small_scale(tests: list[ChannelTest]) -> tuple[list[str], str]:
+    """Channels whose reduced chi-square is below its interval: each as a caution, and the clause
+    of the verdict line that names them ("" when there are none)."""
+    low = sorted((c for c in tests if c.n and c.reduced_chi2 < c.chi2_interval[0]), key=lambda c: c.reduced_chi2)
+    cautions = [f"{c.name} reduced chi-square {c.reduced_chi2:.3g} below [{c.chi2_interval[0]:.3g}, "
+                f"{c.chi2_interval[1]:.3g}]" for c in low]
+    if not low:
+        return cautions, ""
+    return cautions, ("residuals smaller than their sigmas: " + _some([f"{c.name} {c.reduced_chi2:.3g}" for c in low])
+                      + f" ({HINTS['pessimistic']})")
 
 
 def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.ndarray, prior_sigma: np.ndarray,
@@ -418,21 +437,28 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
                        for i in np.argsort(-np.abs(z)) if abs(z[i]) >= NAMED_Z)
     nees = prior_nees(values, prior_sigma, posterior_cov, a) if n_priors else None
     reasons, items, kinds = _findings(tests, deviations, z_limit, nees, ground)
+    cautions, small = _small_scale(tests)
     if not reasons:
         named = [f"{d.name} {d.z:+.1f} sigma" for d in deviations]
         extra = f"; {', '.join(named)} from its prior, within the family-wise {z_limit:.2f}" if named else ""
-        line = (f"bands can be trusted: all {n_tests} tests passed at a family-wise {100 * alpha:g} % "
-                f"(residuals white and at their sigmas, priors consistent){extra}")
+        if small:
+            line = (f"bands can be trusted, and are conservative: {small}; the other tests passed at a family-wise "
+                    f"{100 * alpha:g} %{extra}")
+        else:
+            line = (f"bands can be trusted: all {n_tests} tests passed at a family-wise {100 * alpha:g} % "
+                    f"(residuals white and at their sigmas, priors consistent){extra}")
     else:
         line = "bands NOT to be trusted: " + "; ".join(items)
         if gps_model and "gps_correlated" in kinds:
             kinds = (kinds - {"gps_correlated"}) | {"gps_model"}
         hints = [prior_hint if k == "prior" else HINTS[k]
-                 for k in ("gps_correlated", "gps_model", "prior", "ground", "pessimistic") if k in kinds]
+                 for k in ("gps_correlated", "gps_model", "prior", "ground") if k in kinds]
         if hints:
             line += " (" + "; ".join(hints) + ")"
+        if small:
+            line += f"; also {small}"
     return Adequacy(not reasons, line, tuple(reasons), tuple(tests), deviations, z_limit, nees, ground, alpha, n_tests,
-                    tuple(notes))
+                    tuple(notes), tuple(cautions))
 
 
 def report_lines(adequacy: Adequacy) -> list[str]:
@@ -444,7 +470,8 @@ def report_lines(adequacy: Adequacy) -> list[str]:
         if not c.n:
             lines.append(f"    {c.name:14s} no samples")
             continue
-        flag = "" if c.scale_ok and c.white else "  <-"
+        small = c.white and c.reduced_chi2 < c.chi2_interval[0]
+        flag = "" if c.scale_ok and c.white else "  <- small" if small else "  <-"
         lines.append(f"    {c.name:14s} n {c.n:6d}  reduced chi2 {c.reduced_chi2:7.3f} in [{c.chi2_interval[0]:.3f}, "
                      f"{c.chi2_interval[1]:.3f}]  lag-1 {c.lag1:+.2f}  Ljung-Box({c.lags}) {p_text(c.ljung_box_p)}"
                      f"{flag}")

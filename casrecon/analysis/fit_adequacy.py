@@ -206,6 +206,10 @@ def joint_adequacy(per_drop: dict[str, Adequacy]) -> JointAdequacy:
     if not bad:
         line = (f"bands can be trusted: every drop's tests passed ({len(per_drop)} drops, each at a family-wise "
                 f"{100 * FAMILY_ALPHA:g} %)")
+        conservative = [n for n, a in per_drop.items() if a.cautions]
+        if conservative:
+            line += (f"; conservative on {', '.join(conservative)} (residuals smaller than their sigmas: "
+                     + "; ".join(f"{n}: {', '.join(a.cautions)}" for n, a in per_drop.items() if a.cautions) + ")")
     else:
         line = "bands NOT to be trusted: " + "; ".join(
             f"{n}: {a.line.removeprefix('bands NOT to be trusted: ')}" for n, a in bad)

@@ -144,7 +144,14 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     e, nees = parameter_errors(r, truth)
     return {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
             "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
-            "coverage": band_coverage(r, trajectory, release_imu_s), "trusted": bool(result_adequacy(r).trusted)}
+            "coverage": band_coverage(r, trajectory, release_imu_s), **verdict_summary(result_adequacy(r))}
+
+
+def verdict_summary(adequacy) -> dict:
+    """What a Monte Carlo keeps of a fit's verdict: trusted, conservative (trusted with residuals
+    smaller than their sigmas) and the reasons it failed, if it did."""
+    return {"trusted": bool(adequacy.trusted), "conservative": bool(adequacy.trusted and adequacy.cautions),
+            "reasons": list(adequacy.reasons)}
 
 
 #: The two fits of a case: as the problem says, and with the error models off.
@@ -211,7 +218,9 @@ class ModelErrorStudy:
                 "interval": chi2_interval(n_params * len(ok)), "names": ok[0]["names"] if ok else [],
                 "mean_z": z.mean(axis=0).tolist() if ok else [],
                 "rms_z": np.sqrt((z**2).mean(axis=0)).tolist() if ok else [], "coverage": coverage,
-                "trusted": sum(f["trusted"] for f in ok), "seconds": [f["seconds"] for f in fits]}
+                "trusted": sum(f["trusted"] for f in ok), "conservative": sum(f.get("conservative", False) for f in ok),
+                "reasons": [reason for f in ok for reason in f.get("reasons", [])],
+                "seconds": [f["seconds"] for f in fits]}
 
 
 def model_error_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,

@@ -21,6 +21,7 @@ from casrecon.analysis.adequacy import (
     prior_nees,
     report_lines,
 )
+from casrecon.analysis.fit_adequacy import joint_adequacy
 
 
 def ar1(rng: np.random.Generator, n: int, phi: float) -> np.ndarray:
@@ -148,13 +149,23 @@ def test_round_trip_through_json():
     assert again == a
 
 
-def test_residuals_smaller_than_their_sigmas_are_called_pessimistic_not_overconfident():
+def test_residuals_smaller_than_their_sigmas_make_conservative_bands_not_untrusted_ones():
     rng = np.random.default_rng(8)
     channels = white_channels(rng)
     channels["GPS pos n"] = 0.2 * channels["GPS pos n"]
     a = assess(channels, [], np.zeros(0), np.zeros(0), np.zeros((0, 0)))
-    assert not a.trusted
-    assert "GPS pos n 0.0" in a.line and "sigmas are pessimistic" in a.line
-    channels["GPS pos n"] = 3.0 * channels["GPS pos n"] / 0.2
+    assert a.trusted and not a.reasons
+    assert a.line.startswith("bands can be trusted, and are conservative: residuals smaller than their sigmas: "
+                             "GPS pos n 0.0")
+    assert "sigmas are pessimistic" in a.line
+    assert len(a.cautions) == 1 and a.cautions[0].startswith("GPS pos n reduced chi-square 0.0")
+    assert Adequacy.from_dict(json.loads(json.dumps(a.to_dict()))) == a
+    assert any(line.endswith("<- small") for line in report_lines(a))
+    joint = joint_adequacy({"a": a, "b": assess(white_channels(rng), [], np.zeros(0), np.zeros(0), np.zeros((0, 0)))})
+    assert joint.trusted and "conservative on a (residuals smaller than their sigmas: a: GPS pos n" in joint.line
+    # too large is a failure, and a failure elsewhere keeps the small channel named after it
+    channels["GPS pos e"] = 3.0 * channels["GPS pos e"]
     a = assess(channels, [], np.zeros(0), np.zeros(0), np.zeros((0, 0)))
-    assert "reduced chi-square outside its interval: GPS pos n" in a.line and "pessimistic" not in a.line
+    assert not a.trusted and a.reasons == (a.reasons[0],) and "GPS pos e" in a.reasons[0]
+    assert a.line.startswith("bands NOT to be trusted: reduced chi-square above its interval: GPS pos e")
+    assert "; also residuals smaller than their sigmas: GPS pos n" in a.line
