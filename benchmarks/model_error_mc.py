@@ -12,7 +12,7 @@ per fit (median and max).
 
 Run: python benchmarks/model_error_mc.py [--problem DIR] [--cases 30] [--workers 2] [--seed 0]
      [--json out.json] [--variants with_models without_models] [--method map|marginal]
-     [--information auto|observed|expected] [--exact-air] [--white-gps]
+     [--information auto|observed|expected] [--exact-air] [--white-gps | --matched-gps]
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.model_error_mc import COVERAGE_GROUPS, VARIANTS, model_error_montecarlo
+from casrecon.analysis.model_error_mc import COVERAGE_GROUPS, VARIANTS, World, model_error_montecarlo
 
 PROBLEMS = Path(__file__).resolve().parents[1] / "problems"
 
@@ -65,14 +65,16 @@ def main() -> None:
     ap.add_argument("--exact-air", action="store_true",
                     help="the air flown is the sounding (no profile error in the data; the fit's model stays on)")
     ap.add_argument("--white-gps", action="store_true", help="white GPS errors in the data, and the fit told so")
+    ap.add_argument("--matched-gps", action="store_true",
+                    help="GPS errors drawn from the fit's own GPS error model (correlation times and white share)")
     a = ap.parse_args()
     t0 = time.perf_counter()
     study = model_error_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, variants=tuple(a.variants),
-                                   method=a.method, information=a.information, exact_air=a.exact_air,
-                                   white_gps=a.white_gps)
+                                   method=a.method, information=a.information,
+                                   world=World(a.exact_air, a.white_gps, a.matched_gps))
     print(f"{a.problem.name}: {a.cases} cases in {time.perf_counter() - t0:.0f} s ({a.workers} workers, "
           f"method {a.method or 'as the problem says'}, information {a.information or 'as the problem says'}"
-          + (", air flown = sounding" if a.exact_air else "") + (", white GPS errors" if a.white_gps else "") + ")")
+          + World(a.exact_air, a.white_gps, a.matched_gps).describe() + ")")
     labels = {"with_models": "WITH the error models", "without_models": "WITHOUT the error models"}
     for name, label in ((v, labels[v]) for v in a.variants):
         print_variant(label, study.variant(name))

@@ -158,31 +158,65 @@ def verdict_summary(adequacy) -> dict:
 VARIANTS = ("with_models", "without_models")
 
 
-def in_world(scenario: Scenario, exact_air: bool = False, white_gps: bool = False) -> Scenario:
-    """The scenario with some of its ``[truth]`` error processes off: ``exact_air``, the air flown
-    is the sounding (no profile error; the fit's profile model stays on); ``white_gps``, the GPS
-    errors are white, and the fit is told so (its GPS error model white too)."""
+@dataclass(frozen=True)
+class World:
+    """Which of a problem's ``[truth]`` error processes a study's data carry (all, by default).
+
+    Attributes
+    ----------
+    exact_air : bool
+        The air flown is the sounding (no profile error); the fit's profile model stays on.
+    white_gps : bool
+        The GPS errors are white, and the fit is told so (its GPS error model white too).
+    matched_gps : bool
+        The GPS errors are drawn from the fit's own GPS error model (its correlation times and its
+        white share of each variance, ``1 - *_correlated_fraction``), so that the adequacy verdict's
+        GPS tests are made under a true model.
+    """
+
+    exact_air: bool = False
+    white_gps: bool = False
+    matched_gps: bool = False
+
+    def describe(self) -> str:
+        """The study line's clause for this world ("" for the problem's own)."""
+        return "".join(text for on, text in ((self.exact_air, ", air flown = sounding"),
+                                             (self.white_gps, ", white GPS errors"),
+                                             (self.matched_gps, ", GPS errors drawn from the fit's model")) if on)
+
+
+def in_world(scenario: Scenario, world: World = World()) -> Scenario:
+    """The scenario with its ``[truth]`` error processes as ``world`` says."""
+    if world.white_gps and world.matched_gps:
+        raise ValueError("white_gps and matched_gps are two different GPS worlds: choose one")
     cfg = scenario.config
     errors = cfg.truth.errors
-    if exact_air:
+    if world.exact_air:
         errors = dataclasses.replace(errors, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
     gps = cfg.gps
-    if white_gps:
+    if world.white_gps:
         errors = dataclasses.replace(errors, gps_position_time_s=0.0, gps_velocity_time_s=0.0)
         gps = dataclasses.replace(gps, error_model=GpsErrorModel.white())
+    if world.matched_gps:
+        model = gps.error_model
+        if model.position_fraction != model.velocity_fraction:
+            raise ValueError(f"matched_gps needs one correlated fraction for position and velocity (the simulator "
+                             f"draws one white share), got {model.position_fraction} and {model.velocity_fraction}")
+        errors = dataclasses.replace(errors, gps_position_time_s=model.position_time_s,
+                                     gps_velocity_time_s=model.velocity_time_s,
+                                     gps_white_fraction=1.0 - model.position_fraction)
     return Scenario.from_config(dataclasses.replace(cfg, truth=dataclasses.replace(cfg.truth, errors=errors), gps=gps))
 
 
 def run_case(problem: str, seed: int, index: int, variants: tuple[str, ...] = VARIANTS,
-             method: str | None = None, information: str | None = None, exact_air: bool = False,
-             white_gps: bool = False) -> dict:
+             method: str | None = None, information: str | None = None, world: World = World()) -> dict:
     """Case ``index``: draw a truth, simulate with the problem's error processes (those
     :func:`in_world` leaves on), fit (by ``method`` and ``information``, defaults the problem's)
     with and without the error models (those of ``variants``)."""
     from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 
     rng = np.random.default_rng([seed, index])
-    scenario = in_world(draw_truth(Scenario.load(problem), rng), exact_air, white_gps)
+    scenario = in_world(draw_truth(Scenario.load(problem), rng), world)
     out = {"index": index}
     with tempfile.TemporaryDirectory() as tmp:
         sc, data = synthetic_scenario(scenario, Path(tmp), seed=int(rng.integers(2**31)))
@@ -225,18 +259,17 @@ class ModelErrorStudy:
 
 def model_error_montecarlo(problem: Path, n_cases: int, seed: int = 0, workers: int = 2,
                            scheduler: str | None = None, variants: tuple[str, ...] = VARIANTS,
-                           method: str | None = None, information: str | None = None, exact_air: bool = False,
-                           white_gps: bool = False) -> ModelErrorStudy:
+                           method: str | None = None, information: str | None = None,
+                           world: World = World()) -> ModelErrorStudy:
     """Run ``n_cases`` cases of :func:`run_case` (reproducible from (seed, index)), fitting the
     ``variants`` of :data:`VARIANTS` by ``method`` ("map", "marginal") with the covariance from
     ``information`` ("auto", "observed", "expected"; defaults the problem's), in the world
-    :func:`in_world` makes of ``exact_air`` and ``white_gps``."""
+    ``world`` (:class:`World`)."""
     unknown = set(variants) - set(VARIANTS)
     if unknown:
         raise ValueError(f"unknown variants {sorted(unknown)}; expected some of {VARIANTS}")
     cases = parallel_map(partial(run_case, str(Path(problem).resolve()), seed, variants=tuple(variants),
-                                 method=method, information=information, exact_air=exact_air,
-                                 white_gps=white_gps),
+                                 method=method, information=information, world=world),
                          range(n_cases), workers=workers,
                          scheduler=scheduler, progress="model-error montecarlo")
     return ModelErrorStudy(cases)

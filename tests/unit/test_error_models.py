@@ -141,18 +141,26 @@ def test_model_error_study_worlds_switch_the_truth_errors_off():
     model stays on); white GPS drops the correlated GPS errors and tells the fit."""
     from conftest import PROBLEMS
 
-    from casrecon.analysis.model_error_mc import in_world
+    from casrecon.analysis.model_error_mc import World, in_world
     from casrecon.scenario import Scenario
 
     sc = Scenario.load(PROBLEMS / "ees-drop-3-model-error")
     assert sc.config.truth.errors.profile and sc.config.truth.errors.coloured_gps
-    air = in_world(sc, exact_air=True).config
+    air = in_world(sc, World(exact_air=True)).config
     assert not air.truth.errors.profile and air.truth.errors.coloured_gps
     assert air.atmosphere.profile_wind_sigma_mps == sc.config.atmosphere.profile_wind_sigma_mps > 0
     assert air.gps.error_model == sc.config.gps.error_model
-    white = in_world(sc, white_gps=True).config
+    white = in_world(sc, World(white_gps=True)).config
     assert white.truth.errors.profile and not white.truth.errors.coloured_gps
     assert white.gps.error_model == GpsErrorModel.white()
+    matched = in_world(sc, World(matched_gps=True)).config
+    model = sc.config.gps.error_model
+    assert matched.gps.error_model == model and matched.truth.errors.profile
+    assert matched.truth.errors.gps_position_time_s == model.position_time_s
+    assert matched.truth.errors.gps_velocity_time_s == model.velocity_time_s
+    assert matched.truth.errors.gps_white_fraction == pytest.approx(1.0 - model.position_fraction)
+    with pytest.raises(ValueError, match="two different GPS worlds"):
+        in_world(sc, World(white_gps=True, matched_gps=True))
 
 
 @pytest.mark.parametrize("n_levels", [3, 4, 9])
