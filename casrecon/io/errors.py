@@ -36,10 +36,19 @@ class InputError(ValueError):
         self.message = message
         super().__init__(self._format())
 
+    def __reduce__(self):
+        """Pickle by the constructor's arguments, so that an InputError raised in a worker process
+        (a Monte Carlo case) reaches the parent as itself, not as a broken process pool."""
+        return _rebuild, (self.path, self.message, self.line, self.field)
+
     def _format(self) -> str:
         where = self.path if self.line is None else f"{self.path}:{self.line}"
         what = f"field '{self.field}': " if self.field else ""
         return f"{where}: {what}{self.message}"
+
+
+def _rebuild(path: str, message: str, line: int | None, field: str | None) -> InputError:
+    return InputError(path, message, line=line, field=field)
 
 
 def plain_repr(value: Any) -> str:

@@ -98,3 +98,20 @@ def test_forked_raises_the_childs_exception():
 def test_forked_child_that_dies_is_an_error():
     with pytest.raises(RuntimeError, match="died"):
         Forked(lambda: os._exit(3)).result()
+
+
+def test_an_input_error_in_a_worker_reaches_the_caller_as_itself(tmp_path):
+    """A located InputError raised in a spawned worker (a Monte Carlo case whose problem names a file
+    that is not there) is re-raised in the parent with its file and message, not as a broken pool."""
+    import pickle
+
+    from casrecon.io.errors import InputError
+    from casrecon.io.sounding import read_sounding
+
+    err = InputError("a.toml", "expected a number", line=3, field="vehicle.mass_kg")
+    again = pickle.loads(pickle.dumps(err))
+    assert (again.path, again.line, again.field, again.message, str(again)) == \
+        ("a.toml", 3, "vehicle.mass_kg", "expected a number", str(err))
+    missing = [str(tmp_path / "a.csv"), str(tmp_path / "b.csv")]
+    with pytest.raises(InputError, match=r"[ab]\.csv: cannot read file"):  # whichever worker fails first
+        parallel_map(read_sounding, missing, workers=2)
