@@ -79,6 +79,21 @@ def test_aero_factors_hold_the_truth_within_3_sigma(fit):
             assert abs(fit.values[i] - truth[name]) <= 3 * fit.sigma[i], name
 
 
+def test_verdict_trusts_the_bands_and_calls_the_gps_position_sigmas_pessimistic(fit):
+    """The simulated GPS errors are wholly Gauss-Markov while the fit's model keeps 1 % of each
+    variance white, so the whitened position innovations come out near half their sigma: a
+    caution (the bands are conservative), not a reason to distrust them. Every other test passes."""
+    from casrecon.analysis.fit_products import result_adequacy
+
+    a = result_adequacy(fit)
+    assert a.trusted and not a.reasons, a.line
+    assert a.line.startswith("bands can be trusted, and are conservative: residuals smaller than their sigmas: ")
+    small = [c.split(" reduced")[0] for c in a.cautions]
+    assert small and all(name.startswith("GPS pos") for name in small), a.cautions
+    for name in small:
+        assert a.channel(name).reduced_chi2 < 0.7
+
+
 def test_profile_fit_of_exact_air_with_correlated_gps_converges(tmp_path):
     """A drop that flies its sounding exactly, with time-correlated GPS errors, fitted with the
     default error models (case 5 of an estimator study): with the Gauss-Newton Hessian Ipopt cycled
