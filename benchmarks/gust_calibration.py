@@ -12,7 +12,7 @@ and per-parameter RMS and mean normalised errors. ``--no-truth-gusts`` is the co
 (``[estimation] method = "marginal"``) and prints the same figures for both, the MAP's first.
 
 Run: python benchmarks/gust_calibration.py [--seeds 8] [--first 1] [--workers 2] [--start 15]
-     [--no-truth-gusts] [--marginal] [--json out.json]
+     [--no-truth-gusts] [--marginal] [--interval 0.0125] [--json out.json]
 """
 
 from __future__ import annotations
@@ -72,10 +72,11 @@ def main() -> None:
     ap.add_argument("--no-truth-gusts", action="store_true",
                     help="the truth flies in still air (gusts are still estimated): a control run")
     ap.add_argument("--marginal", action="store_true", help="also the marginal-likelihood estimate of each case")
+    ap.add_argument("--interval", type=float, help="the fit's collocation interval, s (default: the problem's)")
     ap.add_argument("--json", type=Path)
     a = ap.parse_args()
     t0 = time.perf_counter()
-    tasks = [GustCase(PROBLEMS / "ees-drop-3", s, a.start, truth_gusts=not a.no_truth_gusts)
+    tasks = [GustCase(PROBLEMS / "ees-drop-3", s, a.start, truth_gusts=not a.no_truth_gusts, interval_s=a.interval)
              for s in range(a.first, a.first + a.seeds)]
     cases = parallel_map(partial(run_gust_case, marginal=a.marginal), tasks, workers=a.workers)
     print(f"wall {time.perf_counter() - t0:.0f} s with {a.workers} workers")

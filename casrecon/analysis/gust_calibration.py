@@ -55,6 +55,10 @@ class GustCase:
         False: the truth flies in still air (gusts still estimated), a control case.
     subsample_s : float
         Spacing of the nodes at which the gust NEES is taken, s.
+    interval_s : float or None
+        The fit's collocation interval, s (None: the problem's ``[estimation] interval_s``). The
+        truth's gusts vary between the fit's nodes, which the fit's disturbance (linear between
+        nodes) cannot follow; a finer mesh shrinks that part.
     """
 
     problem: Path
@@ -63,6 +67,7 @@ class GustCase:
     gusts: DisturbanceModel = GUSTS
     truth_gusts: bool = True
     subsample_s: float = 1.0
+    interval_s: float | None = None
 
 
 def case_scenario(case: GustCase, folder: Path) -> Scenario:
@@ -73,7 +78,8 @@ def case_scenario(case: GustCase, folder: Path) -> Scenario:
         cfg, truth=dataclasses.replace(cfg.truth, disturbance=case.gusts if case.truth_gusts else None,
                                        seed=case.seed),
         estimation=dataclasses.replace(cfg.estimation, start_after_release_s=case.start_s,
-                                       disturbance=case.gusts))
+                                       disturbance=case.gusts,
+                                       interval_s=case.interval_s or cfg.estimation.interval_s))
     drawn = draw_truth(Scenario.from_config(cfg), np.random.default_rng([case.seed, 2]))
     return with_synthetic_data(drawn, folder, seed=case.seed)
 
