@@ -18,10 +18,13 @@ from scipy.optimize import minimize
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
 from casrecon.estimation.engine.checks import covariance_or_fail
 from casrecon.estimation.engine.laplace import (
+    STALL_STEP_TOL,
+    STEP_TOL,
     LatentSplit,
     half_log_det,
     log_det_curvature,
     maximise_marginal,
+    outer_stop,
     solve_latent,
 )
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
@@ -178,3 +181,14 @@ def test_log_det_curvature_matches_the_dense_log_det_hessian():
                 4 * h[i] * h[j])
     scale = np.outer(sigma, sigma)  # compare in sigma units, where P is the identity
     assert np.max(np.abs(cur.log_det_hessian - dense) * scale) < 0.05 * max(np.max(np.abs(dense) * scale), 1e-3)
+
+
+def test_outer_stop_on_a_short_step_or_a_stalled_objective():
+    """The outer iteration ends at an inner optimum on a Newton step under STEP_TOL, or, once F has
+    stopped moving for two accepted steps, on one under STALL_STEP_TOL; never before an inner optimum."""
+    assert outer_stop(0.5 * STEP_TOL, 0, True).startswith("Converged (marginal likelihood; Newton step")
+    assert outer_stop(0.5 * STEP_TOL, 0, False) is None
+    assert outer_stop(0.1, 1, True) is None                      # one stalled step is not enough
+    assert "F stationary: the last 2 Newton steps" in outer_stop(0.1, 2, True)
+    assert outer_stop(1.5 * STALL_STEP_TOL, 5, True) is None      # too long a step is a real distance
+    assert outer_stop(0.1, 2, False) is None
