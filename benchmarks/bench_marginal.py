@@ -10,7 +10,7 @@ process's peak resident memory.
 Medians over --runs runs. The issue's target: a whole-drop marginal gust fit (--start 3.5) in at
 most 10 times the plain fit's time.
 
-Run: python benchmarks/bench_marginal.py [--start 34] [--seed 2] [--runs 3]
+Run: python benchmarks/bench_marginal.py [--start 34] [--seed 2] [--runs 3] [--interval 0.0125]
 """
 
 from __future__ import annotations
@@ -31,8 +31,10 @@ from casrecon.analysis.gust_calibration import GustCase, case_scenario
 from casrecon.estimation.fit import fit_drop
 from casrecon.scenario import Scenario
 start, seed, what = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+interval = float(sys.argv[5]) if len(sys.argv) > 5 else None
 with tempfile.TemporaryDirectory() as tmp:
-    sc = case_scenario(GustCase(Path(sys.argv[4]), seed, start, truth_gusts=what != "plain"), Path(tmp))
+    sc = case_scenario(GustCase(Path(sys.argv[4]), seed, start, truth_gusts=what != "plain", interval_s=interval),
+                       Path(tmp))
     out = {}
     if what == "plain":
         cfg = sc.config
@@ -59,9 +61,10 @@ print(json.dumps(out))
 """
 
 
-def run(start: float, seed: int, what: str) -> dict:
+def run(start: float, seed: int, what: str, interval: float | None = None) -> dict:
     problem = str(ROOT / "problems" / "ees-drop-3")
-    proc = subprocess.run([sys.executable, "-c", CASE, str(start), str(seed), what, problem],
+    extra = [] if interval is None else [str(interval)]
+    proc = subprocess.run([sys.executable, "-c", CASE, str(start), str(seed), what, problem, *extra],
                           capture_output=True, text=True)
     if proc.returncode:
         raise SystemExit(f"the {what} case failed:\n{proc.stderr[-3000:]}")
@@ -73,18 +76,21 @@ def main() -> None:
     ap.add_argument("--start", type=float, default=34.0, help="window start after release, s")
     ap.add_argument("--seed", type=int, default=2)
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--interval", type=float, help="collocation interval of all three fits, s (default: the problem's)")
     a = ap.parse_args()
     plain, joint_map, marginal = [], [], []
     for _ in range(a.runs):  # interleaved, so that a drift of the machine's speed touches all three alike
-        plain.append(run(a.start, a.seed, "plain"))
-        joint_map.append(run(a.start, a.seed, "map"))
-        marginal.append(run(a.start, a.seed, "marginal"))
+        plain.append(run(a.start, a.seed, "plain", a.interval))
+        joint_map.append(run(a.start, a.seed, "map", a.interval))
+        marginal.append(run(a.start, a.seed, "marginal", a.interval))
 
     def med(rows, key):
         return statistics.median(r[key] for r in rows)
 
     p, g, m = med(plain, "plain_s"), med(joint_map, "map_s"), med(marginal, "marginal_fit_s")
-    print(f"ees-drop-3 gust case, seed {a.seed}, window from {a.start:g} s after release; medians of {a.runs} runs")
+    mesh = f"{a.interval:g} s mesh" if a.interval else "the problem's mesh"
+    print(f"ees-drop-3 gust case, seed {a.seed}, window from {a.start:g} s after release, {mesh}; medians of "
+          f"{a.runs} runs")
     print(f"  plain fit (still air, no gusts)  {p:7.1f} s, peak RSS {med(plain, 'rss_mb'):.0f} MB")
     print(f"  joint-MAP gust fit               {g:7.1f} s (solve {med(joint_map, 'solve_s'):.1f} s, covariance and "
           f"bands {med(joint_map, 'covariance_s'):.1f} s), peak RSS {med(joint_map, 'rss_mb'):.0f} MB")
