@@ -30,7 +30,9 @@ class EstimationConfig:
         Target collocation interval; the mesh takes the nearest whole number of IMU samples (at
         least 4). 25 ms keeps the Hermite-Simpson discretisation error of a 500 Hz drop well below
         the reported sigmas (at 50 ms a noise-free fit of ees-drop-3 is off by 4.4 sigma along its
-        best-determined CA/Cmn combination; at 24 ms by 0.23 sigma).
+        best-determined CA/Cmn combination; at 24 ms by 0.23 sigma). With gust states use 12.5 ms
+        or finer: the fit's gusts are linear between nodes, and on 25 ms the gust content between
+        them left the gust sigmas about 14 % too small in NEES (README, issue 13).
     samples_per_interval : int, optional
         IMU samples per collocation interval; overrides ``interval_s`` when given.
     hessian : {"auto", "gauss-newton", "exact"}
