@@ -159,6 +159,27 @@ def test_side_null_basis_keeps_groups_of_side_rows_apart():
     np.testing.assert_array_equal(side_null_basis(np.zeros((0, 3))), np.eye(3))
 
 
+def test_output_variances_of_a_block_sparse_basis_equal_the_full_products():
+    """A joint fit's Z: each drop's rows reach its own directions and the shared ones only. The
+    bands' variances, computed on the directions the sets reach, equal diag(J Z_s C Z_s^T J^T)
+    with every direction, for sets within one drop and for a set spanning two."""
+    from casrecon.estimation.engine.covariance import Covariance
+
+    rng = np.random.default_rng(11)
+    basis = np.zeros((40, 9))
+    basis[:20, 0:4] = rng.normal(size=(20, 4))   # drop 1's rows: its directions 0..3 ...
+    basis[20:, 4:7] = rng.normal(size=(20, 3))   # drop 2's: 4..6
+    basis[:, 7:] = rng.normal(size=(40, 2))      # ... and both the shared 7, 8
+    f = rng.normal(size=(9, 9))
+    cov = Covariance(basis, f @ f.T + np.eye(9), 1.0, 1.0)
+    sets = [np.array([1, 5]), np.array([25, 21]), np.array([3, 30])]
+    jac = rng.normal(size=(3, 4, 2))
+    want = np.array([np.diag(j @ basis[s] @ cov.cov_w @ basis[s].T @ j.T) for j, s in zip(jac, sets)])
+    np.testing.assert_allclose(cov.output_variances(sets, jac), want, rtol=1e-12)
+    np.testing.assert_allclose(cov.output_variances(sets[1:2], jac[1:2]), want[1:2], rtol=1e-12)
+    assert cov.output_variances([], np.zeros((0, 4, 2))).shape == (0, 4)
+
+
 def test_scaled_condition_judges_determinacy_not_stiffness():
     from casrecon.estimation.engine.covariance import MAX_CONDITION, scaled_condition
 

@@ -149,14 +149,22 @@ class Covariance:
     def output_variances(self, index_sets: list[np.ndarray], jacobians: np.ndarray) -> np.ndarray:
         """Variances (len(index_sets), n_out) of outputs y_i = J_i z[index_sets[i]], J_i =
         ``jacobians[i]`` (n_out, len(set)), scaled units: diag(J_i C_i J_i^T), batched into one
-        product with cov_w per BATCH sets (with eliminated columns the H_EE^-1 term is added)."""
+        product with cov_w per BATCH sets (with eliminated columns the H_EE^-1 term is added).
+        Only the directions w that reach the sets' rows of Z enter (exactly: the others contribute
+        zero), so one drop of a joint fit costs what its own fit's bands cost, not the number of
+        drops squared times it."""
         out = np.zeros((len(index_sets), jacobians.shape[1]))
+        if not index_sets:
+            return out
+        every = np.unique(np.concatenate([np.asarray(s, np.int64).ravel() for s in index_sets]))
+        reached = np.flatnonzero(np.any(self.basis[every] != 0.0, axis=0))
+        basis, cov_w = self.basis[np.ix_(every, reached)], self.cov_w[np.ix_(reached, reached)]
         for start in range(0, len(index_sets), self.BATCH):
             sets = index_sets[start:start + self.BATCH]
-            rows = np.stack([self.basis[s] for s in sets])                      # (b, n_v, n_w)
+            rows = np.stack([basis[np.searchsorted(every, s)] for s in sets])  # (b, n_v, n_w)
             m = np.einsum("byv,bvw->byw", jacobians[start:start + len(sets)], rows)
             b, n_y, n_w = m.shape
-            v = (m.reshape(b * n_y, n_w) @ self.cov_w).reshape(b, n_y, n_w)
+            v = (m.reshape(b * n_y, n_w) @ cov_w).reshape(b, n_y, n_w)
             out[start:start + b] = np.einsum("byw,byw->by", v, m)
             if self.elimination is not None:
                 for k, s in enumerate(sets):

@@ -388,7 +388,6 @@ def log_det_curvature(nlp: Nlp, z: np.ndarray, step_sigma: float = 0.1) -> LogDe
     return LogDetCurvature(p, 0.5 * (curvature + curvature.T), tangent)
 
 
-@single_threaded_blas()
 def outer_stop(length: float, stalled: int, inner_converged: bool) -> str | None:
     """The status that ends the outer iteration, or None to go on: at an inner optimum, a Newton
     step of ``length`` (sigma) under STEP_TOL, or under STALL_STEP_TOL after ``stalled`` (at least
@@ -405,6 +404,7 @@ def outer_stop(length: float, stalled: int, inner_converged: bool) -> str | None
     return None
 
 
+@single_threaded_blas()
 def maximise_marginal(nlp: Nlp, z_map: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None = None
                       ) -> MarginalRun:
     """Maximise the Laplace marginal likelihood of the parameters from the joint MAP estimate ``z_map``
