@@ -1,6 +1,6 @@
 """Is pitch damping observable from these drops, and what explains a persistent oscillation?
 
-Run: python examples/damping_observability.py   (about 4 minutes)
+Run: python examples/damping_observability.py   (about a minute on 2 cores)
 
 Walks through the study the EES paper left open and asserts each finding:
 1. Fisher information of a fit (ees-drop-3): its weakest direction is the balloon's density factor

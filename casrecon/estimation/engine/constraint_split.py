@@ -123,5 +123,10 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     lu = BlockLu(a_d, permc_spec=A_D_ORDERING)
     basis = np.zeros((n_z, n_basis.shape[1]))
     basis[indep] = n_basis
-    basis[dep] = -lu.solve(np.asarray(a_i @ n_basis))
+    for into, used, part in lu.solve_blocks(np.asarray(a_i @ n_basis)):  # basis[dep] = -A_D^-1 A_I N
+        rows = dep[into]
+        if used is None:
+            basis[rows] = -part
+        else:
+            basis[rows[:, None], used] = -part
     return ConstraintSplit(basis, lu, dep, indep, a_i, a_side_i)
