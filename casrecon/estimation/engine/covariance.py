@@ -45,7 +45,7 @@ from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 from casrecon.estimation.engine.constraint_split import ConstraintSplit, constraint_split
 from casrecon.estimation.engine.information import INFORMATION
 from casrecon.estimation.engine.nlp import Nlp
-from casrecon.estimation.engine.submatrix import pattern_key
+from casrecon.estimation.engine.projected_gram import projected_gram
 from casrecon.parallel import single_threaded_blas
 
 LOG = logging.getLogger(__name__)
@@ -351,56 +351,6 @@ def reduced_hessian_from_jacobian(nlp: Nlp, jr: sps.csc_matrix, a: sps.csc_matri
         jz = jr @ split.basis
         hr, b = jz.T @ jz, jr[:, elim].T @ jz
     return _reduced(split, hr, b, lambda: (jr[:, elim].T @ jr[:, elim]).tocsc(), elim, a)
-
-
-#: Residual rows per chunk of :func:`projected_gram`.
-GRAM_CHUNK_ROWS = 4096
-#: Chunk layouts of :func:`projected_gram` by residual-Jacobian pattern (the last few NLPs').
-_GRAM_CHUNKS: dict[tuple, list[tuple[int, int, int, int, np.ndarray, np.ndarray, np.ndarray]]] = {}
-
-
-def gram_chunks(jr: sps.csr_matrix) -> list[tuple[int, int, int, int, np.ndarray, np.ndarray, np.ndarray]]:
-    """Row chunks of the CSR matrix ``jr`` as :func:`projected_gram` uses them, worked out once per
-    pattern (an iteration's Jacobian has the last one's): (first row, end row, first and end
-    position in ``jr.data``, the columns the chunk reaches, its column indices renumbered into
-    those, its row pointer)."""
-    key = pattern_key(jr)
-    if key not in _GRAM_CHUNKS:
-        seen = np.zeros(jr.shape[1], bool)
-        chunks = []
-        for start in range(0, jr.shape[0], GRAM_CHUNK_ROWS):
-            end = min(start + GRAM_CHUNK_ROWS, jr.shape[0])
-            lo, hi = int(jr.indptr[start]), int(jr.indptr[end])
-            seen[:] = False
-            seen[jr.indices[lo:hi]] = True
-            position = np.cumsum(seen) - 1  # z column -> its place among the chunk's columns
-            chunks.append((start, end, lo, hi, np.flatnonzero(seen), position[jr.indices[lo:hi]],
-                           jr.indptr[start:end + 1] - lo))
-        if len(_GRAM_CHUNKS) >= 8:
-            _GRAM_CHUNKS.clear()
-        _GRAM_CHUNKS[key] = chunks
-    return _GRAM_CHUNKS[key]
-
-
-def projected_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tuple[np.ndarray, np.ndarray]:
-    """((J Z)^T (J Z), J_E^T (J Z)) chunk by chunk of residual rows, each chunk multiplied only
-    with the columns of Z it can reach (a row of J sees a few z columns, whose Z rows are zero
-    outside their drop's directions and the shared ones in a joint fit): the cost of the per-drop
-    products' sum, not the number of drops times the whole."""
-    jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
-    n_w = basis.shape[1]
-    hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
-    for start, end, lo, hi, cols, local_indices, local_indptr in gram_chunks(jr):
-        if not cols.size:
-            continue
-        sub = basis[cols]
-        used = np.flatnonzero(np.any(sub != 0.0, axis=0))
-        local = sps.csr_matrix((jr.data[lo:hi], local_indices, local_indptr), shape=(end - start, cols.size))
-        jz = local @ sub[:, used]
-        hr[np.ix_(used, used)] += jz.T @ jz
-        if je.shape[1]:
-            b[:, used] += je[start:end].T @ jz
-    return hr, b
 
 
 def reduced_system_at(nlp: Nlp, z: np.ndarray) -> ReducedSystem:

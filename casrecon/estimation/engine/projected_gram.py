@@ -1,0 +1,61 @@
+"""The reduced Gauss-Newton Hessian's products (J Z)^T (J Z) and J_E^T (J Z) from the residual
+Jacobian J itself, chunk by chunk of residual rows, for a null-space basis Z that is block-sparse
+(a joint fit's: each drop's rows reach its own directions and the shared ones); see
+:func:`.covariance.reduced_hessian_from_jacobian`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sps
+
+from casrecon.estimation.engine.submatrix import pattern_key
+
+#: Residual rows per chunk of :func:`projected_gram`.
+GRAM_CHUNK_ROWS = 4096
+#: Chunk layouts of :func:`projected_gram` by residual-Jacobian pattern (the last few NLPs').
+_GRAM_CHUNKS: dict[tuple, list[tuple[int, int, int, int, np.ndarray, np.ndarray, np.ndarray]]] = {}
+
+
+def gram_chunks(jr: sps.csr_matrix) -> list[tuple[int, int, int, int, np.ndarray, np.ndarray, np.ndarray]]:
+    """Row chunks of the CSR matrix ``jr`` as :func:`projected_gram` uses them, worked out once per
+    pattern (an iteration's Jacobian has the last one's): (first row, end row, first and end
+    position in ``jr.data``, the columns the chunk reaches, its column indices renumbered into
+    those, its row pointer)."""
+    key = (GRAM_CHUNK_ROWS, *pattern_key(jr))
+    if key not in _GRAM_CHUNKS:
+        seen = np.zeros(jr.shape[1], bool)
+        chunks = []
+        for start in range(0, jr.shape[0], GRAM_CHUNK_ROWS):
+            end = min(start + GRAM_CHUNK_ROWS, jr.shape[0])
+            lo, hi = int(jr.indptr[start]), int(jr.indptr[end])
+            seen[:] = False
+            seen[jr.indices[lo:hi]] = True
+            position = np.cumsum(seen) - 1  # z column -> its place among the chunk's columns
+            chunks.append((start, end, lo, hi, np.flatnonzero(seen), position[jr.indices[lo:hi]],
+                           jr.indptr[start:end + 1] - lo))
+        if len(_GRAM_CHUNKS) >= 8:
+            _GRAM_CHUNKS.clear()
+        _GRAM_CHUNKS[key] = chunks
+    return _GRAM_CHUNKS[key]
+
+
+def projected_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tuple[np.ndarray, np.ndarray]:
+    """((J Z)^T (J Z), J_E^T (J Z)) chunk by chunk of residual rows, each chunk multiplied only
+    with the columns of Z it can reach (a row of J sees a few z columns, whose Z rows are zero
+    outside their drop's directions and the shared ones in a joint fit): the cost of the per-drop
+    products' sum, not the number of drops times the whole."""
+    jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
+    n_w = basis.shape[1]
+    hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
+    for start, end, lo, hi, cols, local_indices, local_indptr in gram_chunks(jr):
+        if not cols.size:
+            continue
+        sub = basis[cols]
+        used = np.flatnonzero(np.any(sub != 0.0, axis=0))
+        local = sps.csr_matrix((jr.data[lo:hi], local_indices, local_indptr), shape=(end - start, cols.size))
+        jz = local @ sub[:, used]
+        hr[np.ix_(used, used)] += jz.T @ jz
+        if je.shape[1]:
+            b[:, used] += je[start:end].T @ jz
+    return hr, b
