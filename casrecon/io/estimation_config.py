@@ -40,7 +40,7 @@ class EstimationConfig:
         combination; at 24 ms by 0.23 sigma). Gust states need the finer mesh: the fit's gusts are
         linear between nodes, and on 25 ms the gust content between them left the east gust's
         sigmas too small (NEES 646 over 568 dof, outside its 95 % interval; on 12.5 ms 539), at
-        about twice the cost (README, issue 13).
+        about 2.4 times the cost (README, issue 13).
     samples_per_interval : int, optional
         IMU samples per collocation interval; overrides ``interval_s`` when given.
     hessian : {"auto", "gauss-newton", "exact"}
