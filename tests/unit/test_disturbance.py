@@ -109,7 +109,6 @@ def test_config_reads_and_checks_the_disturbance(tmp_path):
         assert replace(est, disturbance=None).resolved_interval_s() == 0.025
         path.write_text(text.replace("[estimation]\n", "[estimation]\ninterval_s = 0.02\n", 1))
         assert load_problem(path).estimation.resolved_interval_s() == 0.02
-        path.write_text(text)
         path.write_text(text.replace("gust_sigma_mps = [1.0, 1.0, 0.5]", "gust_sigma_mps = [1.0, -1.0, 0.5]"))
         with pytest.raises(InputError, match="estimation.gust_sigma_mps"):
             load_problem(path)
