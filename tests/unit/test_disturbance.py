@@ -104,11 +104,6 @@ def test_config_reads_and_checks_the_disturbance(tmp_path):
         assert d.sigma == (1.0, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.2, 0.0)
         assert d.time_s[:3] == (4.0,) * 3 and d.time_s[7] == 1.0
         assert list(d.active) == [0, 1, 2, 7]
-        est = load_problem(path).estimation  # no interval_s given: the gusts' finer mesh (issue 13)
-        assert est.interval_s is None and est.resolved_interval_s() == 0.0125 and est.mesh_samples(500.0) == 6
-        assert replace(est, disturbance=None).resolved_interval_s() == 0.025
-        path.write_text(text.replace("[estimation]\n", "[estimation]\ninterval_s = 0.02\n", 1))
-        assert load_problem(path).estimation.resolved_interval_s() == 0.02
         path.write_text(text.replace("gust_sigma_mps = [1.0, 1.0, 0.5]", "gust_sigma_mps = [1.0, -1.0, 0.5]"))
         with pytest.raises(InputError, match="estimation.gust_sigma_mps"):
             load_problem(path)
