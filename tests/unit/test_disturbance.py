@@ -159,3 +159,14 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
     # the fit reports the estimated disturbances with their bands
     v, sig = short_weak_fit.column("moment_error_y_nm")
     assert v.shape == sig.shape == (part.mesh.t_nodes.size,) and np.all(sig > 0)
+
+
+def test_gust_fit_on_a_coarse_mesh_says_its_gust_bands_are_too_narrow(short_weak_fit):
+    """A 50 ms mesh (25 samples at 500 Hz) with gust states: the report's notes name the mesh and
+    the interval_s that the calibration study passed with; at 12.5 ms no such note."""
+    from casrecon.estimation.fit import GUST_MESH_S, weak_constraint_notes
+
+    notes = [n for n in short_weak_fit.notes if n.startswith("gust states on a")]
+    assert len(notes) == 1 and "on a 50 ms mesh" in notes[0] and f"interval_s = {GUST_MESH_S:g}" in notes[0]
+    fine = replace(short_weak_fit.part, mesh=replace(short_weak_fit.part.mesh, h=GUST_MESH_S))
+    assert not [n for n in weak_constraint_notes(fine) if n.startswith("gust states on a")]
