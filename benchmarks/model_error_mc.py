@@ -68,13 +68,13 @@ def main() -> None:
     ap.add_argument("--matched-gps", action="store_true",
                     help="GPS errors drawn from the fit's own GPS error model (correlation times and white share)")
     a = ap.parse_args()
+    world = World(a.exact_air, a.white_gps, a.matched_gps)
     t0 = time.perf_counter()
     study = model_error_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, variants=tuple(a.variants),
-                                   method=a.method, information=a.information,
-                                   world=World(a.exact_air, a.white_gps, a.matched_gps))
+                                   method=a.method, information=a.information, world=world)
     print(f"{a.problem.name}: {a.cases} cases in {time.perf_counter() - t0:.0f} s ({a.workers} workers, "
           f"method {a.method or 'as the problem says'}, information {a.information or 'as the problem says'}"
-          + World(a.exact_air, a.white_gps, a.matched_gps).describe() + ")")
+          + world.describe() + ")")
     labels = {"with_models": "WITH the error models", "without_models": "WITHOUT the error models"}
     for name, label in ((v, labels[v]) for v in a.variants):
         print_variant(label, study.variant(name))

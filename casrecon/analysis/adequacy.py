@@ -121,9 +121,18 @@ class ChannelTest:
     alpha: float
 
     @property
+    def below(self) -> bool:
+        """Reduced chi-square below its interval (residuals smaller than their sigmas)."""
+        return bool(self.n and self.reduced_chi2 < self.chi2_interval[0])
+
+    @property
+    def above(self) -> bool:
+        """Reduced chi-square above its interval (residuals larger than their sigmas)."""
+        return bool(self.n and self.reduced_chi2 > self.chi2_interval[1])
+
+    @property
     def scale_ok(self) -> bool:
-        lo, hi = self.chi2_interval
-        return bool(lo <= self.reduced_chi2 <= hi) if self.n else True
+        return not (self.below or self.above)
 
     @property
     def white(self) -> bool:
@@ -352,7 +361,7 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
                     f"{p_text(worst_p) if len(lag1) == 1 or worst_p < 1e-10 else f'p<={worst_p:.2g}'})")
         if all(c.name.startswith("GPS") for c in correlated):
             kinds.add("gps_correlated")
-    off = sorted((c for c in tests if c.reduced_chi2 > c.chi2_interval[1]), key=lambda c: -c.reduced_chi2)
+    off = sorted((c for c in tests if c.above), key=lambda c: -c.reduced_chi2)
     reasons += [f"{c.name} reduced chi-square {c.reduced_chi2:.3g} above [{c.chi2_interval[0]:.3g}, "
                 f"{c.chi2_interval[1]:.3g}]" for c in off]
     if off:
@@ -380,7 +389,7 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
 def _small_scale(tests: list[ChannelTest]) -> tuple[list[str], str]:
     """Channels whose reduced chi-square is below its interval: each as a caution, and the clause
     of the verdict line that names them ("" when there are none)."""
-    low = sorted((c for c in tests if c.n and c.reduced_chi2 < c.chi2_interval[0]), key=lambda c: c.reduced_chi2)
+    low = sorted((c for c in tests if c.below), key=lambda c: c.reduced_chi2)
     cautions = [f"{c.name} reduced chi-square {c.reduced_chi2:.3g} below [{c.chi2_interval[0]:.3g}, "
                 f"{c.chi2_interval[1]:.3g}]" for c in low]
     if not low:
@@ -470,8 +479,7 @@ def report_lines(adequacy: Adequacy) -> list[str]:
         if not c.n:
             lines.append(f"    {c.name:14s} no samples")
             continue
-        small = c.white and c.reduced_chi2 < c.chi2_interval[0]
-        flag = "" if c.scale_ok and c.white else "  <- small" if small else "  <-"
+        flag = "" if c.scale_ok and c.white else "  <- small" if c.white and c.below else "  <-"
         lines.append(f"    {c.name:14s} n {c.n:6d}  reduced chi2 {c.reduced_chi2:7.3f} in [{c.chi2_interval[0]:.3f}, "
                      f"{c.chi2_interval[1]:.3f}]  lag-1 {c.lag1:+.2f}  Ljung-Box({c.lags}) {p_text(c.ljung_box_p)}"
                      f"{flag}")

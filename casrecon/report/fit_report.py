@@ -69,7 +69,7 @@ def fit_report(result, adequacy: Adequacy | None = None) -> str:
              f"    window {d.window[0]:.3f} to {d.window[1]:.3f} s IMU clock "
              f"({d.window[0] - d.release_imu_s:.2f} s after release to "
              f"{d.impact_imu_s - d.window[1]:.2f} s before impact); {result.node_time_s.size} nodes every "
-             f"{1000 * float(np.median(np.diff(result.node_time_s))):.3g} ms",
+             f"{1000 * result.part.mesh.h:.3g} ms",
              f"    chi-square {chi2:.1f}, dof {result.dof}, reduced chi-square {result.reduced_chi2:.4f}",
              "    per group: " + ", ".join(f"{g} {v:.1f}/{result.n_measurements[g]}" for g, v in result.chi2.items()),
              f"    timings: build {t['build_s']:.2f} s, solve {t['solve_s']:.2f} s, covariance "
