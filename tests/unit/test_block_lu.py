@@ -44,6 +44,25 @@ def test_a_right_hand_side_zero_on_a_block_gives_zeros_there():
     assert not x[others].any() and not x[:, 1].any()
 
 
+def test_a_sparse_right_hand_side_gives_the_dense_ones_blocks():
+    """A_I N of a joint fit comes sparse: solve_blocks gives the same blocks, columns and values
+    as for the dense array, and skips a block's all-zero columns (here column 1 on block 1)."""
+    rng = np.random.default_rng(7)
+    m, _, _ = shuffled_blocks(rng)
+    lu = BlockLu(m)
+    rows, _, _ = lu.blocks[1]
+    b = rng.normal(size=(m.shape[0], 3))
+    b[rows, 1] = 0.0
+    dense_parts = list(lu.solve_blocks(b))
+    sparse_parts = list(lu.solve_blocks(sps.csr_matrix(b)))
+    assert len(sparse_parts) == len(dense_parts) == 3
+    for (into_d, used_d, x_d), (into_s, used_s, x_s) in zip(dense_parts, sparse_parts):
+        np.testing.assert_array_equal(into_s, into_d)
+        np.testing.assert_array_equal(x_s, x_d)
+        assert (used_d is None and used_s is None) or np.array_equal(used_s, used_d)
+    assert sparse_parts[1][1].tolist() == [0, 2]
+
+
 def test_a_structurally_singular_matrix_is_refused():
     m = sps.csc_matrix(np.array([[1.0, 2.0, 0.0], [3.0, 4.0, 0.0], [0.0, 5.0, 0.0]]))  # column 2 empty
     with pytest.raises(RuntimeError, match="structurally singular"):

@@ -105,21 +105,32 @@ class BlockLu:
                 x[into if isinstance(into, slice) else into[:, None], used] = part
         return x
 
-    def solve_blocks(self, rhs: np.ndarray, trans: str = "N") -> Iterator[tuple[np.ndarray | slice,
-                                                                               np.ndarray | None, np.ndarray]]:
+    def solve_blocks(self, rhs: np.ndarray | sps.csr_matrix,
+                     trans: str = "N") -> Iterator[tuple[np.ndarray | slice, np.ndarray | None, np.ndarray]]:
         """The solution of :meth:`solve` block by block, without the whole array: (rows of x,
         columns of x or None for all, values) for each block and each of its nonzero columns of
         ``rhs`` (2-D), so that a caller can place them where it wants them (the null-space basis
-        of a joint fit: 60 MB of zeros and a copy per iterate fewer)."""
-        rhs = np.asarray(rhs, float)
+        of a joint fit: 60 MB of zeros and a copy per iterate fewer). ``rhs`` may be a sparse CSR
+        matrix (each block's nonzero columns are then made dense on their own: a joint fit's
+        A_I N, whose columns each reach one drop)."""
+        if sps.issparse(rhs):
+            rhs = sps.csr_matrix(rhs, dtype=float)
+            rhs.eliminate_zeros()
+        else:
+            rhs = np.asarray(rhs, float)
         for rows, cols, lu in self.blocks:
             into, source = (cols, rows) if trans == "N" else (rows, cols)
             part = rhs[source]
             if part.ndim == 1:
                 yield into, None, lu.solve(part, trans=trans)
                 continue
-            used = np.flatnonzero(np.any(part != 0.0, axis=0))
+            if sps.issparse(part):
+                used = np.flatnonzero(part.getnnz(axis=0))
+                dense = part.tocsc()[:, used].toarray()
+            else:
+                used = np.flatnonzero(np.any(part != 0.0, axis=0))
+                dense = part[:, used] if used.size < part.shape[1] else part
             if used.size == part.shape[1]:
-                yield into, None, lu.solve(np.ascontiguousarray(part), trans=trans)
+                yield into, None, lu.solve(np.ascontiguousarray(dense), trans=trans)
             elif used.size:
-                yield into, used, lu.solve(np.ascontiguousarray(part[:, used]), trans=trans)
+                yield into, used, lu.solve(np.ascontiguousarray(dense), trans=trans)

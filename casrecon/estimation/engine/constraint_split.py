@@ -62,16 +62,18 @@ class ConstraintSplit:
         return dz
 
 
-def side_null_basis(a_side: np.ndarray) -> np.ndarray:
-    """An orthonormal basis N (n, n - rank) of the null space of the side rows ``a_side``
+def side_null_basis(a_side: np.ndarray) -> sps.csc_matrix:
+    """An orthonormal basis N (n, n - rank), sparse, of the null space of the side rows ``a_side``
     (n_side, n) (unit norms) that keeps them apart: the identity on the columns no side row
     touches, and a null-space basis of each group of side rows linked by shared columns on its
     own columns. A joint fit's unit norms (one per drop) thus give each drop's directions rows in
     that drop only, so the basis Z stays block-sparse and its products and solves cost the
-    per-drop sum (one SVD of all side rows together would mix every drop into every direction)."""
+    per-drop sum (one SVD of all side rows together would mix every drop into every direction).
+    Sparse because it is mostly the identity: its product with A_I then costs A_I's nonzeros, not
+    a dense (n_defects, n - rank) product."""
     n_side, n = a_side.shape
     if not n_side:
-        return np.eye(n)
+        return sps.identity(n, format="csc")
     touched = np.flatnonzero(np.any(a_side != 0.0, axis=0))
     free = np.setdiff1d(np.arange(n), touched)
     pattern = sps.csr_matrix(a_side[:, touched] != 0.0)
@@ -81,12 +83,14 @@ def side_null_basis(a_side: np.ndarray) -> np.ndarray:
         rows, cols = np.flatnonzero(labels[:n_side] == g), touched[labels[n_side:] == g]
         if cols.size:  # a group of side rows without columns (all-zero rows) takes no direction away
             parts.append((cols, null_space(a_side[np.ix_(rows, cols)])))
-    basis = np.zeros((n, sum(b.shape[1] for _, b in parts)))
-    k = 0
-    for cols, b in parts:
-        basis[cols, k:k + b.shape[1]] = b
+    rows, cols, values, k = [], [], [], 0
+    for part_cols, b in parts:
+        r, c = np.nonzero(b)
+        rows.append(part_cols[r])
+        cols.append(c + k)
+        values.append(b[r, c])
         k += b.shape[1]
-    return basis
+    return sps.csc_matrix((np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))), shape=(n, k))
 
 
 #: Remembered independent column sets: (n_z, dependent key, excluded key) -> columns.
@@ -121,9 +125,10 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     a_side_i = submatrix(a, side, indep).toarray()
     n_basis = side_null_basis(a_side_i)
     lu = BlockLu(a_d, permc_spec=A_D_ORDERING)
-    basis = np.zeros((n_z, n_basis.shape[1]))
-    basis[indep] = n_basis
-    for into, used, part in lu.solve_blocks(np.asarray(a_i @ n_basis)):  # basis[dep] = -A_D^-1 A_I N
+    basis = np.zeros((n_z, n_basis.shape[1]))  # calloc: only the pages written below are touched
+    n_coo = n_basis.tocoo()
+    basis[indep[n_coo.row], n_coo.col] = n_coo.data
+    for into, used, part in lu.solve_blocks(sps.csr_matrix(a_i @ n_basis)):  # basis[dep] = -A_D^-1 A_I N
         rows = dep[into]
         if used is None:
             basis[rows] = -part
