@@ -124,13 +124,12 @@ class BlockLu:
             if part.ndim == 1:
                 yield into, None, lu.solve(part, trans=trans)
                 continue
+            every = part.shape[1]
             if sps.issparse(part):
                 used = np.flatnonzero(part.getnnz(axis=0))
                 dense = part.tocsc()[:, used].toarray()
             else:
                 used = np.flatnonzero(np.any(part != 0.0, axis=0))
-                dense = part[:, used] if used.size < part.shape[1] else part
-            if used.size == part.shape[1]:
-                yield into, None, lu.solve(np.ascontiguousarray(dense), trans=trans)
-            elif used.size:
-                yield into, used, lu.solve(np.ascontiguousarray(dense), trans=trans)
+                dense = part if used.size == every else part[:, used]
+            if used.size:
+                yield into, None if used.size == every else used, lu.solve(np.ascontiguousarray(dense), trans=trans)

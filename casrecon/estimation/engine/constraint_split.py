@@ -128,7 +128,7 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     basis = np.zeros((n_z, n_basis.shape[1]))  # calloc: only the pages written below are touched
     n_coo = n_basis.tocoo()
     basis[indep[n_coo.row], n_coo.col] = n_coo.data
-    for into, used, part in lu.solve_blocks(sps.csr_matrix(a_i @ n_basis)):  # basis[dep] = -A_D^-1 A_I N
+    for into, used, part in lu.solve_blocks(a_i @ n_basis):  # basis[dep] = -A_D^-1 A_I N
         rows = dep[into]
         if used is None:
             basis[rows] = -part
