@@ -2,7 +2,12 @@
 
 Pressure and density are interpolated in their logarithms, temperature and the wind components
 linearly in value, all by cubic B-splines (``casadi.interpolant(..., 'bspline')``) so that Ipopt
-sees exact, continuous derivatives. Altitudes outside the sounding are clamped to its end levels.
+sees exact, continuous derivatives. Beyond each end level every interpolated quantity continues by
+its spline's second-order Taylor polynomial at that level, for up to EXTENSION_M, and is held
+beyond: the model stays twice differentiable where a fitted trajectory crosses an end level (a
+drop's last nodes cross the lowest level, usually the ground). Clamping there instead made the
+derivatives jump, and Ipopt circled such an optimum for 200 iterations. Inside the sounding the
+values are the spline's, unchanged.
 
 Two estimable corrections act on the balloon's profile:
 
@@ -22,6 +27,9 @@ import numpy as np
 R_AIR = 287.05287
 #: Ratio of specific heats of air.
 GAMMA_AIR = 1.4
+#: How far (m) beyond each end level of the sounding its Taylor continuation reaches (see the
+#: module docstring); the values are held beyond.
+EXTENSION_M = 100.0
 
 
 @dataclass(frozen=True)
@@ -75,6 +83,7 @@ class Atmosphere:
                         "wind_east_mps": np.asarray(wind_east_mps, float), "density_kgm3": rho}
         grid, data = _resample(h, np.vstack([np.log(p), t, np.log(rho), wind_north_mps, wind_east_mps]))
         self._table = ca.interpolant("atmosphere", "bspline", [grid], data.T.ravel().tolist())
+        self._ends = tuple(_taylor_coefficients(self._table, end) for end in self.altitude_range_m)
 
     @classmethod
     def from_sounding(cls, sounding, gradient_ref_alt_msl_m: float = 0.0) -> Atmosphere:
@@ -101,13 +110,27 @@ class Atmosphere:
     def at(self, alt_msl_m, corr: AtmosphereCorrections = AtmosphereCorrections()) -> AtmosphereState:
         """Air properties at altitude ``alt_msl_m`` (m MSL, symbolic or numeric)."""
         lo, hi = self.altitude_range_m
-        values = self._table(ca.fmin(ca.fmax(alt_msl_m, lo), hi))
+        (v_lo, d1_lo, d2_lo), (v_hi, d1_hi, d2_hi) = self._ends
+        u_lo, u_hi = ca.fmax(alt_msl_m - lo, -EXTENSION_M), ca.fmin(alt_msl_m - hi, EXTENSION_M)
+        values = ca.if_else(alt_msl_m < lo, v_lo + u_lo * (d1_lo + 0.5 * u_lo * d2_lo),
+                            ca.if_else(alt_msl_m > hi, v_hi + u_hi * (d1_hi + 0.5 * u_hi * d2_hi),
+                                       self._table(ca.fmin(ca.fmax(alt_msl_m, lo), hi))))
         p, t = ca.exp(values[0]), values[1]
         rho = ca.exp(values[2]) * (1 + corr.density_factor)
         dh = alt_msl_m - self.gradient_ref_alt_msl_m
         wind = ca.vertcat(values[3] + corr.wind_bias_n + corr.wind_gradient_n * dh,
                           values[4] + corr.wind_bias_e + corr.wind_gradient_e * dh, 0)
         return AtmosphereState(rho, t, p, ca.sqrt(GAMMA_AIR * R_AIR * t), wind)
+
+
+def _taylor_coefficients(table: ca.Function, alt_msl_m: float) -> tuple[ca.DM, ca.DM, ca.DM]:
+    """(value, first derivative, second derivative) in altitude of every row of the interpolant
+    ``table`` at ``alt_msl_m`` (an end level: the derivatives of its end cell's polynomial)."""
+    h = ca.SX.sym("h")
+    value = table(h)
+    slope = ca.jacobian(value, h)
+    derivatives = ca.Function("derivatives", [h], [value, slope, ca.jacobian(slope, h)])
+    return tuple(ca.DM(v) for v in derivatives(alt_msl_m))
 
 
 def _resample(h: np.ndarray, data: np.ndarray, step_m: float = 10.0):

@@ -118,7 +118,7 @@ def draw_profile_error(errors: TruthErrors, altitude_msl_m: np.ndarray, seed: in
 
 def flown_atmosphere(sounding: Atmosphere, error: ProfileError) -> Atmosphere:
     """The atmosphere the vehicle flies: ``sounding`` evaluated at the error's grid altitudes (its
-    smooth interpolant, clamped beyond its levels as it is) with the wind errors added to north and
+    smooth interpolant, continued beyond its levels as it is) with the wind errors added to north and
     east and the density multiplied by (1 + e); pressure and temperature are the sounding's."""
     h = ca.SX.sym("h")
     air = sounding.at(h)

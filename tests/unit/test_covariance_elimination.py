@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.engine.convergence import gauss_newton_decrement
+from casrecon.estimation.engine.convergence import gauss_newton_decrement, kkt_decrement
 from casrecon.estimation.fit import fit_drop
 from casrecon.estimation.layout import NS
 from casrecon.physics.sensor_errors import GpsErrorModel
@@ -104,6 +104,17 @@ def test_decrement_equals_the_dense_constrained_newton_step(gm_fit, dense):
     gr = basis.T @ g
     want = gr @ np.linalg.solve(hr, gr)
     assert want > 1.0 and got == pytest.approx(want, rel=1e-5)
+    # the KKT form (fits with latent process values) gives the same number
+    assert kkt_decrement(nlp, z) == pytest.approx(want, rel=1e-5)
+    # and with variables held, that of the null space of A restricted to the others
+    held = gm_fit.part.theta_cols[:2]
+    free = np.setdiff1d(np.arange(nlp.n_z), held)
+    u, s, vt = np.linalg.svd(aa[:, free])
+    basis = vt[(s > 1e-10 * s[0]).sum():].T
+    gr = basis.T @ g[free]
+    want_held = gr @ np.linalg.solve(basis.T @ hh[np.ix_(free, free)] @ basis, gr)
+    assert want_held < want and kkt_decrement(nlp, z, held) == pytest.approx(want_held, rel=1e-5)
+    assert gauss_newton_decrement(nlp, z, held) == pytest.approx(want_held, rel=1e-5)
 
 
 def test_batched_output_variances_equal_the_block_products(gm_fit):

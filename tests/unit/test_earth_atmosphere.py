@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
 
 from casrecon.io.sounding import read_sounding
-from casrecon.physics.atmosphere import GAMMA_AIR, R_AIR, Atmosphere, AtmosphereCorrections
+from casrecon.physics.atmosphere import EXTENSION_M, GAMMA_AIR, R_AIR, Atmosphere, AtmosphereCorrections
 from casrecon.physics.earth import EARTH_RATE, coriolis_acceleration, earth_rate_ned, normal_gravity
 
 
@@ -94,16 +95,27 @@ def test_corrections_applied():
     assert float(s.pressure) == pytest.approx(float(base.pressure), rel=1e-12)  # only density scales
 
 
-def test_clamped_outside_the_sounding():
+def test_continued_smoothly_beyond_the_sounding():
+    """Beyond its end levels each quantity continues by its spline's second-order Taylor polynomial
+    (continuous first and second derivatives across the end level, where a drop's last nodes
+    cross the lowest level) for EXTENSION_M, and is held beyond; inside, the spline is unchanged."""
     atm = Atmosphere(H, P, T, [1.0, 2.0, 3.0], [0.0, 0.0, 5.0])
-    lo, hi = atm.at(1000.0), atm.at(3000.0)
-    for alt, ref in ((500.0, lo), (-200.0, lo), (3500.0, hi), (9000.0, hi)):
-        s = atm.at(alt)
-        for name in ("density", "temperature", "pressure"):
-            assert float(getattr(s, name)) == pytest.approx(float(getattr(ref, name)), rel=1e-12)
-        assert np.asarray(s.wind_ned, float).ravel() == pytest.approx(np.asarray(ref.wind_ned, float).ravel())
-    # and inside it is not clamped: pressure falls between levels
-    assert float(lo.pressure) > float(atm.at(1500.0).pressure) > float(atm.at(2000.0).pressure)
+    h = ca.SX.sym("h")
+    s = atm.at(h)
+    f = ca.Function("f", [h], [ca.vertcat(ca.log(s.density), ca.log(s.pressure), s.temperature, s.wind_ned[:2])])
+    d1 = ca.Function("d1", [h], [ca.jacobian(f(h), h)])
+    d2 = ca.Function("d2", [h], [ca.jacobian(ca.jacobian(f(h), h), h)])
+    for end in (1000.0, 3000.0):
+        for derivative in (d1, d2):
+            below, above = np.asarray(derivative(end - 1e-7)).ravel(), np.asarray(derivative(end + 1e-7)).ravel()
+            assert below == pytest.approx(above, rel=1e-5, abs=1e-9)   # no kink at the end level
+    low, below = np.asarray(f(1000.0)).ravel(), np.asarray(f(1000.0 - 50.0)).ravel()
+    slope = np.log(P[1] / P[0]) / (H[1] - H[0])
+    assert below[1] - low[1] == pytest.approx(-50.0 * slope, rel=0.05)      # log pressure continued
+    for far in (300.0, 5000.0):                                             # held beyond the continuation
+        assert np.asarray(f(1000.0 - far)).ravel() == pytest.approx(np.asarray(f(1000.0 - EXTENSION_M)).ravel())
+        assert np.asarray(f(3000.0 + far)).ravel() == pytest.approx(np.asarray(f(3000.0 + EXTENSION_M)).ravel())
+    assert float(atm.at(1000.0).pressure) > float(atm.at(1500.0).pressure) > float(atm.at(2000.0).pressure)
 
 
 def test_rejects_unordered_levels():

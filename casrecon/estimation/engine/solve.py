@@ -18,10 +18,10 @@ Hessian choices
     Gauss-Newton Hessian that has not converged after :data:`GAUSS_NEWTON_IPOPT_ITER` iterations
     continues with the exact one (:func:`ipopt_then_exact`).
 
-Stopping: Ipopt's own test (``tol``), or, for strong-constraint fits, the statistical test of
+Stopping: Ipopt's own test (``tol``), or the statistical test of
 :mod:`casrecon.estimation.engine.convergence` (a full Gauss-Newton step would lower chi-square by less
-than 1e-3), made at Ipopt's iterates and once more on an unconverged return; ``SolveResult.status``
-says which test stopped the fit.
+than 1e-3; for fits with latent process values from the KKT system), made at Ipopt's iterates and
+once more on an unconverged return; ``SolveResult.status`` says which test stopped the fit.
 """
 
 from __future__ import annotations
@@ -174,8 +174,8 @@ def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol
             "ipopt.mu_strategy": "adaptive", "ipopt.acceptable_tol": ACCEPTABLE_TOL,
             "ipopt.acceptable_iter": ACCEPTABLE_ITER, "grad_f": callbacks[0], "jac_g": callbacks[1],
             "hess_lag": callbacks[2]}
-    # every iterate's chi-square is logged; the decrement test only where it applies
-    stop = convergence.DecrementStop(nlp, bounds, interruption, test=convergence.applies(nlp))
+    # every iterate's chi-square is logged, and the decrement test made
+    stop = convergence.DecrementStop(nlp, bounds, interruption)
     opts["iteration_callback"] = stop
     callbacks.append(stop)
     if linear_solver == "spral":
@@ -258,7 +258,7 @@ def solve_ipopt(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter
     # Ctrl-C or SIGTERM during the solve stopped Ipopt: stop the caller too
     callbacks[0].interruption.after_solve(str(solver.stats()["return_status"]))
     z = np.asarray(sol["x"]).ravel()
-    stop = callbacks[-1] if callbacks[-1].test else None
+    stop = callbacks[-1]
     converged, status, decrement = _judge(nlp, solver.stats(), stop, z, np.asarray(sol["g"]).ravel(), bounds)
     t2 = time.perf_counter()
     stats = solver.stats()
@@ -267,18 +267,18 @@ def solve_ipopt(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter
                        status=status, iterations=int(solver.stats()["iter_count"]), build_s=t1 - t0, solve_s=t2 - t1,
                        hessian=hessian, linear_solver=linear_solver, decrement=decrement,
                        evaluation_s=evaluation_s, stop_test_s=float(stats.get("t_wall_callback_fun", 0.0)),
-                       reduced=stop.cache.system if stop is not None and stop.cache.at(z) else None)
+                       reduced=stop.cache.system if stop.cache.at(z) else None)
 
 
 def _judge(nlp: Nlp, stats: dict, stop, z: np.ndarray, g: np.ndarray, bounds) -> tuple[bool, str, float | None]:
     """(converged, status, Gauss-Newton decrement): Ipopt's verdict, or the decrement test's when
     it stopped Ipopt or when Ipopt ended unconverged at a feasible iterate."""
     status = str(stats["return_status"])
-    if stop is not None and stop.stopped_at is not None:
+    if stop.stopped_at is not None:
         return True, f"Converged (Gauss-Newton decrement {stop.stopped_at:.2g} chi2)", stop.stopped_at
-    if stats["success"] or stop is None:
+    if stats["success"]:
         return bool(stats["success"]), status, None
-    if g.size == 0 or np.abs(g).max() <= convergence.FEASIBILITY_TOL:
+    if not nlp.latent and (g.size == 0 or np.abs(g).max() <= convergence.FEASIBILITY_TOL):
         stop.cache.get(nlp, z)  # the verdict on a fresh system, never a stale one
     delta = convergence.decrement_if_feasible(nlp, z, g, bounds, stop.cache)
     if delta is None:
