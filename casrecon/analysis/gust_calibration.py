@@ -56,9 +56,9 @@ class GustCase:
     subsample_s : float
         Spacing of the nodes at which the gust NEES is taken, s.
     interval_s : float or None
-        The fit's collocation interval, s (None: the problem's ``[estimation] interval_s``). The
-        truth's gusts vary between the fit's nodes, which the fit's disturbance (linear between
-        nodes) cannot follow; a finer mesh shrinks that part.
+        The fit's collocation interval, s (None: the problem's ``[estimation] interval_s``, whose
+        default with gust states is 12.5 ms). The truth's gusts vary between the fit's nodes, which
+        the fit's disturbance (linear between nodes) cannot follow; a finer mesh shrinks that part.
     """
 
     problem: Path

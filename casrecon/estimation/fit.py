@@ -31,6 +31,7 @@ from casrecon.estimation.parameters import ParameterSet
 from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import Mesh, make_mesh
 from casrecon.io.errors import InputError
+from casrecon.io.estimation_config import DISTURBANCE_INTERVAL_S
 from casrecon.physics.dynamics import DISTURBANCE_NAMES
 from casrecon.scenario import Scenario
 
@@ -170,8 +171,9 @@ def _placement_notes(sol: SolveResult) -> tuple[str, ...]:
 
 
 #: Collocation interval (s) at or below which gust bands passed the whole-drop calibration study
-#: (README, issue 13); a gust fit on a coarser mesh gets a note saying so.
-GUST_MESH_S = 0.0125
+#: (README, issue 13), the default with disturbance states; a gust fit on a coarser mesh gets a note
+#: saying so.
+GUST_MESH_S = DISTURBANCE_INTERVAL_S
 
 
 def weak_constraint_notes(part: DropLayout) -> tuple[str, ...]:
@@ -189,7 +191,8 @@ def weak_constraint_notes(part: DropLayout) -> tuple[str, ...]:
         notes.append(f"gust states on a {1000 * part.mesh.h:.3g} ms mesh: the gusts are linear between nodes, and "
                      "what a real gust does between them is not modelled; in the whole-drop calibration study the "
                      "25 ms mesh left the east gust's bands too narrow (NEES 646 over 568 dof) while 12.5 ms passed "
-                     f"on every axis: set [estimation] interval_s = {GUST_MESH_S:g} for gust bands you can trust")
+                     "on every axis: leave [estimation] interval_s unset (with gust states it is then "
+                     f"{GUST_MESH_S:g} s) or set it no coarser, for gust bands you can trust")
     return tuple(notes)
 
 

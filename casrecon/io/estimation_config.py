@@ -13,6 +13,11 @@ from casrecon.io.toml_fields import Fields
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.disturbance import DisturbanceModel
 
+#: Default collocation interval, s (see :attr:`EstimationConfig.interval_s`).
+INTERVAL_S = 0.025
+#: Default collocation interval with disturbance states, s (see :attr:`EstimationConfig.interval_s`).
+DISTURBANCE_INTERVAL_S = 0.0125
+
 
 @dataclass(frozen=True)
 class EstimationConfig:
@@ -26,16 +31,16 @@ class EstimationConfig:
         Fit window end before impact.
     release_imu_s, impact_imu_s : float, optional
         Release and impact on the IMU clock; found from the IMU when not given.
-    interval_s : float
+    interval_s : float, optional
         Target collocation interval; the mesh takes the nearest whole number of IMU samples (at
-        least 4). 25 ms keeps the Hermite-Simpson discretisation error of a 500 Hz drop well below
-        the reported sigmas (at 50 ms a noise-free fit of ees-drop-3 is off by 4.4 sigma along its
-        best-determined CA/Cmn combination; at 24 ms by 0.23 sigma). With gust states use 12.5 ms
-        or finer for honest gust bands: the fit's gusts are linear between nodes, and on 25 ms the
-        gust content between them left the east gust's NEES at 646 over 568 dof, outside its 95 %
-        interval (on 12.5 ms: 539), at about 2.4 times the cost. 12.5 ms is not the default for
-        gust fits: tried as one, it left a 3-5 s still-air control window unconverged after 208
-        Ipopt iterations on one of four seeds (README, issue 13).
+        least 4). Not given: 25 ms, or 12.5 ms when disturbance states are estimated
+        (:meth:`EstimationConfig.resolved_interval_s`). 25 ms keeps the Hermite-Simpson
+        discretisation error of a 500 Hz drop well below the reported sigmas (at 50 ms a
+        noise-free fit of ees-drop-3 is off by 4.4 sigma along its best-determined CA/Cmn
+        combination; at 24 ms by 0.23 sigma). Gust states need the finer mesh: the fit's gusts are
+        linear between nodes, and on 25 ms the gust content between them left the east gust's
+        sigmas too small (NEES 646 over 568 dof, outside its 95 % interval; on 12.5 ms 539), at
+        about 2.4 times the cost (README, issue 13).
     samples_per_interval : int, optional
         IMU samples per collocation interval; overrides ``interval_s`` when given.
     hessian : {"auto", "gauss-newton", "exact"}
@@ -110,7 +115,7 @@ class EstimationConfig:
     end_before_impact_s: float = 0.05
     release_imu_s: float | None = None
     impact_imu_s: float | None = None
-    interval_s: float = 0.025
+    interval_s: float | None = None
     samples_per_interval: int | None = None
     hessian: str = "auto"
     information: str = "auto"
@@ -147,11 +152,18 @@ class EstimationConfig:
             return self.hessian
         return "gauss-newton" if self.disturbance is None else "exact"
 
+    def resolved_interval_s(self) -> float:
+        """The collocation interval in s: ``interval_s`` when given, else :data:`INTERVAL_S`, or
+        :data:`DISTURBANCE_INTERVAL_S` with disturbance states."""
+        if self.interval_s is not None:
+            return self.interval_s
+        return INTERVAL_S if self.disturbance is None else DISTURBANCE_INTERVAL_S
+
     def mesh_samples(self, imu_rate_hz: float) -> int:
         """IMU samples per collocation interval at an IMU rate of ``imu_rate_hz`` (Hz)."""
         if self.samples_per_interval is not None:
             return self.samples_per_interval
-        return max(4, int(np.floor(self.interval_s * imu_rate_hz + 0.5)))
+        return max(4, int(np.floor(self.resolved_interval_s() * imu_rate_hz + 0.5)))
 
 
 #: Keys of the Gauss-Markov disturbance settings, in [truth] (what is simulated) and [estimation]
@@ -198,7 +210,7 @@ def parse_estimation(t: Fields) -> EstimationConfig:
         start_after_release_s=t.number("start_after_release_s", d.start_after_release_s, minimum=0.0),
         end_before_impact_s=t.number("end_before_impact_s", d.end_before_impact_s, minimum=0.0),
         release_imu_s=t.number("release_imu_s"), impact_imu_s=t.number("impact_imu_s"),
-        interval_s=t.number("interval_s", d.interval_s, positive=True),
+        interval_s=t.number("interval_s", positive=True),
         samples_per_interval=_samples_per_interval(t),
         hessian=t.string("hessian", d.hessian, choices=("auto", "gauss-newton", "exact")),
         information=t.string("information", d.information, choices=("auto", "observed", "expected")),

@@ -3,8 +3,9 @@
 The strong-constraint fit cannot explain them (it fails or leaves a reduced chi-square far above 1);
 the weak-constraint fit with gust states at the nodes recovers the horizontal gust history (error well below
 the gust itself, at least 95 % of the nodes inside the 3-sigma band), with a reduced chi-square near
-1 and every parameter within 4 sigma of the truth. The joint MAP does not recover the vertical gust
-(a near-constant offset); the marginal-likelihood estimate of the same fit does.
+1. The joint MAP does not recover the vertical gust (a near-constant offset), and its parameters are
+biased (on the 12.5 ms mesh of gust fits the worst is 4.2 sigma off); the marginal-likelihood
+estimate of the same fit recovers the vertical gust and has every parameter within 4 sigma.
 
 Not tested here: whether the gust sigmas are calibrated. One realisation spans only a few
 correlation times, so its RMS normalised error says little (seed 5 gave 1.75 over a 6 s window, 0.97
@@ -67,9 +68,14 @@ def test_gust_states_recover_the_horizontal_gusts(gusty, weak_fit):
     assert r.converged and r.solver.hessian == "exact"
     assert 0.9 < r.reduced_chi2 < 1.1
     _check_recovered(r, gusty, [(0, "gust_n_mps"), (1, "gust_e_mps")])
+    # the joint MAP's parameters are not asserted: with gusts it biases the slope multipliers by
+    # several sigma (test_gust_calibration.py); on the 12.5 ms mesh its worst here is 4.2 sigma
+    print("joint MAP worst parameter z", _worst_z(r, gusty))
+
+
+def _worst_z(r, gusty) -> tuple[str, float]:
     t = truth_parameters_by_name(gusty)
-    worst = max(abs(v - t[n]) / s for n, v, s in zip(r.params.names, r.values, r.sigma))
-    assert worst < 4.0
+    return max(((n, (v - t[n]) / s) for n, v, s in zip(r.params.names, r.values, r.sigma)), key=lambda x: abs(x[1]))
 
 
 @pytest.fixture(scope="module")
@@ -83,3 +89,6 @@ def test_marginal_estimate_recovers_the_vertical_gust(gusty, marginal_fit):
     marginal-likelihood estimate recovers it (measured: RMS error 0.124 m/s, RMS z 1.10)."""
     assert marginal_fit.solver.marginal.converged
     _check_recovered(marginal_fit, gusty, [(2, "gust_d_mps")])
+    name, z = _worst_z(marginal_fit, gusty)
+    print("marginal worst parameter", name, z)
+    assert abs(z) < 4.0

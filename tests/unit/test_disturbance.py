@@ -104,6 +104,11 @@ def test_config_reads_and_checks_the_disturbance(tmp_path):
         assert d.sigma == (1.0, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.2, 0.0)
         assert d.time_s[:3] == (4.0,) * 3 and d.time_s[7] == 1.0
         assert list(d.active) == [0, 1, 2, 7]
+        est = load_problem(path).estimation  # no interval_s given: the gusts' finer mesh (issue 13)
+        assert est.interval_s is None and est.resolved_interval_s() == 0.0125 and est.mesh_samples(500.0) == 6
+        assert replace(est, disturbance=None).resolved_interval_s() == 0.025
+        path.write_text(text.replace("[estimation]\n", "[estimation]\ninterval_s = 0.02\n", 1))
+        assert load_problem(path).estimation.resolved_interval_s() == 0.02
         path.write_text(text.replace("gust_sigma_mps = [1.0, 1.0, 0.5]", "gust_sigma_mps = [1.0, -1.0, 0.5]"))
         with pytest.raises(InputError, match="estimation.gust_sigma_mps"):
             load_problem(path)
@@ -163,10 +168,10 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
 
 def test_gust_fit_on_a_coarse_mesh_says_its_gust_bands_are_too_narrow(short_weak_fit):
     """A 50 ms mesh (25 samples at 500 Hz) with gust states: the report's notes name the mesh and
-    the interval_s that the calibration study passed with; at 12.5 ms no such note."""
+    the default interval that the calibration study passed with; at 12.5 ms no such note."""
     from casrecon.estimation.fit import GUST_MESH_S, weak_constraint_notes
 
     notes = [n for n in short_weak_fit.notes if n.startswith("gust states on a")]
-    assert len(notes) == 1 and "on a 50 ms mesh" in notes[0] and f"interval_s = {GUST_MESH_S:g}" in notes[0]
+    assert len(notes) == 1 and "on a 50 ms mesh" in notes[0] and f"it is then {GUST_MESH_S:g} s" in notes[0]
     fine = replace(short_weak_fit.part, mesh=replace(short_weak_fit.part.mesh, h=GUST_MESH_S))
     assert not [n for n in weak_constraint_notes(fine) if n.startswith("gust states on a")]
