@@ -152,7 +152,7 @@ def kkt_decrement(nlp: Nlp, z: np.ndarray, fixed: np.ndarray = ()) -> float:
     free = np.setdiff1d(np.arange(nlp.n_z), np.asarray(fixed, np.int64))
     place = np.full(nlp.n_z, -1, np.int64)
     place[free] = np.arange(free.size)
-    border = place[np.array(sorted(nlp.parameter_names), np.int64)]
+    border = place[nlp.parameter_columns]
     try:
         factor = BorderedKkt(kkt_matrix(h[free][:, free], a[:, free]), border[border >= 0])
     except RuntimeError:

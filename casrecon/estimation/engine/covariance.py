@@ -449,7 +449,7 @@ def kkt_matrix(h: sps.spmatrix, a: sps.spmatrix) -> sps.csc_matrix:
 
 def _kkt_covariance(nlp: Nlp, h, a, chi2: float, dof: int) -> KktCovariance:
     kkt = kkt_matrix(h, a)
-    cols = np.array(sorted(nlp.parameter_names), np.int64)
+    cols = nlp.parameter_columns
     cov = KktCovariance(kkt, h.shape[0], chi2, dof, border=cols)
     eig = np.linalg.eigvalsh(cov.covariance_of(cols))
     cov.condition = float(eig[-1] / max(eig[0], 1e-300))

@@ -51,7 +51,7 @@ def warm_start(nlp: Nlp, z0: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] |
     t0 = time.perf_counter()
     d = nlp.derivatives
     bounded = bounded_columns(bounds, nlp.n_z)
-    border = np.array(sorted(nlp.parameter_names), np.int64)
+    border = nlp.parameter_columns
     z = np.asarray(z0, float).copy()
     z[bounded[0]] = np.clip(z[bounded[0]], bounded[1], bounded[2])
     level, label = convergence.iteration_log_settings()

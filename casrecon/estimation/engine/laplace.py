@@ -103,7 +103,7 @@ class LatentSplit:
     @staticmethod
     def of(nlp: Nlp) -> LatentSplit:
         """theta: the columns of ``nlp.parameter_names``; latent: every other column."""
-        theta = np.array(sorted(nlp.parameter_names), np.int64)
+        theta = nlp.parameter_columns
         return LatentSplit(theta, np.setdiff1d(np.arange(nlp.n_z), theta))
 
 

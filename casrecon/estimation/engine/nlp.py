@@ -102,6 +102,11 @@ class Nlp:
         return self.symbolic[2]
 
     @property
+    def parameter_columns(self) -> np.ndarray:
+        """The parameters' z columns, ascending (the dense border of the KKT factorisations)."""
+        return np.array(sorted(self.parameter_names), np.int64)
+
+    @property
     def n_free(self) -> int:
         """Unknowns minus constraints: the directions the data (and priors) must determine."""
         return self.n_z - self.n_g
