@@ -39,6 +39,7 @@ from casrecon.estimation.kinds.drag import CDA_SCALE, SCALE, drag_interval_kind,
 from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet, ParameterSpec
+from casrecon.estimation.pointmass_innovations import filter_innovations, measurement_rows
 from casrecon.estimation.segment import SegmentError, find_segment
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.errors import InputError
@@ -92,6 +93,8 @@ class PointMassResult:
     areas: np.ndarray                 # (K, n_areas) CdA and (with lift) AN, AE, m^2
     area_sigma: np.ndarray            # (K, n_areas) absolute 1-sigma, m^2
     whitened_residuals: np.ndarray | None = None  # (K, 6) innovations under the GPS error model, NaN where no fix
+    acceleration_error: np.ndarray | None = None  # (K, 3) fitted unmodelled acceleration NED, m/s^2 ([model_error])
+    acceleration_error_sigma: np.ndarray | None = None  # (K, 3) its absolute 1-sigma, m/s^2
     notes: tuple[str, ...] = ()
 
     def residual_stats(self) -> dict[str, dict[str, float]]:
@@ -237,9 +240,10 @@ def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> Poi
     n_int = k - 1
     errors = cfg.gps_errors
     active = errors.active
-    e_cols = 6 * k + params.n + np.arange(k * active.size).reshape(k, active.size)
+    e_cols, a_cols = latent_columns(cfg, k, params.n)
+    accel = cfg.model_error
     cols = np.column_stack([6 * np.arange(n_int)[:, None] + np.arange(12)[None, :],
-                            np.tile(part.theta_cols, (n_int, 1)), e_cols[:-1], e_cols[1:]])
+                            np.tile(part.theta_cols, (n_int, 1)), e_cols[:-1], e_cols[1:], a_cols[:-1], a_cols[1:]])
     last = np.zeros((n_int, 6))
     last[-1] = 1.0
     white = data.inv_sigma / np.sqrt(1.0 - errors.fraction)
@@ -249,19 +253,24 @@ def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> Poi
         with np.errstate(divide="ignore"):
             amp = np.where(data.inv_sigma > 0, np.sqrt(errors.fraction) / data.inv_sigma, 0.0)[:, active]
         block_data += [ca.DM(amp[:-1].T), ca.DM(amp[1:].T)]
-    kind = drag_interval_kind(model, h, n_coef, n_areas, params.scales[-1], tuple(active.tolist()))
+    kind = drag_interval_kind(model, h, n_coef, n_areas, params.scales[-1], tuple(active.tolist()),
+                              accel.acceleration_sigma_mps2)
     terms = [Term("gps", (BlockSet(kind, cols, block_data),)),
              *drag_prior_terms(n_coef, n_areas, part.theta_cols[:n_coef * n_areas], cfg),
              *prior_terms(params, part.theta_cols)]
     if active.size:
         phi = np.tile(errors.transition(np.array([h])), (k - 1, 1))
         terms += gauss_markov_terms(e_cols, phi, "gps_error_start", "gps_error")
-    nlp = assemble_nlp(terms, 6 * k + params.n + e_cols.size, dependent=part.dependent_cols,
-                       parameter_names=dict(zip(part.theta_cols.tolist(), params.names)), eliminated=e_cols.ravel())
+    if accel.enabled:
+        terms += gauss_markov_terms(a_cols, np.full((k - 1, 3), accel.transition(h)), "accel_error_start",
+                                    "accel_error")
+    nlp = assemble_nlp(terms, 6 * k + params.n + e_cols.size + a_cols.size, dependent=part.dependent_cols,
+                       parameter_names=dict(zip(part.theta_cols.tolist(), params.names)), eliminated=e_cols.ravel(),
+                       latent=accel.enabled)
     pos_vel = _initial_states(data)
     cda0 = _initial_cda(data, cfg, atm, pos_vel)
     z0 = np.concatenate([(pos_vel / SCALE).ravel(), np.full(n_coef, cda0 / CDA_SCALE),
-                         np.zeros(n_coef * (n_areas - 1) + 2 + e_cols.size)])
+                         np.zeros(n_coef * (n_areas - 1) + 2 + e_cols.size + a_cols.size)])
     check_determined(nlp, z0)
     lbx = np.full(z0.size, -np.inf)
     lbx[part.theta_cols[:n_coef]] = 0.0  # B-spline coefficients >= 0 keep CdA(t) >= 0 everywhere
@@ -288,12 +297,39 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     return result
 
 
+def latent_columns(cfg: PointMassConfig, k: int, n_params: int) -> tuple[np.ndarray, np.ndarray]:
+    """z columns (K, n_active) of the correlated GPS errors and (K, 3 or 0) of the unmodelled
+    acceleration, for K nodes and ``n_params`` parameters (they follow the node states and parameters)."""
+    n_e = cfg.gps_errors.active.size
+    first_e = 6 * k + n_params
+    n_a = 3 if cfg.model_error.enabled else 0
+    return (first_e + np.arange(k * n_e).reshape(k, n_e),
+            first_e + k * n_e + np.arange(k * n_a).reshape(k, n_a))
+
+
+def innovations(cfg: PointMassConfig, data: PointMassData, part: DropLayout, nlp: Nlp, z: np.ndarray) -> np.ndarray:
+    """(K, 6) Kalman-filter innovations of the fixes under the fitted model with its acceleration
+    process (:mod:`casrecon.estimation.pointmass_innovations`), NaN where a node has no fix."""
+    k = data.t_unix.size
+    d = nlp.derivatives
+    jr, jg = d.jacobian_r(z), d.jacobian_g(z)
+    x_cols = 6 * np.arange(k)[:, None] + np.arange(6)[None, :]
+    active = cfg.gps_errors.active
+    e_cols, a_cols = latent_columns(cfg, k, part.params.n)
+    h = float(data.t_unix[1] - data.t_unix[0])
+    return filter_innovations(jr, jg, nlp.residual_vector(z), z, x_cols=x_cols, a_cols=a_cols, e_cols=e_cols,
+                              phi_a=cfg.model_error.transition(h),
+                              phi_e=cfg.gps_errors.transition(np.array([h]))[0] if active.size else np.zeros(0),
+                              defect_rows=6 * np.arange(k - 1)[:, None] + np.arange(6)[None, :],
+                              fix_rows=measurement_rows(jr, nlp.groups["gps"], x_cols))
+
+
 def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) -> PointMassResult:
     states = part.states(sol.z)
     values = part.values(sol.z)
     n_coef = basis.shape[1]
     k = states.shape[0]
-    state_sigma = np.sqrt(np.array([np.diag(cov.covariance_of(6 * i + np.arange(6), SCALE)) for i in range(k)]))
+    state_sigma = np.sqrt(np.array([np.diag(c) for c in cov.blocks([6 * i + np.arange(6) for i in range(k)])])) * SCALE
     cov_p = cov.covariance_of(part.theta_cols, part.params.scales)
     sigma = np.sqrt(np.diag(cov_p))
     n_areas = (len(values) - 2) // n_coef
@@ -305,8 +341,14 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     cda, cda_sigma = areas[0], area_sigma[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         norm = np.where(data.inv_sigma > 0, (data.y - states) * data.inv_sigma, np.nan)
+    accel_error = accel_sigma = None
+    if cfg.model_error.enabled:
+        _, a_cols = latent_columns(cfg, k, part.params.n)
+        scale = cfg.model_error.acceleration_sigma_mps2
+        accel_error = sol.z[a_cols] * scale
+        accel_sigma = np.sqrt(np.array([np.diag(c) for c in cov.blocks(list(a_cols))])) * scale
     errors = cfg.gps_errors
-    whitened = errors.whiten(norm, data.t_unix)
+    whitened = innovations(cfg, data, part, nlp, sol.z) if cfg.model_error.enabled else errors.whiten(norm, data.t_unix)
     chi2 = nlp.group_chi2(r)
     counts = dict(nlp.n_measurements)
     counts["gps"] = int((data.inv_sigma > 0).sum())
@@ -315,5 +357,6 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
                            sigma, norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, nlp=nlp,
                            z=sol.z, covariance=cov, track=data.track, y=data.y, inv_sigma=data.inv_sigma,
                            areas=np.column_stack(areas), area_sigma=np.column_stack(area_sigma),
-                           whitened_residuals=whitened,
+                           whitened_residuals=whitened, acceleration_error=accel_error,
+                          acceleration_error_sigma=accel_sigma,
                            notes=data.notes + ((errors.describe(),) if errors.enabled else ()))

@@ -6,7 +6,7 @@ from __future__ import annotations
 from casrecon.io.config_records import REQUIRED, FileKind, Table
 from casrecon.io.config_reference_shared import DYNAMICS_TABLE, SITE_TABLE, gps_error_keys, key
 from casrecon.io.imu import ImuCsvSpec
-from casrecon.io.pointmass_problem import DragConfig, GpsQuality, PointMassConfig, SegmentConfig
+from casrecon.io.pointmass_problem import DragConfig, GpsQuality, ModelErrorConfig, PointMassConfig, SegmentConfig
 
 #: The fix-quality and GPS error-model keys of the [gps] table of both problems.
 _QUALITY_KEYS = (
@@ -70,6 +70,15 @@ POINT_MASS = FileKind(
             key("deploy_drop_mps", "float", "m/s", "The final drop (canopy opening, impact): the last fixes each this "
                "far below the running maximum of the vertical speed over the preceding 2 s",
                source=SegmentConfig, attr="segment.deploy_drop_mps"),
+        )),
+        Table("model_error", (
+            key("acceleration_sigma_mps2", "float", "m/s^2", "1-sigma of each NED component of an unmodelled "
+               "acceleration, a first-order Gauss-Markov process estimated at every node (a skydiver's changes of "
+               "body position, turbulence, a wind changing along the path); the adequacy tests then run on the "
+               "Kalman innovations of the fixes; 0: none", source=ModelErrorConfig,
+               attr="model_error.acceleration_sigma_mps2"),
+            key("time_s", "float", "s", "Correlation time of the unmodelled acceleration", source=ModelErrorConfig,
+               attr="model_error.time_s"),
         )),
         DYNAMICS_TABLE,
         Table("estimation", (

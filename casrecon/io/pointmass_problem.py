@@ -10,6 +10,7 @@ parsed once into frozen dataclasses and validated like the 6-DOF problems (same 
                   max_h_acc_m, max_v_acc_m, max_s_acc_mps, min_num_sv
     [segment]     start_utc, end_utc (optional: found from the data), min_speed_mps, end_margin_s,
                   deploy_drop_mps
+    [model_error] acceleration_sigma_mps2, time_s
     [estimation]  linear_solver, max_iter, tol
 """
 
@@ -18,6 +19,8 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from casrecon.io.gps_rules import GpsQuality, gps_date, gps_error_model, velocity_sigma
 from casrecon.io.problem import parse_dynamics, parse_site, parse_utc
@@ -39,6 +42,33 @@ class DragConfig:
     smoothness_sigma_m2: float = 0.02
     lift: bool = False
     lift_sigma_m2: float = 0.1
+
+
+@dataclass(frozen=True)
+class ModelErrorConfig:
+    """Unmodelled acceleration: what the drag-and-lift point mass cannot describe (a skydiver's
+    changes of body position and track, turbulence, a wind that changes along the path), as a
+    first-order Gauss-Markov process in each NED component estimated at every node (the weak
+    constraint of the 6-DOF fit's model-error states).
+
+    Attributes
+    ----------
+    acceleration_sigma_mps2 : float
+        Stationary 1-sigma of each NED component, m/s^2; 0: none (the strong constraint).
+    time_s : float
+        Correlation time, s.
+    """
+
+    acceleration_sigma_mps2: float = 0.0
+    time_s: float = 2.0
+
+    @property
+    def enabled(self) -> bool:
+        return self.acceleration_sigma_mps2 > 0
+
+    def transition(self, step_s: float) -> float:
+        """Correlation between values ``step_s`` (s) apart, exp(-step / tau)."""
+        return float(np.exp(-step_s / self.time_s))
 
 
 @dataclass(frozen=True)
@@ -74,6 +104,7 @@ class PointMassConfig:
     segment: SegmentConfig
     dynamics: DynamicsOptions
     gps_errors: GpsErrorModel = GpsErrorModel()
+    model_error: ModelErrorConfig = ModelErrorConfig()
     linear_solver: str = "mumps"
     max_iter: int = 200
     tol: float = 1e-8
@@ -102,13 +133,21 @@ def _segment(t: Fields) -> SegmentConfig:
     return cfg
 
 
+def _model_error(t: Fields) -> ModelErrorConfig:
+    d = ModelErrorConfig()
+    cfg = ModelErrorConfig(t.number("acceleration_sigma_mps2", d.acceleration_sigma_mps2, minimum=0.0),
+                           t.number("time_s", d.time_s, positive=True))
+    t.reject_unknown()
+    return cfg
+
+
 def load_point_mass(path: str | Path) -> PointMassConfig:
     """Parse and validate a point-mass ``problem.toml`` (file or folder)."""
     path = Path(path)
     if path.is_dir():
         path = path / "problem.toml"
     f = load_toml(path)
-    empty = {k: Fields({}, path, f"{k}.") for k in ("drag", "segment", "estimation", "dynamics")}
+    empty = {k: Fields({}, path, f"{k}.") for k in ("drag", "segment", "estimation", "dynamics", "model_error")}
     head = f.table("problem", required=True)
     if head.string("kind", "six-dof", choices=("six-dof", "point-mass")) != "point-mass":
         raise head.error("kind", 'this is a six-dof problem (no kind = "point-mass"): load it with '
@@ -133,7 +172,8 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
         quality=GpsQuality(gps.number("max_h_acc_m", 10.0, positive=True),
                            gps.number("max_v_acc_m", 10.0, positive=True),
                            gps.number("max_s_acc_mps", 1.0, positive=True), gps.integer("min_num_sv", 6, 0)),
-        segment=_segment(seg), dynamics=parse_dynamics(f.table("dynamics") or empty["dynamics"]),
+        segment=_segment(seg), model_error=_model_error(f.table("model_error") or empty["model_error"]),
+        dynamics=parse_dynamics(f.table("dynamics") or empty["dynamics"]),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
         max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True),
         gps_errors=gps_error_model(gps), gps_date=gps_date(gps), velocity_sigma_mps=velocity_sigma(gps))

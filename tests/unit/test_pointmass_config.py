@@ -11,7 +11,14 @@ import pytest
 
 from casrecon.cli import main
 from casrecon.io.errors import InputError
-from casrecon.io.pointmass_problem import DragConfig, GpsQuality, SegmentConfig, load_point_mass, problem_kind
+from casrecon.io.pointmass_problem import (
+    DragConfig,
+    GpsQuality,
+    ModelErrorConfig,
+    SegmentConfig,
+    load_point_mass,
+    problem_kind,
+)
 from casrecon.io.problem import load_problem
 
 REPO = Path(__file__).resolve().parents[2]
@@ -92,6 +99,9 @@ def test_minimal_problem_and_defaults(write):
     text = MINIMAL.split("[drag]")[0] + '[gps]\nfile = "track.csv"\n'
     cfg = load_point_mass(write(text))
     assert cfg.drag == DragConfig() and cfg.segment == SegmentConfig()
+    assert cfg.model_error == ModelErrorConfig() and not cfg.model_error.enabled
+    cfg = load_point_mass(write(MINIMAL + "\n[model_error]\nacceleration_sigma_mps2 = 2.5\ntime_s = 1.5\n"))
+    assert cfg.model_error == ModelErrorConfig(2.5, 1.5) and cfg.model_error.enabled
 
 
 def _replace(old: str, new: str) -> str:
@@ -133,6 +143,11 @@ BAD = [
     ("unknown kind", _replace('kind = "point-mass"', 'kind = "four-dof"'), "problem.kind", "four-dof"),
     ("unknown linear solver", MINIMAL + '\n[estimation]\nlinear_solver = "ma57"\n', "estimation.linear_solver",
      "ma57"),
+    ("negative acceleration sigma", MINIMAL + "\n[model_error]\nacceleration_sigma_mps2 = -1.0\n",
+     "model_error.acceleration_sigma_mps2", ">= 0"),
+    ("zero model-error time", MINIMAL + "\n[model_error]\nacceleration_sigma_mps2 = 1.0\ntime_s = 0\n",
+     "model_error.time_s", "positive|> 0|greater"),
+    ("unknown key in model_error", MINIMAL + "\n[model_error]\nsigma = 1.0\n", "model_error.sigma", ""),
 ]
 
 

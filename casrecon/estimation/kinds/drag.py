@@ -22,31 +22,38 @@ CDA_SCALE = 0.1
 
 
 def drag_interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: int, wind_scale: float,
-                       active: tuple[int, ...] = ()) -> BlockKind:
+                       active: tuple[int, ...] = (), accel_sigma_mps2: float = 0.0) -> BlockKind:
     """Block of one interval: locals [x_k, x_k+1 (scaled), area coefficients (n_coef x n_areas,
     scaled), wind bias north/east (scaled by ``wind_scale``, m/s), with a GPS error model the
-    unit-variance correlated errors e_k, e_k+1 of the ``active`` components]; data: the spline
-    basis at the two nodes and the midpoint, the fixes (NED position, velocity) with inverse
-    white sigmas at the two nodes, and with errors their amplitudes sigma sqrt(f) at the two nodes.
-    Residuals: the whitened fixes (y - x - amplitude e) w; constraints: the scaled defects."""
+    unit-variance correlated errors e_k, e_k+1 of the ``active`` components, with an unmodelled
+    acceleration (``accel_sigma_mps2`` > 0) its unit-variance NED values a_k, a_k+1 at the two
+    nodes (linear between them; ``accel_sigma_mps2`` a added to the model's acceleration)]; data:
+    the spline basis at the two nodes and the midpoint, the fixes (NED position, velocity) with
+    inverse white sigmas at the two nodes, and with errors their amplitudes sigma sqrt(f) at the two
+    nodes. Residuals: the whitened fixes (y - x - amplitude e) w; constraints: the scaled defects."""
     n_c, n_e = n_coef * n_areas, len(active)
-    v = ca.SX.sym("v", 12 + n_c + 2 + 2 * n_e)
+    n_a = 3 if accel_sigma_mps2 > 0 else 0
+    v = ca.SX.sym("v", 12 + n_c + 2 + 2 * n_e + 2 * n_a)
     xk, xk1 = v[:6] * ca.DM(SCALE), v[6:12] * ca.DM(SCALE)
     coef, wind = ca.reshape(v[12:12 + n_c] * CDA_SCALE, n_coef, n_areas), v[12 + n_c:14 + n_c] * wind_scale
     bk, bm, bk1 = (ca.SX.sym(n, n_coef) for n in ("bk", "bm", "bk1"))
     yk, wk, yk1, wk1 = ca.SX.sym("yk", 6), ca.SX.sym("wk", 6), ca.SX.sym("yk1", 6), ca.SX.sym("wk1", 6)
+    first_a = 14 + n_c + 2 * n_e
+    ak_err, ak1_err = (ca.vertcat(ca.DM.zeros(3), accel_sigma_mps2 * v[i:i + 3]) if n_a else 0.0
+                       for i in (first_a, first_a + 3))
 
     def area(b):
         a = coef.T @ b
         return ca.vertcat(a, ca.DM.zeros(3 - n_areas)) if n_areas < 3 else a
 
-    fk, fk1 = model.rhs(xk, area(bk), wind), model.rhs(xk1, area(bk1), wind)
+    fk, fk1 = model.rhs(xk, area(bk), wind) + ak_err, model.rhs(xk1, area(bk1), wind) + ak1_err
     xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
-    defect = (xk1 - xk - h / 6 * (fk + 4 * model.rhs(xm, area(bm), wind) + fk1)) / ca.DM(SCALE)
+    fm = model.rhs(xm, area(bm), wind) + 0.5 * (ak_err + ak1_err)
+    defect = (xk1 - xk - h / 6 * (fk + 4 * fm + fk1)) / ca.DM(SCALE)
     data = [bk, bm, bk1, yk, wk, yk1, wk1]
     if n_e:
         ak, ak1 = ca.SX.sym("ak", n_e), ca.SX.sym("ak1", n_e)
-        ek, ek1 = v[14 + n_c:14 + n_c + n_e], v[14 + n_c + n_e:]
+        ek, ek1 = v[14 + n_c:14 + n_c + n_e], v[14 + n_c + n_e:first_a]
         select = selection_matrix(6, active)
         yk, yk1 = yk - select @ (ak * ek), yk1 - select @ (ak1 * ek1)
         data += [ak, ak1]
