@@ -247,12 +247,11 @@ def _fit_kinematic(cfg, print_level: int) -> KinematicFit:
 
 def _fit_point_mass(cfg: PointMassConfig, print_level: int) -> PointMassFit:
     """The GPS-only fit of ``casrecon fit`` on a point-mass problem, with the constant-drag comparison."""
-    from casrecon.estimation.pointmass_fit import fit_point_mass
+    from casrecon.estimation.pointmass_fit import fit_with_comparison
     from casrecon.output.pointmass_result import PointMassFit
     from casrecon.report.pointmass_report import pointmass_report
 
-    main = fit_point_mass(cfg, print_level=print_level)
-    constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
+    main, constant = fit_with_comparison(cfg, print_level=print_level)
     return PointMassFit.from_fit(main, constant, pointmass_report(main, constant))
 
 

@@ -209,7 +209,7 @@ def _joint(args: argparse.Namespace) -> int:
 
 def _fit_point_mass(args: argparse.Namespace) -> int:
     from casrecon.estimation.fit import FitError
-    from casrecon.estimation.pointmass_fit import fit_point_mass
+    from casrecon.estimation.pointmass_fit import fit_with_comparison
     from casrecon.io.pointmass_problem import load_point_mass
     from casrecon.output.pointmass_results import write_pointmass_results
     from casrecon.output.results import atomic_folder
@@ -218,8 +218,7 @@ def _fit_point_mass(args: argparse.Namespace) -> int:
 
     cfg = load_point_mass(args.problem)
     try:
-        main = fit_point_mass(cfg, print_level=5 if args.verbose else 0)
-        constant = main if cfg.drag.model == "constant" else fit_point_mass(cfg, "constant")
+        main, constant = fit_with_comparison(cfg, print_level=5 if args.verbose else 0)
     except FitError as err:
         return fit_failed(f"fit of {cfg.name}", err)
     report = pointmass_report(main, constant)

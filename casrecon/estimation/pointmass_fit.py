@@ -15,6 +15,7 @@ A component the file does not give (NMEA: vertical velocity) has zero weight and
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -46,7 +47,7 @@ from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc
 from casrecon.io.gps_files import read_gps_track
 from casrecon.io.gps_rules import fixes_ned
-from casrecon.io.pointmass_problem import PointMassConfig
+from casrecon.io.pointmass_problem import ModelErrorConfig, PointMassConfig
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.pointmass import PointMassModel
@@ -324,6 +325,16 @@ def innovations(cfg: PointMassConfig, data: PointMassData, part: DropLayout, nlp
                               fix_rows=measurement_rows(jr, nlp.groups["gps"], x_cols))
 
 
+def fit_with_comparison(cfg: PointMassConfig, print_level: int = 0) -> tuple[PointMassResult, PointMassResult]:
+    """(the configured fit, the constant-drag comparison) of ``casrecon fit``: the comparison is the
+    constant-CdA fit of the same fixes without the unmodelled acceleration (which would absorb what a
+    constant drag area leaves), or the configured fit itself when it is that one."""
+    main = fit_point_mass(cfg, print_level=print_level)
+    if cfg.drag.model == "constant" and not cfg.model_error.enabled:
+        return main, main
+    return main, fit_point_mass(dataclasses.replace(cfg, model_error=ModelErrorConfig()), "constant")
+
+
 def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) -> PointMassResult:
     states = part.states(sol.z)
     values = part.values(sol.z)
@@ -359,4 +370,5 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
                            areas=np.column_stack(areas), area_sigma=np.column_stack(area_sigma),
                            whitened_residuals=whitened, acceleration_error=accel_error,
                           acceleration_error_sigma=accel_sigma,
-                           notes=data.notes + ((errors.describe(),) if errors.enabled else ()))
+                           notes=data.notes + ((errors.describe(),) if errors.enabled else ())
+                          + ((cfg.model_error.describe(),) if cfg.model_error.enabled else ()))

@@ -24,10 +24,10 @@ def gps_error_keys(prefix: str) -> tuple[Key, ...]:
         key("velocity_error_time_s", "float", "s", "Correlation time of the correlated part of each GPS velocity "
            "error component; 0: white", source=GpsErrorModel, field="velocity_time_s", attr=f"{m}.velocity_time_s"),
         key("position_correlated_fraction", "float", "", "Fraction of the reported position variance (hAcc^2, "
-           "vAcc^2) that is correlated, at most 0.99", source=GpsErrorModel, field="position_fraction",
+           "vAcc^2) that is correlated, at most 0.999", source=GpsErrorModel, field="position_fraction",
            attr=f"{m}.position_fraction"),
         key("velocity_correlated_fraction", "float", "", "Fraction of the reported velocity variance (sAcc^2) that "
-           "is correlated, at most 0.99", source=GpsErrorModel, field="velocity_fraction",
+           "is correlated, at most 0.999", source=GpsErrorModel, field="velocity_fraction",
            attr=f"{m}.velocity_fraction"),
     )
 

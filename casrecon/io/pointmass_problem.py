@@ -66,6 +66,12 @@ class ModelErrorConfig:
     def enabled(self) -> bool:
         return self.acceleration_sigma_mps2 > 0
 
+    def describe(self) -> str:
+        """One line for reports."""
+        return (f"unmodelled acceleration Gauss-Markov: {self.acceleration_sigma_mps2:g} m/s^2 1-sigma per NED "
+                f"component over {self.time_s:g} s, estimated at every node; adequacy tests on the Kalman "
+                "innovations of the fixes")
+
     def transition(self, step_s: float) -> float:
         """Correlation between values ``step_s`` (s) apart, exp(-step / tau)."""
         return float(np.exp(-step_s / self.time_s))

@@ -57,6 +57,10 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
         cols[name], cols[f"{name}_3sigma"] = main.states[:, i], 3 * main.state_sigma[:, i]
     for j, name in enumerate(("cda_m2", "lift_n_m2", "lift_e_m2")[:main.areas.shape[1]]):
         cols[name], cols[f"{name}_3sigma"] = main.areas[:, j], 3 * main.area_sigma[:, j]
+    if main.acceleration_error is not None:
+        for j, axis in enumerate("ned"):
+            name = f"accel_error_{axis}_mps2"
+            cols[name], cols[f"{name}_3sigma"] = main.acceleration_error[:, j], 3 * main.acceleration_error_sigma[:, j]
     write_table(out / "trajectory.csv", cols)
     residuals = {f"{n}_{m}_z": r[:, i] for m, r in (("fit", main.normalized_residuals),
                                                     ("constant", constant.normalized_residuals))

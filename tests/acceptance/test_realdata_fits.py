@@ -6,18 +6,20 @@ Each fit runs once per module (module-scoped, parametrised fixture). Run times o
 FS2 Chicago ~14 s (both ``slow``: the three together exceed the ~40 s the default suite can spend
 here).
 
-Values measured when the test was written (summary.json; reduced chi2 fitted / constant, ratio;
-constant model vertical-speed residual RMS and lag-1 autocorrelation):
+Values measured when the test was first written (white GPS errors, no unmodelled acceleration;
+summary.json; reduced chi2 fitted / constant, ratio; constant model vertical-speed residual RMS and
+lag-1 autocorrelation):
 
     FS1 Byron      4.66 / 1039  (x223)   vel_d RMS 42.1, lag-1 0.994
     skyderby 411   6.65 /  443  (x67)    vel_d RMS 38.2, lag-1 0.99
     FS2 Chicago    5.78 / 2962  (x512)   vel_d RMS 89.7, lag-1 1.00
 
-The fitted model's reduced chi2 is 4.7-6.7, not 1: the residuals it leaves are mostly velocity
-(normalised RMS 1.4-4.9, lag-1 autocorrelation ~0.9), i.e. receiver errors correlated over
-seconds and manoeuvres faster than 2 s knots, which the reported sAcc does not describe. The test
-therefore bounds the fitted model only relative to the constant one (factor > 20) and by a loose
-absolute ceiling (< 15), and does not claim chi2 ~ 1 on real data.
+The shipped problems now carry the GPS error model measured on these tracks and an unmodelled
+acceleration ([model_error], 1.5 m/s^2 over 1 s: the jumper's changes of body position), and the
+verdict tests the Kalman innovations of the fixes. Measured (2026-11-25), innovation reduced
+chi-square per channel: Byron 0.54 to 1.40, skyderby 0.29 (position east) to 1.36, Chicago 0.55 to
+1.58; the innovations stay correlated (lag-1 up to 0.92), so the verdict still refuses the bands,
+and says why. The constant-drag comparison is the strong-constraint fit (reduced chi2 810 to 3188).
 """
 
 from __future__ import annotations
@@ -98,7 +100,10 @@ def test_trajectory_has_drag_area_with_three_sigma(fitted):
     # to a few per cent; over the whole segment it spans belly (large) to head-down (small)
     top = np.argmax(col["vel_d_mps"])
     assert 0.03 < col["cda_m2"][top] < 0.3, col["cda_m2"][top]
-    assert col["cda_m2_3sigma"][top] < 0.1 * col["cda_m2"][top]
+    # with the unmodelled acceleration the data cannot tell a drag-area change from another force
+    # over a second: CdA at top speed is known to 17 to 28 % (3-sigma; 1.7 to 1.9 % with the strong
+    # constraint, whose innovations are 20 to 40 times their variance, so those sigmas were not credible)
+    assert col["cda_m2_3sigma"][top] < 0.35 * col["cda_m2"][top]
     assert col["vel_d_mps"][top] > 90.0
 
 
@@ -147,3 +152,26 @@ def test_verdict_flags_the_correlated_gps_errors(fitted):
     assert "stay correlated under the fit's GPS error model" in a["line"]
     assert f"VERDICT: {a['line']}" in stdout
 
+
+#: Channels whose innovation reduced chi-square is known to lie below 0.5 (measured; a caution:
+#: the reported accuracy is pessimistic there, so the band is wider than the data need).
+KNOWN_BELOW_HALF = {"realdata-skyderby-411": {"GPS pos e"}}
+
+
+def test_innovations_scale_and_no_silent_prior_deviation(fitted):
+    """Issue 18's floor for the real tracks: with the GPS error model and the unmodelled acceleration
+    every channel's innovation reduced chi-square lies in [0.5, 2] (skyderby's east position, 0.29,
+    is the one measured exception, asserted as such); a parameter beyond its verdict limit would be
+    named in the line."""
+    name, out, _, _ = fitted
+    a = _summary(out)["adequacy"]
+    below = KNOWN_BELOW_HALF.get(name, set())
+    for c in a["channels"]:
+        print(f"{name} {c['name']}: innovation reduced chi2 {c['reduced_chi2']:.3f}, lag-1 {c['lag1']:+.2f}")
+        if c["name"] in below:
+            assert c["reduced_chi2"] < 0.5 and any(c["name"] in x for x in a["cautions"]), c
+        else:
+            assert 0.5 <= c["reduced_chi2"] <= 2.0, c
+    for d in a["deviations"]:
+        if abs(d["z"]) > a["z_limit"]:
+            assert d["name"] in a["line"], d
