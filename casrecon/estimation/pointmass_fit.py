@@ -91,11 +91,11 @@ class PointMassResult:
     track: GpsTrack                   # the whole track as read
     y: np.ndarray                     # (K, 6) fixes on the nodes (0 where none)
     inv_sigma: np.ndarray             # (K, 6) inverse 1-sigma of those fixes, 0 where none
-    areas: np.ndarray                 # (K, n_areas) CdA and (with lift) AN, AE, m^2
+    areas: np.ndarray                 # (K, n_areas) CdA and (with lift or an area process) AN, AE, m^2
     area_sigma: np.ndarray            # (K, n_areas) absolute 1-sigma, m^2
     whitened_residuals: np.ndarray | None = None  # (K, 6) innovations under the GPS error model, NaN where no fix
-    acceleration_error: np.ndarray | None = None  # (K, 3) fitted unmodelled acceleration NED, m/s^2 ([model_error])
-    acceleration_error_sigma: np.ndarray | None = None  # (K, 3) its absolute 1-sigma, m/s^2
+    area_process: np.ndarray | None = None  # (K, 3) fitted area process of CdA, AN, AE, m^2 ([model_error])
+    area_process_sigma: np.ndarray | None = None  # (K, 3) its absolute 1-sigma, m^2
     notes: tuple[str, ...] = ()
 
     def residual_stats(self) -> dict[str, dict[str, float]]:
@@ -242,7 +242,7 @@ def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> Poi
     errors = cfg.gps_errors
     active = errors.active
     e_cols, a_cols = latent_columns(cfg, k, params.n)
-    accel = cfg.model_error
+    process = cfg.model_error
     cols = np.column_stack([6 * np.arange(n_int)[:, None] + np.arange(12)[None, :],
                             np.tile(part.theta_cols, (n_int, 1)), e_cols[:-1], e_cols[1:], a_cols[:-1], a_cols[1:]])
     last = np.zeros((n_int, 6))
@@ -255,19 +255,19 @@ def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> Poi
             amp = np.where(data.inv_sigma > 0, np.sqrt(errors.fraction) / data.inv_sigma, 0.0)[:, active]
         block_data += [ca.DM(amp[:-1].T), ca.DM(amp[1:].T)]
     kind = drag_interval_kind(model, h, n_coef, n_areas, params.scales[-1], tuple(active.tolist()),
-                              accel.acceleration_sigma_mps2)
+                              process.sigmas if process.enabled else ())
     terms = [Term("gps", (BlockSet(kind, cols, block_data),)),
              *drag_prior_terms(n_coef, n_areas, part.theta_cols[:n_coef * n_areas], cfg),
              *prior_terms(params, part.theta_cols)]
     if active.size:
         phi = np.tile(errors.transition(np.array([h])), (k - 1, 1))
         terms += gauss_markov_terms(e_cols, phi, "gps_error_start", "gps_error")
-    if accel.enabled:
-        terms += gauss_markov_terms(a_cols, np.full((k - 1, 3), accel.transition(h)), "accel_error_start",
-                                    "accel_error")
+    if process.enabled:
+        terms += gauss_markov_terms(a_cols, np.full((k - 1, 3), process.transition(h)), "area_process_start",
+                                    "area_process")
     nlp = assemble_nlp(terms, 6 * k + params.n + e_cols.size + a_cols.size, dependent=part.dependent_cols,
                        parameter_names=dict(zip(part.theta_cols.tolist(), params.names)), eliminated=e_cols.ravel(),
-                       latent=accel.enabled)
+                       latent=process.enabled)
     pos_vel = _initial_states(data)
     cda0 = _initial_cda(data, cfg, atm, pos_vel)
     z0 = np.concatenate([(pos_vel / SCALE).ravel(), np.full(n_coef, cda0 / CDA_SCALE),
@@ -299,8 +299,8 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
 
 
 def latent_columns(cfg: PointMassConfig, k: int, n_params: int) -> tuple[np.ndarray, np.ndarray]:
-    """z columns (K, n_active) of the correlated GPS errors and (K, 3 or 0) of the unmodelled
-    acceleration, for K nodes and ``n_params`` parameters (they follow the node states and parameters)."""
+    """z columns (K, n_active) of the correlated GPS errors and (K, 3 or 0) of the area process,
+    for K nodes and ``n_params`` parameters (they follow the node states and parameters)."""
     n_e = cfg.gps_errors.active.size
     first_e = 6 * k + n_params
     n_a = 3 if cfg.model_error.enabled else 0
@@ -309,7 +309,7 @@ def latent_columns(cfg: PointMassConfig, k: int, n_params: int) -> tuple[np.ndar
 
 
 def innovations(cfg: PointMassConfig, data: PointMassData, part: DropLayout, nlp: Nlp, z: np.ndarray) -> np.ndarray:
-    """(K, 6) Kalman-filter innovations of the fixes under the fitted model with its acceleration
+    """(K, 6) Kalman-filter innovations of the fixes under the fitted model with its area
     process (:mod:`casrecon.estimation.pointmass_innovations`), NaN where a node has no fix."""
     k = data.t_unix.size
     d = nlp.derivatives
@@ -325,10 +325,42 @@ def innovations(cfg: PointMassConfig, data: PointMassData, part: DropLayout, nlp
                               fix_rows=measurement_rows(jr, nlp.groups["gps"], x_cols))
 
 
+def _areas_with_process(cfg: PointMassConfig, part: DropLayout, cov, basis: np.ndarray, values: np.ndarray,
+                        z: np.ndarray, n_areas: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(areas, their 1-sigma, the process's part of them, its 1-sigma), each (K, 3) m^2, of a fit
+    with area processes: the drag area is its spline times exp(sigma a), each lift area its spline
+    (none for a lift area the spline model lacks) plus sigma a; the process's part is the area
+    less its spline. Variances to first order in the spline coefficients and the node's process
+    values together."""
+    k, n_coef = basis.shape
+    sigma = np.asarray(cfg.model_error.sigmas, float)
+    _, a_cols = latent_columns(cfg, k, part.params.n)
+    n_c = n_coef * n_areas
+    a = z[a_cols] * sigma  # (K, 3): the drag area's log change, the lift areas' additions (m^2)
+    spline = np.zeros((k, 3))
+    for j in range(n_areas):
+        spline[:, j] = basis @ values[j * n_coef:(j + 1) * n_coef]
+    factor = np.exp(a[:, 0])
+    areas = spline + a
+    areas[:, 0] = spline[:, 0] * factor
+    blocks = cov.blocks([np.concatenate([part.theta_cols[:n_c], a_cols[i]]) for i in range(k)])
+    area_var, process_var = np.empty((k, 3)), np.empty((k, 3))
+    for i, c in enumerate(blocks):
+        for j in range(3):
+            w_total, w_process = np.zeros(n_c + 3), np.zeros(n_c + 3)
+            if j < n_areas:
+                w_total[j * n_coef:(j + 1) * n_coef] = basis[i] * CDA_SCALE * (factor[i] if j == 0 else 1.0)
+                if j == 0:
+                    w_process[:n_coef] = basis[i] * CDA_SCALE * (factor[i] - 1.0)
+            w_total[n_c + j] = w_process[n_c + j] = sigma[j] * (spline[i, 0] * factor[i] if j == 0 else 1.0)
+            area_var[i, j], process_var[i, j] = w_total @ c @ w_total, w_process @ c @ w_process
+    return areas, np.sqrt(area_var), areas - spline, np.sqrt(process_var)
+
+
 def fit_with_comparison(cfg: PointMassConfig, print_level: int = 0) -> tuple[PointMassResult, PointMassResult]:
     """(the configured fit, the constant-drag comparison) of ``casrecon fit``: the comparison is the
-    constant-CdA fit of the same fixes without the unmodelled acceleration (which would absorb what a
-    constant drag area leaves), or the configured fit itself when it is that one."""
+    constant-CdA fit of the same fixes without the area process (which would take up what a constant
+    drag area leaves), or the configured fit itself when it is that one."""
     main = fit_point_mass(cfg, print_level=print_level)
     if cfg.drag.model == "constant" and not cfg.model_error.enabled:
         return main, main
@@ -344,20 +376,19 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     cov_p = cov.covariance_of(part.theta_cols, part.params.scales)
     sigma = np.sqrt(np.diag(cov_p))
     n_areas = (len(values) - 2) // n_coef
-    areas, area_sigma = [], []
-    for a in range(n_areas):
-        sl = slice(a * n_coef, (a + 1) * n_coef)
-        areas.append(basis @ values[sl])
-        area_sigma.append(np.sqrt(np.einsum("ij,jk,ik->i", basis, cov_p[sl, sl], basis)))
-    cda, cda_sigma = areas[0], area_sigma[0]
+    process = process_sigma = None
+    if cfg.model_error.enabled:
+        areas, area_sigma, process, process_sigma = _areas_with_process(cfg, part, cov, basis, values, sol.z, n_areas)
+    else:
+        areas, area_sigma = [], []
+        for a in range(n_areas):
+            sl = slice(a * n_coef, (a + 1) * n_coef)
+            areas.append(basis @ values[sl])
+            area_sigma.append(np.sqrt(np.einsum("ij,jk,ik->i", basis, cov_p[sl, sl], basis)))
+        areas, area_sigma = np.column_stack(areas), np.column_stack(area_sigma)
+    cda, cda_sigma = areas[:, 0], area_sigma[:, 0]
     with np.errstate(divide="ignore", invalid="ignore"):
         norm = np.where(data.inv_sigma > 0, (data.y - states) * data.inv_sigma, np.nan)
-    accel_error = accel_sigma = None
-    if cfg.model_error.enabled:
-        _, a_cols = latent_columns(cfg, k, part.params.n)
-        scale = cfg.model_error.acceleration_sigma_mps2
-        accel_error = sol.z[a_cols] * scale
-        accel_sigma = np.sqrt(np.array([np.diag(c) for c in cov.blocks(list(a_cols))])) * scale
     errors = cfg.gps_errors
     whitened = innovations(cfg, data, part, nlp, sol.z) if cfg.model_error.enabled else errors.whiten(norm, data.t_unix)
     chi2 = nlp.group_chi2(r)
@@ -367,8 +398,7 @@ def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) ->
     return PointMassResult(cfg, model_name, data.t_unix, states, state_sigma, cda, cda_sigma, part.params, values,
                            sigma, norm, chi2, counts, sum(chi2.values()) / max(dof, 1), sol, {}, nlp=nlp,
                            z=sol.z, covariance=cov, track=data.track, y=data.y, inv_sigma=data.inv_sigma,
-                           areas=np.column_stack(areas), area_sigma=np.column_stack(area_sigma),
-                           whitened_residuals=whitened, acceleration_error=accel_error,
-                          acceleration_error_sigma=accel_sigma,
+                           areas=areas, area_sigma=area_sigma, whitened_residuals=whitened,
+                           area_process=process, area_process_sigma=process_sigma,
                            notes=data.notes + ((errors.describe(),) if errors.enabled else ())
                           + ((cfg.model_error.describe(),) if cfg.model_error.enabled else ()))

@@ -1,16 +1,16 @@
-"""Kalman-filter innovations of a GPS-only fit with an unmodelled-acceleration process: the residual
+"""Kalman-filter innovations of a GPS-only fit with an area process (``[model_error]``): the residual
 series the model-adequacy tests need when the fit is a smoother.
 
 With latent processes at every node the fit's residuals y - x_hat are those of a smoother: it
 bends the trajectory towards every fix, so they are small and correlated however right the model
-(on a real skydive with a 2 m/s^2, 2 s acceleration process: position reduced chi-square 0.06,
-lag-1 +0.5). The test of such a model is its one-step prediction errors: the innovations of a
-Kalman filter run forward through the fixes, independent N(0, 1) when the model holds.
+(on a real skydive with a 2 m/s^2, 2 s process: position reduced chi-square 0.06, lag-1 +0.5). The
+test of such a model is its one-step prediction errors: the innovations of a Kalman filter run
+forward through the fixes, independent N(0, 1) when the model holds.
 
 The filter runs on the fit's own linearisation about its estimate z_hat (scaled units), the
 parameters (drag and lift areas, wind bias) held at their estimates:
 
-- state: the deviations of the node's position and velocity, of the acceleration process a and
+- state: the deviations of the node's position and velocity, of the area process a and
   of the correlated GPS errors e from the estimate (s = [dx, da, de]);
 - transition over interval k from its Hermite-Simpson defects D0 dx_k + D1 dx_k+1 + Da0 da_k +
   Da1 da_k+1 = 0 (the NLP's constraint Jacobian) and the processes' Gauss-Markov steps
@@ -64,11 +64,11 @@ def filter_innovations(jr: sps.spmatrix, jg: sps.spmatrix, r_hat: np.ndarray, z_
     x_cols : (K, 6) int array
         z columns of each node's position and velocity.
     a_cols : (K, n_a) int array
-        z columns of the unit-variance acceleration process (n_a 3, or 0 without one).
+        z columns of the unit-variance area process (n_a 3, or 0 without one).
     e_cols : (K, n_e) int array
         z columns of the unit-variance correlated GPS errors of the active components.
     phi_a : float
-        Transition of the acceleration process over one interval.
+        Transition of the area process over one interval.
     phi_e : (n_e,) array
         Transition of each correlated GPS error over one interval.
     defect_rows : (K - 1, 6) int array

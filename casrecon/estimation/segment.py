@@ -6,7 +6,10 @@ Rules (also in the results' notes):
   own accuracies already weight the good ones);
 - without explicit times, the segment is the longest run of consecutive good fixes whose vertical
   speed exceeds ``min_speed_mps``, extended backwards over good fixes while the vertical speed is
-  above 2 m/s (exit or release: the descent starts from near zero). It ends ``end_margin_s``
+  above 2 m/s (exit or release: the descent starts from near zero) and the fix is already falling:
+  its vertical speed grows by more than ``EXIT_ACCEL_MPS2`` over the next ``EXIT_WINDOW_S`` (a body
+  let go falls at nearly g; one still in or on a descending aircraft does not: a speed skydive's
+  track held 2 to 4 m/s for 2.6 s before the exit, which a free-fall model cannot fly). It ends ``end_margin_s``
   before the final drop (canopy opening or impact) began: the final drop is the stretch of fixes
   up to the run's last fix whose vertical speed is each more than ``deploy_drop_mps`` below its
   running maximum over the preceding ``DROP_WINDOW_S``; it began at that maximum of its first fix
@@ -28,6 +31,11 @@ from casrecon.io.pointmass_problem import SegmentConfig
 
 #: Window of the running maximum that finds the final drop, s.
 DROP_WINDOW_S = 2.0
+#: A fix belongs to the fall when its vertical speed grows by more than EXIT_ACCEL_MPS2 x
+#: EXIT_WINDOW_S over the following EXIT_WINDOW_S (m/s^2, s): about 0.3 g, against nearly g just
+#: after an exit, and 1 m/s^2 of noise from two fixes' speed errors (sAcc about 0.5 m/s) a second apart.
+EXIT_ACCEL_MPS2 = 3.0
+EXIT_WINDOW_S = 1.0
 
 
 class SegmentError(ValueError):
@@ -80,7 +88,10 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     if not runs:
         raise SegmentError(f"{track.path}: no good fix descends faster than {cfg.min_speed_mps} m/s")
     i0, i1 = max(runs, key=lambda r: t[r[1] - 1] - t[r[0]])
-    while i0 > 0 and good[i0 - 1] and track.vel_d_mps[i0 - 1] > 2.0:
+    t_good, vd_good = t[good], track.vel_d_mps[good]
+    while (i0 > 0 and good[i0 - 1] and track.vel_d_mps[i0 - 1] > 2.0
+           and np.interp(t[i0 - 1] + EXIT_WINDOW_S, t_good, vd_good) - track.vel_d_mps[i0 - 1]
+           > EXIT_ACCEL_MPS2 * EXIT_WINDOW_S):
         i0 -= 1
     start = cfg.start_unix_s if cfg.start_unix_s is not None else float(t[i0])
     run = np.arange(i0, i1)[good[i0:i1]]
@@ -90,7 +101,8 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
         raise SegmentError(f"{track.path}: the descent segment found is only {end - start:.1f} s long")
     notes.append(f"segment found from the data: {end - start:.1f} s, vertical speed up to "
                  f"{track.vel_d_mps[i0:i1].max():.1f} m/s (rule: longest run faster than {cfg.min_speed_mps} m/s, "
-                 f"back to 2 m/s, ending {cfg.end_margin_s} s before the final drop began at "
+                 f"back to 2 m/s or to a fix not yet falling, ending {cfg.end_margin_s} s before the final drop "
+                 f"began at "
                  f"{track.vel_d_mps[onset]:.1f} m/s, {t[i1 - 1] - t[onset]:.1f} s before the last fix faster than "
                  f"{cfg.min_speed_mps} m/s)")
     return Segment(start, end, good, tuple(notes))

@@ -72,12 +72,14 @@ POINT_MASS = FileKind(
                source=SegmentConfig, attr="segment.deploy_drop_mps"),
         )),
         Table("model_error", (
-            key("acceleration_sigma_mps2", "float", "m/s^2", "1-sigma of each NED component of an unmodelled "
-               "acceleration, a first-order Gauss-Markov process estimated at every node (a skydiver's changes of "
-               "body position, turbulence, a wind changing along the path); the adequacy tests then run on the "
-               "Kalman innovations of the fixes; 0: none", source=ModelErrorConfig,
-               attr="model_error.acceleration_sigma_mps2"),
-            key("time_s", "float", "s", "Correlation time of the unmodelled acceleration", source=ModelErrorConfig,
+            key("drag_area_fraction", "float", "", "1-sigma of a first-order Gauss-Markov process a that multiplies "
+               "the drag area by exp(fraction a), estimated at every node (changes of body position faster than the "
+               "spline follows); with either sigma non-zero the adequacy tests run on the Kalman innovations of the "
+               "fixes; 0: none", source=ModelErrorConfig, attr="model_error.drag_area_fraction"),
+            key("lift_area_sigma_m2", "float", "m^2", "1-sigma of the same process added to each horizontal lift "
+               "area (north, east), with or without [drag] lift; 0: none", source=ModelErrorConfig,
+               attr="model_error.lift_area_sigma_m2"),
+            key("time_s", "float", "s", "Correlation time of the area processes", source=ModelErrorConfig,
                attr="model_error.time_s"),
         )),
         DYNAMICS_TABLE,

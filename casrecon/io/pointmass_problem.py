@@ -10,7 +10,7 @@ parsed once into frozen dataclasses and validated like the 6-DOF problems (same 
                   max_h_acc_m, max_v_acc_m, max_s_acc_mps, min_num_sv
     [segment]     start_utc, end_utc (optional: found from the data), min_speed_mps, end_margin_s,
                   deploy_drop_mps
-    [model_error] acceleration_sigma_mps2, time_s
+    [model_error] drag_area_fraction, lift_area_sigma_m2, time_s
     [estimation]  linear_solver, max_iter, tol
 """
 
@@ -46,31 +46,43 @@ class DragConfig:
 
 @dataclass(frozen=True)
 class ModelErrorConfig:
-    """Unmodelled acceleration: what the drag-and-lift point mass cannot describe (a skydiver's
-    changes of body position and track, turbulence, a wind that changes along the path), as a
-    first-order Gauss-Markov process in each NED component estimated at every node (the weak
-    constraint of the 6-DOF fit's model-error states).
+    """Fast changes of the areas: what a drag-area spline cannot follow (a skydiver's changes of body
+    position within a second), as first-order Gauss-Markov processes estimated at every node: one
+    multiplies the drag area by exp(drag_area_fraction a) (a relative change, so the drag area
+    stays positive), one is added to each horizontal lift area north and east (the weak constraint
+    of the 6-DOF fit's model-error states). Whatever force the body's attitude makes goes through
+    its areas, so the reported CdA(t) (spline times process) is the drag area the data say at each
+    instant.
 
     Attributes
     ----------
-    acceleration_sigma_mps2 : float
-        Stationary 1-sigma of each NED component, m/s^2; 0: none (the strong constraint).
+    drag_area_fraction : float
+        Stationary 1-sigma of the drag area's log (a relative change, -).
+    lift_area_sigma_m2 : float
+        Stationary 1-sigma of each horizontal lift-area process, m^2.
     time_s : float
-        Correlation time, s.
+        Correlation time of the three, s.
     """
 
-    acceleration_sigma_mps2: float = 0.0
-    time_s: float = 2.0
+    drag_area_fraction: float = 0.0
+    lift_area_sigma_m2: float = 0.0
+    time_s: float = 1.0
 
     @property
     def enabled(self) -> bool:
-        return self.acceleration_sigma_mps2 > 0
+        """Whether any process is on (both sigmas 0: none, the strong constraint)."""
+        return self.drag_area_fraction > 0 or self.lift_area_sigma_m2 > 0
+
+    @property
+    def sigmas(self) -> tuple[float, float, float]:
+        """1-sigma of the drag-area log (-), and of the lift-north and lift-east processes (m^2)."""
+        return (self.drag_area_fraction, self.lift_area_sigma_m2, self.lift_area_sigma_m2)
 
     def describe(self) -> str:
         """One line for reports."""
-        return (f"unmodelled acceleration Gauss-Markov: {self.acceleration_sigma_mps2:g} m/s^2 1-sigma per NED "
-                f"component over {self.time_s:g} s, estimated at every node; adequacy tests on the Kalman "
-                "innovations of the fixes")
+        return (f"area processes Gauss-Markov over {self.time_s:g} s, estimated at every node: drag area "
+                f"{100 * self.drag_area_fraction:g} % 1-sigma (log-normal), each horizontal lift area "
+                f"{self.lift_area_sigma_m2:g} m^2; adequacy tests on the Kalman innovations of the fixes")
 
     def transition(self, step_s: float) -> float:
         """Correlation between values ``step_s`` (s) apart, exp(-step / tau)."""
@@ -141,7 +153,8 @@ def _segment(t: Fields) -> SegmentConfig:
 
 def _model_error(t: Fields) -> ModelErrorConfig:
     d = ModelErrorConfig()
-    cfg = ModelErrorConfig(t.number("acceleration_sigma_mps2", d.acceleration_sigma_mps2, minimum=0.0),
+    cfg = ModelErrorConfig(t.number("drag_area_fraction", d.drag_area_fraction, minimum=0.0),
+                           t.number("lift_area_sigma_m2", d.lift_area_sigma_m2, minimum=0.0),
                            t.number("time_s", d.time_s, positive=True))
     t.reject_unknown()
     return cfg

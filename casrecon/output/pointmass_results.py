@@ -25,7 +25,8 @@ NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
 
 
 def _model_summary(r) -> dict:
-    return {"model": r.model_name, "lift": r.areas.shape[1] > 1, "converged": r.solver.converged,
+    return {"model": r.model_name, "lift": bool(r.config.drag.lift and r.model_name == "spline"),
+            "converged": r.solver.converged,
             "status": r.solver.status, "iterations": r.solver.iterations, "chi2": r.chi2,
             "n_measurements": r.n_measurements, "reduced_chi2": r.reduced_chi2,
             "normalised_residuals": r.residual_stats(),
@@ -57,10 +58,10 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
         cols[name], cols[f"{name}_3sigma"] = main.states[:, i], 3 * main.state_sigma[:, i]
     for j, name in enumerate(("cda_m2", "lift_n_m2", "lift_e_m2")[:main.areas.shape[1]]):
         cols[name], cols[f"{name}_3sigma"] = main.areas[:, j], 3 * main.area_sigma[:, j]
-    if main.acceleration_error is not None:
-        for j, axis in enumerate("ned"):
-            name = f"accel_error_{axis}_mps2"
-            cols[name], cols[f"{name}_3sigma"] = main.acceleration_error[:, j], 3 * main.acceleration_error_sigma[:, j]
+    if main.area_process is not None:
+        for j, area in enumerate(("cda", "lift_n", "lift_e")):
+            name = f"{area}_process_m2"
+            cols[name], cols[f"{name}_3sigma"] = main.area_process[:, j], 3 * main.area_process_sigma[:, j]
     write_table(out / "trajectory.csv", cols)
     residuals = {f"{n}_{m}_z": r[:, i] for m, r in (("fit", main.normalized_residuals),
                                                     ("constant", constant.normalized_residuals))

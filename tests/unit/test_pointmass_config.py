@@ -100,8 +100,8 @@ def test_minimal_problem_and_defaults(write):
     cfg = load_point_mass(write(text))
     assert cfg.drag == DragConfig() and cfg.segment == SegmentConfig()
     assert cfg.model_error == ModelErrorConfig() and not cfg.model_error.enabled
-    cfg = load_point_mass(write(MINIMAL + "\n[model_error]\nacceleration_sigma_mps2 = 2.5\ntime_s = 1.5\n"))
-    assert cfg.model_error == ModelErrorConfig(2.5, 1.5) and cfg.model_error.enabled
+    cfg = load_point_mass(write(MINIMAL + "\n[model_error]\ndrag_area_fraction = 0.3\ntime_s = 1.5\n"))
+    assert cfg.model_error == ModelErrorConfig(0.3, 0.0, 1.5) and cfg.model_error.enabled
 
 
 def _replace(old: str, new: str) -> str:
@@ -143,9 +143,11 @@ BAD = [
     ("unknown kind", _replace('kind = "point-mass"', 'kind = "four-dof"'), "problem.kind", "four-dof"),
     ("unknown linear solver", MINIMAL + '\n[estimation]\nlinear_solver = "ma57"\n', "estimation.linear_solver",
      "ma57"),
-    ("negative acceleration sigma", MINIMAL + "\n[model_error]\nacceleration_sigma_mps2 = -1.0\n",
-     "model_error.acceleration_sigma_mps2", ">= 0"),
-    ("zero model-error time", MINIMAL + "\n[model_error]\nacceleration_sigma_mps2 = 1.0\ntime_s = 0\n",
+    ("negative drag-area fraction", MINIMAL + "\n[model_error]\ndrag_area_fraction = -0.1\n",
+     "model_error.drag_area_fraction", ">= 0"),
+    ("negative lift-area sigma", MINIMAL + "\n[model_error]\nlift_area_sigma_m2 = -0.01\n",
+     "model_error.lift_area_sigma_m2", ">= 0"),
+    ("zero model-error time", MINIMAL + "\n[model_error]\ndrag_area_fraction = 0.3\ntime_s = 0\n",
      "model_error.time_s", "positive|> 0|greater"),
     ("unknown key in model_error", MINIMAL + "\n[model_error]\nsigma = 1.0\n", "model_error.sigma", ""),
 ]

@@ -53,18 +53,34 @@ Q = GpsQuality()
 CFG = SegmentConfig()
 
 
+def test_a_slow_descent_before_the_exit_is_left_out():
+    """A body still in or on a descending aircraft (vertical speed 2.5 to 3.5 m/s for 3 s, hardly
+    accelerating) is not falling: the segment starts at the exit, where the speed grows at ~g."""
+    vd = jump_profile()
+    exit_at = int(np.flatnonzero(vd > 0)[0])
+    aircraft = np.linspace(2.5, 3.5, 15)                       # 3 s at 0.33 m/s^2
+    vd = np.r_[vd[:exit_at], aircraft, 3.5 + vd[exit_at:]]
+    seg = find_segment(track_from(vd), Q, CFG)
+    # the aircraft fix 0.8 s before the ramp (3.29 m/s) reaches 7.3 m/s a second later (+4.0 > 3);
+    # the one 1.0 s before (3.21 m/s) only 5.4 (+2.2): the segment starts at the first
+    first_falling = exit_at + aircraft.size - 4
+    assert vd[first_falling + 5] - vd[first_falling] > 3.0 > vd[first_falling + 4] - vd[first_falling - 1]
+    assert seg.start_unix_s - T0 == pytest.approx(DT * first_falling, abs=1e-6)
+    assert any("not yet falling" in n for n in seg.notes)
+
+
 def test_exit_and_deployment_found_from_the_data():
     vd = jump_profile()
     tr = track_from(vd)
     seg = find_segment(tr, Q, CFG)
     i_start = int(np.flatnonzero(vd > 2.0)[0])                 # second ramp fix (3.8 m/s): 1.9 is below 2
     assert vd[i_start - 1] <= 2.0 < vd[i_start]
-    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[i_start])
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[i_start], abs=1e-6)
     i_last_fast = int(np.flatnonzero(vd > CFG.min_speed_mps)[-1])
     assert vd[i_last_fast + 1] < CFG.min_speed_mps
     i_onset = int(np.flatnonzero(vd == 55.0)[-1])               # the deployment ramp starts after it
     assert vd[i_onset + 1] < 55.0 - CFG.deploy_drop_mps
-    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_onset] - CFG.end_margin_s)
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_onset] - CFG.end_margin_s, abs=1e-6)
     assert seg.good.all() and seg.good.shape == (tr.n,)
     assert any("segment found from the data" in n for n in seg.notes)
     assert "0 of" in seg.notes[0]
@@ -77,9 +93,9 @@ def test_min_speed_and_end_margin_are_used():
     seg = find_segment(tr, Q, cfg)
     i_last = int(np.flatnonzero(vd > 45.0)[-1])               # the deployment ramp's 47.9 m/s fix
     assert vd[i_last] < 55.0 - cfg.deploy_drop_mps               # is in the final drop: the end is before it
-    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last - 1] - 1.0)
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last - 1] - 1.0, abs=1e-6)
     # the start is still where the descent began (back over the ramp to 2 m/s), not at 45 m/s
-    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[np.flatnonzero(vd > 2.0)[0]])
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[np.flatnonzero(vd > 2.0)[0]], abs=1e-6)
 
 
 def test_cold_start_fixes_dropped_and_counted():
@@ -91,7 +107,7 @@ def test_cold_start_fixes_dropped_and_counted():
     assert not seg.good[:20].any() and seg.good[20:].all()
     assert seg.notes[0].startswith(f"20 of {tr.n} fixes fail the quality rules")
     assert "dropped" in seg.notes[0]
-    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[np.flatnonzero(vd > 2.0)[0]])
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[np.flatnonzero(vd > 2.0)[0]], abs=1e-6)
 
 
 @pytest.mark.parametrize("field, bad", [("h_acc", 10.01), ("v_acc", 10.01), ("s_acc", 1.01), ("num_sv", 5)])
@@ -122,7 +138,7 @@ def test_bad_fix_on_the_exit_ramp_stops_the_back_extension():
     s_acc[i_ramp + 2] = 5.0                                     # a bad fix at ~7.6 m/s
     tr = track_from(vd, s_acc=s_acc)
     seg = find_segment(tr, Q, CFG)
-    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[i_ramp + 3])
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[i_ramp + 3], abs=1e-6)
 
 
 def test_longest_fast_run_wins():
@@ -143,7 +159,7 @@ def test_fast_run_split_by_a_bad_fix_keeps_the_longer_part():
     tr = track_from(vd, h_acc=h_acc)
     seg = find_segment(tr, Q, CFG)
     # the part after the bad fix is longer; the back extension stops at the bad fix
-    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[cut + 1])
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[cut + 1], abs=1e-6)
 
 
 def test_no_fast_run_raises():
@@ -177,9 +193,9 @@ def test_explicit_start_only_or_end_only():
     tr = track_from(vd)
     auto = find_segment(tr, Q, CFG)
     seg = find_segment(tr, Q, SegmentConfig(start_unix_s=T0 + 12.0))
-    assert seg.start_unix_s == T0 + 12.0 and seg.end_unix_s == pytest.approx(auto.end_unix_s)
+    assert seg.start_unix_s == T0 + 12.0 and seg.end_unix_s == pytest.approx(auto.end_unix_s, abs=1e-6)
     seg = find_segment(tr, Q, SegmentConfig(end_unix_s=T0 + 30.0))
-    assert seg.start_unix_s == pytest.approx(auto.start_unix_s) and seg.end_unix_s == T0 + 30.0
+    assert seg.start_unix_s == pytest.approx(auto.start_unix_s, abs=1e-6) and seg.end_unix_s == T0 + 30.0
     # an explicit start 2 s before the end found: too short
     with pytest.raises(SegmentError, match="only 2.0 s long"):
         find_segment(tr, Q, SegmentConfig(start_unix_s=auto.end_unix_s - 2.0))
@@ -193,7 +209,7 @@ def test_slow_deceleration_is_not_a_drop():
     tr = track_from(vd)
     seg = find_segment(tr, Q, CFG)
     i_last_fast = int(np.flatnonzero(vd > CFG.min_speed_mps)[-1])
-    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last_fast] - CFG.end_margin_s)
+    assert seg.end_unix_s == pytest.approx(tr.time_unix_s[i_last_fast] - CFG.end_margin_s, abs=1e-6)
 
 
 @pytest.mark.parametrize("drop_s", [1.0, 2.0, 4.0])

@@ -22,33 +22,36 @@ CDA_SCALE = 0.1
 
 
 def drag_interval_kind(model: PointMassModel, h: float, n_coef: int, n_areas: int, wind_scale: float,
-                       active: tuple[int, ...] = (), accel_sigma_mps2: float = 0.0) -> BlockKind:
+                       active: tuple[int, ...] = (), area_sigmas: tuple[float, ...] = ()) -> BlockKind:
     """Block of one interval: locals [x_k, x_k+1 (scaled), area coefficients (n_coef x n_areas,
     scaled), wind bias north/east (scaled by ``wind_scale``, m/s), with a GPS error model the
-    unit-variance correlated errors e_k, e_k+1 of the ``active`` components, with an unmodelled
-    acceleration (``accel_sigma_mps2`` > 0) its unit-variance NED values a_k, a_k+1 at the two
-    nodes (linear between them; ``accel_sigma_mps2`` a added to the model's acceleration)]; data:
-    the spline basis at the two nodes and the midpoint, the fixes (NED position, velocity) with
-    inverse white sigmas at the two nodes, and with errors their amplitudes sigma sqrt(f) at the two
-    nodes. Residuals: the whitened fixes (y - x - amplitude e) w; constraints: the scaled defects."""
+    unit-variance correlated errors e_k, e_k+1 of the ``active`` components, with area processes
+    (``area_sigmas``: the 1-sigma of the drag area's log, -, and of the lift areas north and east,
+    m^2) their unit-variance values a_k, a_k+1 at the two nodes (linear between the nodes; the drag
+    area times exp(sigma a), sigma a added to each lift area)]; data: the spline basis at the two
+    nodes and the midpoint, the fixes (NED position, velocity) with inverse white sigmas at the two
+    nodes, and with errors their amplitudes sigma sqrt(f) at the two nodes. Residuals: the whitened
+    fixes (y - x - amplitude e) w; constraints: the scaled defects."""
     n_c, n_e = n_coef * n_areas, len(active)
-    n_a = 3 if accel_sigma_mps2 > 0 else 0
+    n_a = len(area_sigmas)
     v = ca.SX.sym("v", 12 + n_c + 2 + 2 * n_e + 2 * n_a)
     xk, xk1 = v[:6] * ca.DM(SCALE), v[6:12] * ca.DM(SCALE)
     coef, wind = ca.reshape(v[12:12 + n_c] * CDA_SCALE, n_coef, n_areas), v[12 + n_c:14 + n_c] * wind_scale
     bk, bm, bk1 = (ca.SX.sym(n, n_coef) for n in ("bk", "bm", "bk1"))
     yk, wk, yk1, wk1 = ca.SX.sym("yk", 6), ca.SX.sym("wk", 6), ca.SX.sym("yk1", 6), ca.SX.sym("wk1", 6)
     first_a = 14 + n_c + 2 * n_e
-    ak_err, ak1_err = (ca.vertcat(ca.DM.zeros(3), accel_sigma_mps2 * v[i:i + 3]) if n_a else 0.0
-                       for i in (first_a, first_a + 3))
+    proc_k, proc_k1 = ((ca.DM(area_sigmas) * v[i:i + 3] if n_a else None) for i in (first_a, first_a + 3))
 
-    def area(b):
+    def area(b, process):
         a = coef.T @ b
-        return ca.vertcat(a, ca.DM.zeros(3 - n_areas)) if n_areas < 3 else a
+        a = ca.vertcat(a, ca.DM.zeros(3 - n_areas)) if n_areas < 3 else a
+        if process is None:
+            return a
+        return ca.vertcat(a[0] * ca.exp(process[0]), a[1:] + process[1:])
 
-    fk, fk1 = model.rhs(xk, area(bk), wind) + ak_err, model.rhs(xk1, area(bk1), wind) + ak1_err
+    fk, fk1 = model.rhs(xk, area(bk, proc_k), wind), model.rhs(xk1, area(bk1, proc_k1), wind)
     xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
-    fm = model.rhs(xm, area(bm), wind) + 0.5 * (ak_err + ak1_err)
+    fm = model.rhs(xm, area(bm, None if proc_k is None else 0.5 * (proc_k + proc_k1)), wind)
     defect = (xk1 - xk - h / 6 * (fk + 4 * fm + fk1)) / ca.DM(SCALE)
     data = [bk, bm, bk1, yk, wk, yk1, wk1]
     if n_e:
