@@ -12,8 +12,10 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pymap3d
 import pytest
 
+from casrecon.io.flysight import GpsTrack
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import Site
 from casrecon.physics.vehicle import Vehicle
@@ -89,3 +91,51 @@ def problem_copy(tmp_path):
     shutil.copytree(PROBLEMS / "vehicles", root / "vehicles")
     shutil.copytree(PROBLEMS / "aero", root / "aero")
     return root / "ees-drop-1" / "problem.toml"
+
+
+def noisy_flysight_track(t_unix: np.ndarray, truth: np.ndarray, site: Site, rng: np.random.Generator,
+                         noise: float = 1.0) -> GpsTrack:
+    """A FlySight 1 track of the true NED antenna states ``truth`` (n, 6) at ``t_unix``: reported
+    accuracies about 1.5 m (hAcc), 2.5 m (vAcc) and 0.3 m/s (sAcc), each +-20 % from fix to fix and
+    rounded as the file keeps them, and white noise drawn from each fix's own values (times ``noise``)."""
+    n = t_unix.size
+    h_acc = np.round(1.5 * rng.uniform(0.8, 1.2, n), 3)
+    v_acc = np.round(2.5 * rng.uniform(0.8, 1.2, n), 3)
+    s_acc = np.round(0.3 * rng.uniform(0.8, 1.2, n), 2)
+    sig = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
+    meas = truth + noise * sig * rng.standard_normal((n, 6))
+    lat, lon, h = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], site.lat_deg, site.lon_deg,
+                                       site.ground_alt_msl_m)
+    return GpsTrack("synthetic", "flysight1", np.asarray(t_unix, float), np.asarray(lat), np.asarray(lon),
+                    np.asarray(h), meas[:, 3], meas[:, 4], meas[:, 5], h_acc, v_acc, s_acc,
+                    np.full(n, 12, dtype=np.int64))
+
+
+def point_mass_toml(name: str, site: Site, mass_kg: float, model: str, extra: str = "") -> str:
+    """problem.toml text of a point-mass problem on the ICAO atmosphere whose track ``track.csv``
+    has white GPS errors, drag ``model`` ("constant" or "spline"), then ``extra`` (more tables)."""
+    return f"""\
+[problem]
+kind = "point-mass"
+name = "{name}"
+
+[site]
+lat_deg = {site.lat_deg}
+lon_deg = {site.lon_deg}
+ground_alt_msl_m = {site.ground_alt_msl_m}
+
+[atmosphere]
+sounding = "standard"
+
+[vehicle]
+mass_kg = {mass_kg}
+
+[drag]
+model = "{model}"
+
+[gps]
+file = "track.csv"
+# the synthetic track's errors are white
+position_error_time_s = 0.0
+velocity_error_time_s = 0.0
+{extra}"""

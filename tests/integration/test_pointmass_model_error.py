@@ -25,12 +25,12 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-import pymap3d
 import pytest
+from conftest import noisy_flysight_track, point_mass_toml
 
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
 from casrecon.estimation.pointmass_fit import fit_point_mass
-from casrecon.io.flysight import GpsTrack, iso_utc, write_flysight1
+from casrecon.io.flysight import iso_utc, write_flysight1
 from casrecon.io.pointmass_problem import ModelErrorConfig, load_point_mass
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import Site
@@ -82,42 +82,10 @@ def write_problem(folder: Path, seed: int, sigma_m2: float) -> tuple[Path, np.nd
     """problem.toml and FlySight 1 track of the seed's truth; also the true states and areas."""
     t_fix, truth, areas = simulate(seed)
     rng = np.random.default_rng(seed + 1000)
-    n = t_fix.size
-    h_acc = np.round(1.5 * rng.uniform(0.8, 1.2, n), 3)
-    v_acc = np.round(2.5 * rng.uniform(0.8, 1.2, n), 3)
-    s_acc = np.round(0.3 * rng.uniform(0.8, 1.2, n), 2)
-    sig = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
-    meas = truth + sig * rng.standard_normal((n, 6))
-    lat, lon, h = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], SITE.lat_deg, SITE.lon_deg,
-                                       SITE.ground_alt_msl_m)
-    track = GpsTrack("synthetic", "flysight1", T0_UNIX + t_fix, np.asarray(lat), np.asarray(lon), np.asarray(h),
-                     meas[:, 3], meas[:, 4], meas[:, 5], h_acc, v_acc, s_acc, np.full(n, 12, dtype=np.int64))
+    track = noisy_flysight_track(T0_UNIX + t_fix, truth, SITE, rng)
     folder.mkdir(parents=True, exist_ok=True)
     write_flysight1(folder / "track.csv", track)
-    (folder / "problem.toml").write_text(f"""\
-[problem]
-kind = "point-mass"
-name = "model-error-truth"
-
-[site]
-lat_deg = {SITE.lat_deg}
-lon_deg = {SITE.lon_deg}
-ground_alt_msl_m = {SITE.ground_alt_msl_m}
-
-[atmosphere]
-sounding = "standard"
-
-[vehicle]
-mass_kg = {MASS_KG}
-
-[drag]
-model = "constant"
-
-[gps]
-file = "track.csv"
-position_error_time_s = 0.0
-velocity_error_time_s = 0.0
-
+    (folder / "problem.toml").write_text(point_mass_toml("model-error-truth", SITE, MASS_KG, "constant", f"""
 [segment]
 start_utc = "{iso_utc(T0_UNIX)}"
 end_utc = "{iso_utc(T0_UNIX + t_fix[-1])}"
@@ -126,7 +94,7 @@ end_utc = "{iso_utc(T0_UNIX + t_fix[-1])}"
 drag_area_fraction = {sigma_m2 / CDA}
 lift_area_sigma_m2 = {sigma_m2}
 time_s = {TAU_S}
-""")
+"""))
     return folder / "problem.toml", truth, areas
 
 

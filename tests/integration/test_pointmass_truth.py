@@ -37,8 +37,8 @@ from pathlib import Path
 
 import casadi as ca
 import numpy as np
-import pymap3d
 import pytest
+from conftest import noisy_flysight_track, point_mass_toml
 
 from casrecon.estimation.pointmass_fit import PointMassResult, fit_point_mass, prepare_data
 from casrecon.io.flysight import GpsTrack, iso_utc, write_flysight1
@@ -106,48 +106,14 @@ def make_track(t_sim: np.ndarray, x_sim: np.ndarray, seed: int,
                               np.tile(v_post, (t_post.size, 1))])
     t_rel = np.r_[t_pre, t_desc, t_post]
     truth = np.vstack([x_pre, x_desc, x_post])
-    n = t_rel.size
-    # reported accuracies, rounded to what the FlySight 1 file keeps, and noise drawn from them
-    h_acc = np.round(1.5 * rng.uniform(0.8, 1.2, n), 3)
-    v_acc = np.round(2.5 * rng.uniform(0.8, 1.2, n), 3)
-    s_acc = np.round(0.3 * rng.uniform(0.8, 1.2, n), 2)
-    sig = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
-    meas = truth + noise * sig * rng.standard_normal((n, 6))
-    lat, lon, h = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], SITE.lat_deg, SITE.lon_deg,
-                                       SITE.ground_alt_msl_m)
-    track = GpsTrack("synthetic", "flysight1", T0_UNIX + t_rel, np.asarray(lat), np.asarray(lon), np.asarray(h),
-                     meas[:, 3], meas[:, 4], meas[:, 5], h_acc, v_acc, s_acc, np.full(n, 12, dtype=np.int64))
+    track = noisy_flysight_track(T0_UNIX + t_rel, truth, SITE, rng, noise)
     return track, t_rel, truth
 
 
 def write_problem(folder: Path, track: GpsTrack, model: str, extra: str = "") -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     write_flysight1(folder / "track.csv", track)
-    (folder / "problem.toml").write_text(f"""\
-[problem]
-kind = "point-mass"
-name = "truth-{model}"
-
-[site]
-lat_deg = {SITE.lat_deg}
-lon_deg = {SITE.lon_deg}
-ground_alt_msl_m = {SITE.ground_alt_msl_m}
-
-[atmosphere]
-sounding = "standard"
-
-[vehicle]
-mass_kg = {MASS_KG}
-
-[drag]
-model = "{model}"
-
-[gps]
-file = "track.csv"
-# the synthetic track's errors are white
-position_error_time_s = 0.0
-velocity_error_time_s = 0.0
-{extra}""")
+    (folder / "problem.toml").write_text(point_mass_toml(f"truth-{model}", SITE, MASS_KG, model, extra))
     return folder / "problem.toml"
 
 
