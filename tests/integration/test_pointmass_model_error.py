@@ -22,80 +22,16 @@ What is checked, on fixed seeds:
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import noisy_flysight_track, point_mass_toml
+from pointmass_truth import CDA, SIGMA_M2, TAU_S, WIND, write_problem
 
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
 from casrecon.estimation.pointmass_fit import fit_point_mass
-from casrecon.io.flysight import iso_utc, write_flysight1
 from casrecon.io.pointmass_problem import ModelErrorConfig, load_point_mass
-from casrecon.physics.atmosphere import Atmosphere
-from casrecon.physics.dynamics import Site
-from casrecon.physics.pointmass import PointMassModel
 
-SITE = Site(lat_deg=40.0, lon_deg=-105.0, ground_alt_msl_m=1500.0)
-MASS_KG, CDA, WIND = 80.0, 0.25, (2.0, -1.0)
-SIGMA_M2, TAU_S = 0.03, 1.0
-PERIOD_S, DESCENT_S, DT_S = 0.2, 40.0, 0.01
-T0_UNIX = 1717243200.0
 SEEDS = (5, 6)
-
-
-def simulate(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(fix times from release, true states at them (K, 6), true areas CdA, AN, AE at them (K, 3))."""
-    rng = np.random.default_rng(seed)
-    model = PointMassModel(Atmosphere.standard(), SITE, MASS_KG)
-    k = int(round(DESCENT_S / PERIOD_S)) + 1
-    phi = np.exp(-PERIOD_S / TAU_S)
-    u = np.empty((k, 3))  # unit-variance processes at the fixes, linear between them
-    u[0] = rng.standard_normal(3)
-    for i in range(1, k):
-        u[i] = phi * u[i - 1] + np.sqrt(1 - phi * phi) * rng.standard_normal(3)
-    t_fix = PERIOD_S * np.arange(k)
-
-    def areas_of(uu):
-        return np.array([CDA * np.exp(SIGMA_M2 / CDA * uu[0]), SIGMA_M2 * uu[1], SIGMA_M2 * uu[2]])
-
-    def f(x, t):
-        uu = [np.interp(t, t_fix, u[:, c]) for c in range(3)]
-        return np.asarray(model.rhs(x, areas_of(uu), WIND)).ravel()
-
-    x = np.array([0.0, 0.0, -4000.0, 40.0, 0.0, 0.0])
-    every = int(round(PERIOD_S / DT_S))
-    states = [x]
-    for step in range(every * (k - 1)):
-        t = step * DT_S
-        k1 = f(x, t)
-        k2 = f(x + DT_S / 2 * k1, t + DT_S / 2)
-        k3 = f(x + DT_S / 2 * k2, t + DT_S / 2)
-        k4 = f(x + DT_S * k3, t + DT_S)
-        x = x + DT_S / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if (step + 1) % every == 0:
-            states.append(x)
-    return t_fix, np.array(states), np.array([areas_of(uu) for uu in u])
-
-
-def write_problem(folder: Path, seed: int, sigma_m2: float) -> tuple[Path, np.ndarray, np.ndarray]:
-    """problem.toml and FlySight 1 track of the seed's truth; also the true states and areas."""
-    t_fix, truth, areas = simulate(seed)
-    rng = np.random.default_rng(seed + 1000)
-    track = noisy_flysight_track(T0_UNIX + t_fix, truth, SITE, rng)
-    folder.mkdir(parents=True, exist_ok=True)
-    write_flysight1(folder / "track.csv", track)
-    (folder / "problem.toml").write_text(point_mass_toml("model-error-truth", SITE, MASS_KG, "constant", f"""
-[segment]
-start_utc = "{iso_utc(T0_UNIX)}"
-end_utc = "{iso_utc(T0_UNIX + t_fix[-1])}"
-
-[model_error]
-drag_area_fraction = {sigma_m2 / CDA}
-lift_area_sigma_m2 = {sigma_m2}
-time_s = {TAU_S}
-"""))
-    return folder / "problem.toml", truth, areas
 
 
 @pytest.fixture(scope="module", params=SEEDS)
