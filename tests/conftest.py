@@ -18,6 +18,7 @@ import pytest
 from casrecon.io.flysight import GpsTrack
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import Site
+from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.physics.vehicle import Vehicle
 from casrecon.scenario import Scenario
 from casrecon.simulation.simulate import Simulator
@@ -94,16 +95,24 @@ def problem_copy(tmp_path):
 
 
 def noisy_flysight_track(t_unix: np.ndarray, truth: np.ndarray, site: Site, rng: np.random.Generator,
-                         noise: float = 1.0) -> GpsTrack:
+                         noise: float = 1.0, correlated: GpsErrorModel | None = None) -> GpsTrack:
     """A FlySight 1 track of the true NED antenna states ``truth`` (n, 6) at ``t_unix``: reported
     accuracies about 1.5 m (hAcc), 2.5 m (vAcc) and 0.3 m/s (sAcc), each +-20 % from fix to fix and
-    rounded as the file keeps them, and white noise drawn from each fix's own values (times ``noise``)."""
+    rounded as the file keeps them, and noise drawn from each fix's own values (times ``noise``):
+    white, or with ``correlated`` part white, part Gauss-Markov as that model says."""
     n = t_unix.size
     h_acc = np.round(1.5 * rng.uniform(0.8, 1.2, n), 3)
     v_acc = np.round(2.5 * rng.uniform(0.8, 1.2, n), 3)
     s_acc = np.round(0.3 * rng.uniform(0.8, 1.2, n), 2)
     sig = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
-    meas = truth + noise * sig * rng.standard_normal((n, 6))
+    unit = rng.standard_normal((n, 6))
+    if correlated is not None:
+        f, e = correlated.fraction, rng.standard_normal((n, 6))
+        phi = np.exp(-np.diff(t_unix)[:, None] / np.where(correlated.time_s > 0, correlated.time_s, 1.0))
+        for i in range(1, n):
+            e[i] = phi[i - 1] * e[i - 1] + np.sqrt(1 - phi[i - 1] ** 2) * e[i]
+        unit = np.sqrt(1 - f) * unit + np.sqrt(f) * e
+    meas = truth + noise * sig * unit
     lat, lon, h = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], site.lat_deg, site.lon_deg,
                                        site.ground_alt_msl_m)
     return GpsTrack("synthetic", "flysight1", np.asarray(t_unix, float), np.asarray(lat), np.asarray(lon),
@@ -111,9 +120,12 @@ def noisy_flysight_track(t_unix: np.ndarray, truth: np.ndarray, site: Site, rng:
                     np.full(n, 12, dtype=np.int64))
 
 
-def point_mass_toml(name: str, site: Site, mass_kg: float, model: str, extra: str = "") -> str:
+def point_mass_toml(name: str, site: Site, mass_kg: float, model: str, extra: str = "",
+                    gps_errors: GpsErrorModel | None = None) -> str:
     """problem.toml text of a point-mass problem on the ICAO atmosphere whose track ``track.csv``
-    has white GPS errors, drag ``model`` ("constant" or "spline"), then ``extra`` (more tables)."""
+    has white GPS errors (or those of ``gps_errors``), drag ``model`` ("constant" or "spline"), then
+    ``extra`` (more tables)."""
+    g = gps_errors or GpsErrorModel.white()
     return f"""\
 [problem]
 kind = "point-mass"
@@ -135,7 +147,8 @@ model = "{model}"
 
 [gps]
 file = "track.csv"
-# the synthetic track's errors are white
-position_error_time_s = 0.0
-velocity_error_time_s = 0.0
+position_error_time_s = {g.position_time_s}
+velocity_error_time_s = {g.velocity_time_s}
+position_correlated_fraction = {g.position_fraction}
+velocity_correlated_fraction = {g.velocity_fraction}
 {extra}"""

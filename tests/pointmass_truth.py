@@ -15,6 +15,7 @@ from casrecon.io.flysight import iso_utc, write_flysight1
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import Site
 from casrecon.physics.pointmass import PointMassModel
+from casrecon.physics.sensor_errors import GpsErrorModel
 
 SITE = Site(lat_deg=40.0, lon_deg=-105.0, ground_alt_msl_m=1500.0)
 MASS_KG, CDA, WIND = 80.0, 0.25, (2.0, -1.0)
@@ -57,11 +58,13 @@ def simulate(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return t_fix, np.array(states), np.array([areas_of(uu) for uu in u])
 
 
-def write_problem(folder: Path, seed: int, sigma_m2: float) -> tuple[Path, np.ndarray, np.ndarray]:
-    """problem.toml and FlySight 1 track of the seed's truth; also the true states and areas."""
+def write_problem(folder: Path, seed: int, sigma_m2: float,
+                  gps_errors: GpsErrorModel | None = None) -> tuple[Path, np.ndarray, np.ndarray]:
+    """problem.toml and FlySight 1 track of the seed's truth, the GPS errors white or drawn from
+    ``gps_errors`` (and the fit told so); also the true states and areas."""
     t_fix, truth, areas = simulate(seed)
     rng = np.random.default_rng(seed + 1000)
-    track = noisy_flysight_track(T0_UNIX + t_fix, truth, SITE, rng)
+    track = noisy_flysight_track(T0_UNIX + t_fix, truth, SITE, rng, correlated=gps_errors)
     folder.mkdir(parents=True, exist_ok=True)
     write_flysight1(folder / "track.csv", track)
     (folder / "problem.toml").write_text(point_mass_toml("model-error-truth", SITE, MASS_KG, "constant", f"""
@@ -73,5 +76,5 @@ end_utc = "{iso_utc(T0_UNIX + t_fix[-1])}"
 drag_area_fraction = {sigma_m2 / CDA}
 lift_area_sigma_m2 = {sigma_m2}
 time_s = {TAU_S}
-"""))
+""", gps_errors))
     return folder / "problem.toml", truth, areas
