@@ -80,3 +80,30 @@ def test_strong_constraint_is_refused_on_the_same_data(tmp_path):
     verdict = pointmass_adequacy(r)
     print(verdict.line)
     assert not verdict.trusted
+
+
+def test_innovations_skip_missing_components_and_gaps(tmp_path, monkeypatch):
+    """An NMEA-like track (no vertical velocity) with a 2 s run of fixes dropped by the quality rules:
+    the filter predicts across the gap and leaves the missing values out; the verdict tests the five
+    channels there are, and trusts the right model."""
+    import casrecon.estimation.pointmass_fit as pmf
+    from casrecon.io.flysight import read_flysight
+
+    path, _, areas = write_problem(tmp_path / "nmea", SEEDS[0], SIGMA_M2)
+    track = read_flysight(path.parent / "track.csv")
+    h_acc = track.h_acc_m.copy()
+    h_acc[50:60] = 50.0                      # above max_h_acc_m: dropped
+    track = dataclasses.replace(track, vel_d_mps=np.full(track.n, np.nan), h_acc_m=h_acc)
+    monkeypatch.setattr(pmf, "read_gps_track", lambda *args, **kw: track)
+    r = fit_point_mass(load_point_mass(path))
+    assert r.solver.converged, r.solver.status
+    missing = np.isnan(r.whitened_residuals)
+    assert missing[:, 5].all()                               # no vertical velocity anywhere
+    assert missing[50:60, :5].all() and missing[0, :5].all()  # the gap, and the diffuse first fix
+    # and the second fix's height: without a vertical velocity its prediction is still diffuse
+    np.testing.assert_array_equal(missing[:, :5].sum(axis=0), [11, 11, 12, 11, 11])
+    assert missing[1, 2]
+    verdict = pointmass_adequacy(r)
+    assert [c.name for c in verdict.channels] == ["GPS pos n", "GPS pos e", "GPS pos d", "GPS vel n", "GPS vel e"]
+    assert verdict.trusted, verdict.line
+    assert np.mean(np.abs((r.areas - areas) / r.area_sigma) < 3) >= 0.97
