@@ -6,10 +6,12 @@ Rules (also in the results' notes):
   own accuracies already weight the good ones);
 - without explicit times, the segment is the longest run of consecutive good fixes whose vertical
   speed exceeds ``min_speed_mps``, extended backwards over good fixes while the vertical speed is
-  above 2 m/s (exit or release: the descent starts from near zero) and the fix is already falling:
-  its vertical speed grows by more than ``EXIT_ACCEL_MPS2`` over the next ``EXIT_WINDOW_S`` (a body
-  let go falls at nearly g; one still in or on a descending aircraft does not: a speed skydive's
-  track held 2 to 4 m/s for 2.6 s before the exit, which a free-fall model cannot fly). It ends ``end_margin_s``
+  above 2 m/s (exit or release: the descent starts from near zero) and, below half of
+  ``min_speed_mps``, the fix is already falling: its vertical speed grows by more than
+  ``EXIT_ACCEL_MPS2`` over the next ``EXIT_WINDOW_S`` (a body let go falls at nearly g; one still in
+  or on a descending aircraft does not: a speed skydive's track held 2 to 4 m/s for 2.6 s before
+  the exit, which a free-fall model cannot fly; a draggy body near a terminal speed just above
+  ``min_speed_mps`` hardly accelerates, hence only below half of it). It ends ``end_margin_s``
   before the final drop (canopy opening or impact) began: the final drop is the stretch of fixes
   up to the run's last fix whose vertical speed is each more than ``deploy_drop_mps`` below its
   running maximum over the preceding ``DROP_WINDOW_S``; it began at that maximum of its first fix
@@ -89,9 +91,13 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
         raise SegmentError(f"{track.path}: no good fix descends faster than {cfg.min_speed_mps} m/s")
     i0, i1 = max(runs, key=lambda r: t[r[1] - 1] - t[r[0]])
     t_good, vd_good = t[good], track.vel_d_mps[good]
-    while (i0 > 0 and good[i0 - 1] and track.vel_d_mps[i0 - 1] > 2.0
-           and np.interp(t[i0 - 1] + EXIT_WINDOW_S, t_good, vd_good) - track.vel_d_mps[i0 - 1]
-           > EXIT_ACCEL_MPS2 * EXIT_WINDOW_S):
+
+    def in_fall(i: int) -> bool:
+        """Fix i is past the exit: fast already, or its vertical speed growing at a fall's rate."""
+        growth = np.interp(t[i] + EXIT_WINDOW_S, t_good, vd_good) - track.vel_d_mps[i]
+        return track.vel_d_mps[i] > 0.5 * cfg.min_speed_mps or growth > EXIT_ACCEL_MPS2 * EXIT_WINDOW_S
+
+    while i0 > 0 and good[i0 - 1] and track.vel_d_mps[i0 - 1] > 2.0 and in_fall(i0 - 1):
         i0 -= 1
     start = cfg.start_unix_s if cfg.start_unix_s is not None else float(t[i0])
     run = np.arange(i0, i1)[good[i0:i1]]

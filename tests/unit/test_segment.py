@@ -69,6 +69,17 @@ def test_a_slow_descent_before_the_exit_is_left_out():
     assert any("not yet falling" in n for n in seg.notes)
 
 
+def test_a_draggy_body_near_its_terminal_speed_keeps_its_whole_fall():
+    """A body whose terminal speed (24 m/s) is just above min_speed_mps hardly accelerates where it
+    crosses 20 m/s: the segment still reaches back to its release, since the fall-onset test applies
+    only below half of min_speed_mps."""
+    t = DT * np.arange(150)
+    vd = np.r_[np.zeros(20), 24.0 * np.tanh(9.5 * t[:130] / 24.0)]   # g at release, ~0.3 m/s^2 at 20 m/s
+    vd = np.r_[vd, np.linspace(24.0, 5.0, 8)[1:], np.full(30, 5.0)]
+    seg = find_segment(track_from(vd), Q, CFG)
+    assert seg.start_unix_s - T0 == pytest.approx(DT * np.flatnonzero(vd > 2.0)[0], abs=1e-6)
+
+
 def test_exit_and_deployment_found_from_the_data():
     vd = jump_profile()
     tr = track_from(vd)
