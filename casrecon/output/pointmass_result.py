@@ -44,11 +44,15 @@ class PointMassFit(FolderViews):
     trajectory : pandas.DataFrame
         ``time_unix_s`` (UTC, s), ``utc`` (pandas UTC timestamps), ``time_s`` (s since the segment
         start), the antenna's ``latitude_deg``, ``longitude_deg``, ``h_msl_m``, NED position (m) and
-        velocity (m/s), drag area ``cda_m2`` (and lift areas, m^2), each with ``_3sigma``:
-        trajectory.csv as written (9 significant digits, UTC to 1 us), also for a fresh fit.
+        velocity (m/s), drag area ``cda_m2`` (and lift areas, m^2; with ``[model_error]`` also the
+        area processes' parts ``cda_process_m2``, ``lift_n_process_m2``, ``lift_e_process_m2``),
+        each with ``_3sigma``: trajectory.csv as written (9 significant digits, UTC to 1 us), also
+        for a fresh fit.
     residuals : dict of str to pandas.DataFrame
         ``{"gps": ...}``: normalised residuals of the fitted and the constant-drag model
-        (``<component>_fit_z``, ``<component>_constant_z``; -).
+        (``<component>_fit_z``, ``<component>_constant_z``; -), and with a GPS error model or area
+        processes the innovations the adequacy tests read (``<component>_fit_innovation_z``, NaN
+        where there is none).
     summary : dict
         ``summary.json``: the fit's and the constant model's convergence, chi-square, residual statistics,
         the fitted model's model-adequacy verdict (:attr:`adequacy`).

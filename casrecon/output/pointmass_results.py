@@ -66,6 +66,8 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
     residuals = {f"{n}_{m}_z": r[:, i] for m, r in (("fit", main.normalized_residuals),
                                                     ("constant", constant.normalized_residuals))
                  for i, n in enumerate(NAMES)}
+    if main.whitened_residuals is not None:  # the series the adequacy tests: innovations, NaN where none
+        residuals.update({f"{n}_fit_innovation_z": main.whitened_residuals[:, i] for i, n in enumerate(NAMES)})
     write_table(out / "residuals_gps.csv", {**times, **residuals})
     fixes = {f"{n}_{GPS_COMPONENT_UNITS[n]}": main.y[:, i] for i, n in enumerate(NAMES)}
     write_table(out / "gps_fixes.csv", {**times, **fixes, "used": (main.inv_sigma[:, 0] > 0).astype(float)})

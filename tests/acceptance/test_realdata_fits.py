@@ -179,6 +179,11 @@ def test_innovations_scale_and_no_silent_prior_deviation(fitted):
     a parameter beyond its verdict limit would be named in the line."""
     name, out, _, _ = fitted
     a = _summary(out)["adequacy"]
+    innovations = read_csv(out / "residuals_gps.csv")
+    for c, component in zip(a["channels"], ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")):
+        z = innovations[f"{component}_fit_innovation_z"]   # the series the test read, written
+        z = z[np.isfinite(z)]
+        assert z.size == c["n"] and np.mean(z * z) == pytest.approx(c["reduced_chi2"], rel=1e-6)
     below = KNOWN_BELOW_HALF.get(name, set())
     for c in a["channels"]:
         print(f"{name} {c['name']}: innovation reduced chi2 {c['reduced_chi2']:.3f}, lag-1 {c['lag1']:+.2f}")
