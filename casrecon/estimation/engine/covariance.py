@@ -301,10 +301,13 @@ class KktCovariance:
                 out.append(0.5 * (c + c.T))
             pending.clear()
 
+        n_pending = 0  # the pending sets' own (not common) columns: what a flush solves for
         for s in sets:
             pending.append(s)
-            if sum(p.size for p in pending) >= self.BATCH:
+            n_pending += s.size - np.isin(s, common).sum()
+            if n_pending >= self.BATCH:
                 flush()
+                n_pending = 0
         if pending:
             flush()
         return out
