@@ -11,6 +11,7 @@ import json
 import shutil
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
 import pymap3d
 import pytest
@@ -18,9 +19,11 @@ import pytest
 from casrecon.io.flysight import GpsTrack
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import Site
+from casrecon.physics.pointmass import PointMassModel
 from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.physics.vehicle import Vehicle
 from casrecon.scenario import Scenario
+from casrecon.simulation.model_errors import unit_gauss_markov
 from casrecon.simulation.simulate import Simulator
 
 REPO = Path(__file__).resolve().parents[1]
@@ -107,10 +110,11 @@ def noisy_flysight_track(t_unix: np.ndarray, truth: np.ndarray, site: Site, rng:
     sig = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
     unit = rng.standard_normal((n, 6))
     if correlated is not None:
-        f, e = correlated.fraction, rng.standard_normal((n, 6))
-        phi = np.exp(-np.diff(t_unix)[:, None] / np.where(correlated.time_s > 0, correlated.time_s, 1.0))
-        for i in range(1, n):
-            e[i] = phi[i - 1] * e[i - 1] + np.sqrt(1 - phi[i - 1] ** 2) * e[i]
+        e = rng.standard_normal((n, 6))
+        for cols, tau in ((slice(0, 3), correlated.position_time_s), (slice(3, 6), correlated.velocity_time_s)):
+            if tau > 0:  # (a white component has no correlated fraction)
+                e[:, cols] = unit_gauss_markov(t_unix, tau, e[:, cols])
+        f = correlated.fraction
         unit = np.sqrt(1 - f) * unit + np.sqrt(f) * e
     meas = truth + noise * sig * unit
     lat, lon, h = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], site.lat_deg, site.lon_deg,
@@ -152,3 +156,24 @@ velocity_error_time_s = {g.velocity_time_s}
 position_correlated_fraction = {g.position_fraction}
 velocity_correlated_fraction = {g.velocity_fraction}
 {extra}"""
+
+
+def point_mass_flight(model: PointMassModel, areas_of_t, wind_mps, x0: np.ndarray, duration_s: float,
+                      dt_s: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
+    """(t, X): RK4 of the point-mass ``rhs`` from ``x0`` (NED position, velocity) at t = 0 over
+    ``duration_s``, every step in one casadi ``mapaccum``; ``areas_of_t(t)`` gives (CdA, AN, AE) in
+    m^2 as a casadi 3-vector of the symbolic time t (s), ``wind_mps`` the wind bias (north, east)."""
+    x, t = ca.SX.sym("x", 6), ca.SX.sym("t")
+    wind = ca.DM(wind_mps)
+
+    def f(xx, tt):
+        return model.rhs(xx, areas_of_t(tt), wind)
+
+    k1 = f(x, t)
+    k2 = f(x + dt_s / 2 * k1, t + dt_s / 2)
+    k3 = f(x + dt_s / 2 * k2, t + dt_s / 2)
+    k4 = f(x + dt_s * k3, t + dt_s)
+    step = ca.Function("rk4_step", [x, t], [x + dt_s / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    n = int(round(duration_s / dt_s))
+    states = np.array(step.mapaccum("flight", n)(x0, ca.DM(np.arange(n) * dt_s).T))
+    return np.arange(n + 1) * dt_s, np.column_stack([x0, states]).T

@@ -8,14 +8,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import casadi as ca
 import numpy as np
-from conftest import noisy_flysight_track, point_mass_toml
+from conftest import noisy_flysight_track, point_mass_flight, point_mass_toml
 
 from casrecon.io.flysight import iso_utc, write_flysight1
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import Site
 from casrecon.physics.pointmass import PointMassModel
 from casrecon.physics.sensor_errors import GpsErrorModel
+from casrecon.simulation.model_errors import unit_gauss_markov
 
 SITE = Site(lat_deg=40.0, lon_deg=-105.0, ground_alt_msl_m=1500.0)
 MASS_KG, CDA, WIND = 80.0, 0.25, (2.0, -1.0)
@@ -29,33 +31,18 @@ def simulate(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     model = PointMassModel(Atmosphere.standard(), SITE, MASS_KG)
     k = int(round(DESCENT_S / PERIOD_S)) + 1
-    phi = np.exp(-PERIOD_S / TAU_S)
-    u = np.empty((k, 3))  # unit-variance processes at the fixes, linear between them
-    u[0] = rng.standard_normal(3)
-    for i in range(1, k):
-        u[i] = phi * u[i - 1] + np.sqrt(1 - phi * phi) * rng.standard_normal(3)
     t_fix = PERIOD_S * np.arange(k)
+    u = unit_gauss_markov(t_fix, TAU_S, rng.standard_normal((k, 3)))  # unit processes, linear between fixes
+    u_of_t = [ca.interpolant(f"u{c}", "linear", [t_fix], u[:, c]) for c in range(3)]
 
-    def areas_of(uu):
-        return np.array([CDA * np.exp(SIGMA_M2 / CDA * uu[0]), SIGMA_M2 * uu[1], SIGMA_M2 * uu[2]])
-
-    def f(x, t):
-        uu = [np.interp(t, t_fix, u[:, c]) for c in range(3)]
-        return np.asarray(model.rhs(x, areas_of(uu), WIND)).ravel()
-
-    x = np.array([0.0, 0.0, -4000.0, 40.0, 0.0, 0.0])
+    uu = ca.SX.sym("u", 3)
+    areas_of = ca.Function("areas", [uu], [ca.vertcat(CDA * ca.exp(SIGMA_M2 / CDA * uu[0]), SIGMA_M2 * uu[1],
+                                                      SIGMA_M2 * uu[2])])
+    x0 = np.array([0.0, 0.0, -4000.0, 40.0, 0.0, 0.0])
+    _, states = point_mass_flight(model, lambda tt: areas_of(ca.vertcat(*[f(tt) for f in u_of_t])), WIND, x0,
+                                  t_fix[-1], DT_S)
     every = int(round(PERIOD_S / DT_S))
-    states = [x]
-    for step in range(every * (k - 1)):
-        t = step * DT_S
-        k1 = f(x, t)
-        k2 = f(x + DT_S / 2 * k1, t + DT_S / 2)
-        k3 = f(x + DT_S / 2 * k2, t + DT_S / 2)
-        k4 = f(x + DT_S * k3, t + DT_S)
-        x = x + DT_S / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if (step + 1) % every == 0:
-            states.append(x)
-    return t_fix, np.array(states), np.array([areas_of(uu) for uu in u])
+    return t_fix, states[::every], np.array(areas_of.map(k)(u.T)).T
 
 
 def write_problem(folder: Path, seed: int, sigma_m2: float,

@@ -315,12 +315,10 @@ def innovations(cfg: PointMassConfig, data: PointMassData, part: DropLayout, nlp
     d = nlp.derivatives
     jr, jg = d.jacobian_r(z), d.jacobian_g(z)
     x_cols = 6 * np.arange(k)[:, None] + np.arange(6)[None, :]
-    active = cfg.gps_errors.active
     e_cols, a_cols = latent_columns(cfg, k, part.params.n)
     h = float(data.t_unix[1] - data.t_unix[0])
     return filter_innovations(jr, jg, nlp.residual_vector(z), z, x_cols=x_cols, a_cols=a_cols, e_cols=e_cols,
-                              phi_a=cfg.model_error.transition(h),
-                              phi_e=cfg.gps_errors.transition(np.array([h]))[0] if active.size else np.zeros(0),
+                              phi_a=cfg.model_error.transition(h), phi_e=cfg.gps_errors.transition(np.array([h]))[0],
                               defect_rows=6 * np.arange(k - 1)[:, None] + np.arange(6)[None, :],
                               fix_rows=measurement_rows(jr, nlp.groups["gps"], x_cols))
 

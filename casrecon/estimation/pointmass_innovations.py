@@ -78,16 +78,14 @@ def filter_innovations(jr: sps.spmatrix, jg: sps.spmatrix, r_hat: np.ndarray, z_
     """
     k_nodes, n_a, n_e = x_cols.shape[0], a_cols.shape[1], e_cols.shape[1]
     n = 6 + n_a + n_e
-    xa = np.column_stack([x_cols, a_cols])
     trans_cols = np.column_stack([x_cols[:-1], x_cols[1:], a_cols[:-1], a_cols[1:]])
     blocks = _gather(jg, defect_rows, trans_cols)  # (K-1, 6, 12 + 2 n_a)
     d0, d1 = blocks[:, :, :6], blocks[:, :, 6:12]
     da0, da1 = blocks[:, :, 12:12 + n_a], blocks[:, :, 12 + n_a:]
     safe_rows = np.where(fix_rows >= 0, fix_rows, 0)
-    h_all = _gather(jr, safe_rows, np.column_stack([xa, e_cols]))  # (K, 6, n): J in [dx, da, de]
-    h = np.zeros((k_nodes, 6, n))
-    h[:, :, :6] = h_all[:, :, :6]
-    h[:, :, 6 + n_a:] = h_all[:, :, 6 + n_a:]  # the fixes do not see a
+    h = np.zeros((k_nodes, 6, n))  # J in [dx, da, de]; the fixes do not see a
+    h_xe = _gather(jr, safe_rows, np.column_stack([x_cols, e_cols]))
+    h[:, :, :6], h[:, :, 6 + n_a:] = h_xe[:, :, :6], h_xe[:, :, 6:]
     d = -r_hat[safe_rows]
     a_hat, e_hat = z_hat[a_cols], z_hat[e_cols]
     q_a, q_e = np.sqrt(1 - phi_a ** 2), np.sqrt(1 - np.asarray(phi_e, float) ** 2)
@@ -118,13 +116,13 @@ def filter_innovations(jr: sps.spmatrix, jg: sps.spmatrix, r_hat: np.ndarray, z_
         f[:6, :6] = big_m
         f[:6, 6:6 + n_a] = na + phi_a * na1
         f[6:6 + n_a, 6:6 + n_a] = phi_a * np.eye(n_a)
-        f[6 + n_a:, 6 + n_a:] = np.diag(phi_e) if n_e else np.zeros((0, 0))
+        f[6 + n_a:, 6 + n_a:] = np.diag(phi_e)
         c_a = phi_a * a_hat[k] - a_hat[k + 1]
         c_e = phi_e * e_hat[k] - e_hat[k + 1]
         g = np.zeros((n, n_a + n_e))
         g[:6, :n_a] = q_a * na1
         g[6:6 + n_a, :n_a] = q_a * np.eye(n_a)
-        g[6 + n_a:, n_a:] = np.diag(q_e) if n_e else np.zeros((0, 0))
+        g[6 + n_a:, n_a:] = np.diag(q_e)
         m = f @ m
         m[:6] += na1 @ c_a
         m[6:6 + n_a] += c_a

@@ -38,7 +38,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
-from conftest import noisy_flysight_track, point_mass_toml
+from conftest import noisy_flysight_track, point_mass_flight, point_mass_toml
 
 from casrecon.estimation.pointmass_fit import PointMassResult, fit_point_mass, prepare_data
 from casrecon.io.flysight import GpsTrack, iso_utc, write_flysight1
@@ -72,21 +72,8 @@ def cda_step(t):
 def simulate(cda_of_t, dt: float = 0.01) -> tuple[np.ndarray, np.ndarray]:
     """(t, X): RK4 of the point-mass ``rhs`` from release (t = 0) over ``DESCENT_S``."""
     model = PointMassModel(Atmosphere.standard(), SITE, MASS_KG)
-    x, t = ca.SX.sym("x", 6), ca.SX.sym("t")
-    wind = ca.DM(WIND)
-
-    def f(xx, tt):
-        return model.rhs(xx, ca.vertcat(cda_of_t(tt), 0, 0), wind)
-
-    k1 = f(x, t)
-    k2 = f(x + dt / 2 * k1, t + dt / 2)
-    k3 = f(x + dt / 2 * k2, t + dt / 2)
-    k4 = f(x + dt * k3, t + dt)
-    step = ca.Function("rk4_step", [x, t], [x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
-    n = int(round(DESCENT_S / dt))
     x0 = np.array([0.0, 0.0, -RELEASE_H_M, RELEASE_VN_MPS, 0.0, 0.0])
-    states = np.array(step.mapaccum("descent", n)(x0, ca.DM(np.arange(n) * dt).T))
-    return np.arange(n + 1) * dt, np.column_stack([x0, states]).T
+    return point_mass_flight(model, lambda tt: ca.vertcat(cda_of_t(tt), 0, 0), WIND, x0, DESCENT_S, dt)
 
 
 def make_track(t_sim: np.ndarray, x_sim: np.ndarray, seed: int,
