@@ -101,6 +101,21 @@ _REPORTER: Callable[[int, int], None] | None = None
 _BLAS_LIMIT: Any = None
 #: The key of the chunk this process is working on (for :data:`_REPORTER`).
 _CURRENT_CHUNK = -1
+#: Whether this process is a worker of :func:`parallel_map` (set by :func:`ignore_interrupts`).
+_IN_POOL_WORKER = False
+
+
+def threads_for_one_task(wanted: int) -> int:
+    """How many threads one computation of this process may use, at most ``wanted``: one in a
+    worker of :func:`parallel_map` (its siblings hold the other cores), else ``wanted`` bounded by
+    the cores this process may run on."""
+    if _IN_POOL_WORKER:
+        return 1
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(wanted, cores))
 
 
 def report_progress(n: int = 1) -> None:
@@ -160,9 +175,10 @@ def ignore_interrupts(counts: Any = None) -> None:
     the worker was spawned (:func:`interrupts_deferred`) are let through again (a SIGTERM from
     :func:`stop_pool` then ends it). ``counts``: the multiprocessing queue :func:`report_progress`
     puts ``(chunk key, units)`` on."""
-    global _REPORTER, _BLAS_LIMIT
+    global _REPORTER, _BLAS_LIMIT, _IN_POOL_WORKER
     from threadpoolctl import threadpool_limits
 
+    _IN_POOL_WORKER = True
     _BLAS_LIMIT = threadpool_limits(limits=1, user_api="blas")  # for the worker's life (see single_threaded_blas)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if hasattr(signal, "pthread_sigmask"):

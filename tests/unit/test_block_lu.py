@@ -86,3 +86,25 @@ def test_projected_gram_equals_the_dense_products(monkeypatch):
         assert b == pytest.approx(jr[:, elim].toarray().T @ jz, abs=1e-12)
         jr = jr.copy()
         jr.data = rng.normal(size=jr.nnz)
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_threads_do_not_change_a_bit(monkeypatch, threads):
+    """The blocks factorised and solved on several threads, and the Gram chunks computed on them,
+    give the one-thread numbers exactly (each block and chunk is computed alone, summed in order)."""
+    rng = np.random.default_rng(7)
+    m, _, _ = shuffled_blocks(rng, sizes=(30, 41, 25, 33))
+    b = rng.normal(size=(m.shape[0], 5))
+    jr = sps.random(500, 90, density=0.05, random_state=rng, format="csr")
+    basis = rng.normal(size=(90, 8))
+    basis[:45, :3] = 0.0
+    monkeypatch.setattr("casrecon.estimation.engine.projected_gram.GRAM_CHUNK_ROWS", 32)
+    monkeypatch.setattr("casrecon.estimation.engine.block_lu.BLOCK_THREADS", 1)
+    x1, xt1 = BlockLu(m).solve(b), BlockLu(m).solve(b, trans="T")
+    hr1, c1 = projected_gram(jr, basis, jr[:, [2, 60]])
+    monkeypatch.setattr("casrecon.estimation.engine.block_lu.BLOCK_THREADS", threads)
+    lu = BlockLu(m)
+    assert lu.n_blocks == 4
+    assert np.array_equal(lu.solve(b), x1) and np.array_equal(lu.solve(b, trans="T"), xt1)
+    hr, c = projected_gram(jr, basis, jr[:, [2, 60]])
+    assert np.array_equal(hr, hr1) and np.array_equal(c, c1)

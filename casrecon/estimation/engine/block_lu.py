@@ -6,11 +6,14 @@ of the matrix's pattern, so it needs no knowledge of drops and works for any row
 order. Solving a right-hand side that is zero on a block costs nothing for that block: a joint
 fit's null-space basis has, for each drop's own free directions, nonzeros in that drop's rows
 only, so forming it costs about the per-drop fits' sum instead of the number of drops times it.
+The blocks are factorised and solved on :data:`BLOCK_THREADS` threads (SuperLU releases the GIL),
+so a joint fit's drops share the cores a single drop's one block cannot.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import scipy.sparse as sps
@@ -18,6 +21,13 @@ from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.submatrix import pattern_key, sorted_csc, submatrix
+from casrecon.parallel import threads_for_one_task
+
+#: Threads over which the blocks are factorised and solved (1: in the calling thread); fewer on a
+#: machine of fewer cores, one in a worker of a parallel study (its siblings hold the other cores;
+#: :func:`casrecon.parallel.threads_for_one_task`). The results do not depend on it: each block is
+#: factorised and solved alone, as on one thread.
+BLOCK_THREADS = 2
 
 #: The blocks of the last few patterns seen (an iteration's defect Jacobian has the previous one's
 #: pattern): pattern key -> list of (rows, columns) of each block, or None for one block.
@@ -39,11 +49,11 @@ def as_slice(index: np.ndarray) -> np.ndarray | slice:
     return index
 
 
-def block_layout(m: sps.csc_matrix) -> list | None:
+def block_layout(m: sps.csc_matrix, key: tuple | None = None) -> list | None:
     """The (rows, columns) of each diagonal block of the square CSC matrix ``m`` (sorted indices;
     each a slice when contiguous), None for a matrix of one block; remembered by pattern.
-    RuntimeError for a block that is not square."""
-    key = pattern_key(m)
+    RuntimeError for a block that is not square. ``key``: ``m``'s :func:`pattern_key`, if known."""
+    key = pattern_key(m) if key is None else key
     if key in _BLOCKS:
         return _BLOCKS[key]
     n_blocks, labels = components(m)
@@ -60,6 +70,18 @@ def block_layout(m: sps.csc_matrix) -> list | None:
         _BLOCKS.clear()
     _BLOCKS[key] = layout
     return layout
+
+
+def in_threads(fn: Callable, items: Iterable) -> Iterator:
+    """``fn(item)`` for each item, in order, computed on up to :data:`BLOCK_THREADS` threads (a pool
+    made for the call: a pool kept between calls would not survive a fork)."""
+    items = list(items)
+    threads = min(threads_for_one_task(BLOCK_THREADS), len(items))
+    if threads < 2:
+        yield from map(fn, items)
+        return
+    with ThreadPoolExecutor(threads) as pool:
+        yield from pool.map(fn, items)
 
 
 class BlockLu:
@@ -81,13 +103,15 @@ class BlockLu:
         m = sorted_csc(matrix)
         self.n = n = m.shape[0]
         self.blocks: list[tuple[np.ndarray | slice, np.ndarray | slice, object]] = []
-        layout = block_layout(m)
+        pattern = pattern_key(m)
+        layout = block_layout(m, pattern)
         if layout is None:  # one block: no copy of the matrix
             every = slice(0, n)
             self.blocks.append((every, every, splu(m, permc_spec=permc_spec)))
             return
-        for rows, cols in layout:  # each block cut by a remembered gather of the nonzeros
-            self.blocks.append((rows, cols, splu(submatrix(m, rows, cols), permc_spec=permc_spec)))
+        # each block cut by a remembered gather of the nonzeros, the LUs made side by side
+        lus = in_threads(lambda block: splu(submatrix(m, *block, pattern=pattern), permc_spec=permc_spec), layout)
+        self.blocks.extend((rows, cols, lu) for (rows, cols), lu in zip(layout, lus))
 
     @property
     def n_blocks(self) -> int:
@@ -118,12 +142,12 @@ class BlockLu:
             rhs.eliminate_zeros()
         else:
             rhs = np.asarray(rhs, float)
-        for rows, cols, lu in self.blocks:
+        def solved(block: tuple) -> tuple | None:
+            rows, cols, lu = block
             into, source = (cols, rows) if trans == "N" else (rows, cols)
             part = rhs[source]
             if part.ndim == 1:
-                yield into, None, lu.solve(part, trans=trans)
-                continue
+                return into, None, lu.solve(part, trans=trans)
             every = part.shape[1]
             if sps.issparse(part):
                 used = np.flatnonzero(part.getnnz(axis=0))
@@ -131,5 +155,8 @@ class BlockLu:
             else:
                 used = np.flatnonzero(np.any(part != 0.0, axis=0))
                 dense = part if used.size == every else part[:, used]
-            if used.size:
-                yield into, None if used.size == every else used, lu.solve(np.ascontiguousarray(dense), trans=trans)
+            if not used.size:
+                return None
+            return into, None if used.size == every else used, lu.solve(np.ascontiguousarray(dense), trans=trans)
+
+        yield from (out for out in in_threads(solved, self.blocks) if out is not None)

@@ -14,7 +14,7 @@ from scipy.linalg import null_space
 from scipy.sparse.csgraph import connected_components
 
 from casrecon.estimation.engine.block_lu import BlockLu
-from casrecon.estimation.engine.submatrix import index_key, submatrix
+from casrecon.estimation.engine.submatrix import index_key, pattern_key, sorted_csc, submatrix
 
 #: Column ordering of the LU of A_D. The dependent columns run node by node and the defects interval
 #: by interval, so A_D is block-bidiagonal already: the natural order factorises it without fill
@@ -117,12 +117,15 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     n_def = n_determining
     dep = np.asarray(dep, np.int64)
     indep = independent_columns(n_z, dep, np.asarray(excluded, np.int64))
-    # the pieces by remembered gathers (the pattern is the same at every iterate)
-    a_d, a_i = submatrix(a, slice(0, n_def), dep), submatrix(a, slice(0, n_def), indep).tocsr()
+    # the pieces by remembered gathers (the pattern is the same at every iterate; hashed once)
+    a = sorted_csc(a)
+    pattern = pattern_key(a)
+    a_d = submatrix(a, slice(0, n_def), dep, pattern=pattern)
+    a_i = submatrix(a, slice(0, n_def), indep, pattern=pattern).tocsr()
     side = slice(n_def, n_g)
-    if n_g > n_def and abs(submatrix(a, side, dep)).sum() != 0:
+    if n_g > n_def and abs(submatrix(a, side, dep, pattern=pattern)).sum() != 0:
         raise ValueError("a side constraint involves a dependent column")
-    a_side_i = submatrix(a, side, indep).toarray()
+    a_side_i = submatrix(a, side, indep, pattern=pattern).toarray()
     n_basis = side_null_basis(a_side_i)
     lu = BlockLu(a_d, permc_spec=A_D_ORDERING)
     basis = np.zeros((n_z, n_basis.shape[1]))  # calloc: only the pages written below are touched

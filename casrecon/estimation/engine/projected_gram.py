@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sps
 
+from casrecon.estimation.engine.block_lu import in_threads
 from casrecon.estimation.engine.submatrix import pattern_key
 
 #: Residual rows per chunk of :func:`projected_gram`.
@@ -44,18 +45,28 @@ def projected_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tup
     """((J Z)^T (J Z), J_E^T (J Z)) chunk by chunk of residual rows, each chunk multiplied only
     with the columns of Z it can reach (a row of J sees a few z columns, whose Z rows are zero
     outside their drop's directions and the shared ones in a joint fit): the cost of the per-drop
-    products' sum, not the number of drops times the whole."""
+    products' sum, not the number of drops times the whole. The chunks' products are computed on
+    :data:`~.block_lu.BLOCK_THREADS` threads and added up in chunk order, so the sums are those of
+    one thread to the last bit."""
     jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
     n_w = basis.shape[1]
     hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
-    for start, end, lo, hi, cols, local_indices, local_indptr in gram_chunks(jr):
+
+    def products(chunk: tuple) -> tuple | None:
+        start, end, lo, hi, cols, local_indices, local_indptr = chunk
         if not cols.size:
-            continue
+            return None
         sub = basis[cols]
         used = np.flatnonzero(np.any(sub != 0.0, axis=0))
         local = sps.csr_matrix((jr.data[lo:hi], local_indices, local_indptr), shape=(end - start, cols.size))
         jz = local @ sub[:, used]
-        hr[np.ix_(used, used)] += jz.T @ jz
-        if je.shape[1]:
-            b[:, used] += je[start:end].T @ jz
+        return used, jz.T @ jz, je[start:end].T @ jz if je.shape[1] else None
+
+    for out in in_threads(products, gram_chunks(jr)):
+        if out is None:
+            continue
+        used, gram, coupling = out
+        hr[np.ix_(used, used)] += gram
+        if coupling is not None:
+            b[:, used] += coupling
     return hr, b

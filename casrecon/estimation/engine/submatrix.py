@@ -10,6 +10,7 @@ that only places nonzeros (slicing, transposing, stacking), e.g. a KKT matrix.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 
 import numpy as np
@@ -20,6 +21,8 @@ import scipy.sparse as sps
 _GATHERS: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int]]] = {}
 #: Gathers kept at most (a few NLPs' worth; the oldest are dropped first).
 MAX_GATHERS = 32
+#: Guards :data:`_GATHERS` (the blocks of a joint fit are cut on several threads).
+_GATHERS_LOCK = threading.Lock()
 
 
 def sorted_csc(matrix: sps.spmatrix) -> sps.csc_matrix:
@@ -42,31 +45,41 @@ def index_key(index) -> tuple:
     return ("array", index.size, hash(index.tobytes()))
 
 
-def submatrix(matrix: sps.spmatrix, rows, cols) -> sps.csc_matrix:
+def submatrix(matrix: sps.spmatrix, rows, cols, *, pattern: tuple | None = None) -> sps.csc_matrix:
     """``matrix[rows][:, cols]`` as CSC (``rows``, ``cols``: slices or integer arrays), the same
     values as SciPy's slicing, through a gather remembered for the pattern and the selection
-    (:func:`gathered`)."""
-    return gathered(lambda m: m[rows][:, cols], matrix, key=("submatrix", index_key(rows), index_key(cols)))
+    (:func:`gathered`; ``pattern``: ``matrix``'s :func:`pattern_key` if the caller has it, CSC with
+    sorted indices then required)."""
+    return gathered(lambda m: m[rows][:, cols], matrix, key=("submatrix", index_key(rows), index_key(cols)),
+                    patterns=None if pattern is None else (pattern,))
 
 
-def gathered(build: Callable[..., sps.spmatrix], *parts: sps.spmatrix, key: tuple = ()) -> sps.csc_matrix:
+def gathered(build: Callable[..., sps.spmatrix], *parts: sps.spmatrix, key: tuple = (),
+             patterns: tuple | None = None) -> sps.csc_matrix:
     """``build(*parts)`` as CSC with sorted indices, through one gather of the parts' nonzeros
     worked out once for their patterns and ``key`` (which must name everything else ``build``
     depends on: the selections it makes). ``build`` may slice, transpose, mirror a triangle and
     stack, but must never add two nonzeros together (each entry of its result comes from one
-    nonzero of one part)."""
-    parts = [sorted_csc(p) for p in parts]
-    full_key = (tuple(pattern_key(p) for p in parts), key)
-    if full_key not in _GATHERS:
+    nonzero of one part). ``patterns``: the parts' :func:`pattern_key` values when the caller has
+    them (each part must then be CSC with sorted indices already), so that they are not hashed again.
+    Safe to call from several threads."""
+    if patterns is None:
+        parts = [sorted_csc(p) for p in parts]
+        patterns = tuple(pattern_key(p) for p in parts)
+    full_key = (patterns, key)
+    entry = _GATHERS.get(full_key)
+    if entry is None:
         offsets = np.cumsum([0] + [p.nnz for p in parts])
         # 1-based positions across the parts, so that no stored position is an explicit zero
         positions = [sps.csc_matrix((np.arange(o + 1, o + p.nnz + 1, dtype=float), p.indices, p.indptr), shape=p.shape)
                      for o, p in zip(offsets, parts)]
         piece = sps.csc_matrix(build(*positions))
         piece.sort_indices()
-        if len(_GATHERS) >= MAX_GATHERS:
-            del _GATHERS[next(iter(_GATHERS))]
-        _GATHERS[full_key] = (piece.data.astype(np.int64) - 1, piece.indices.copy(), piece.indptr.copy(), piece.shape)
-    where, indices, indptr, shape = _GATHERS[full_key]
+        entry = (piece.data.astype(np.int64) - 1, piece.indices.copy(), piece.indptr.copy(), piece.shape)
+        with _GATHERS_LOCK:
+            if len(_GATHERS) >= MAX_GATHERS:
+                del _GATHERS[next(iter(_GATHERS))]
+            _GATHERS[full_key] = entry
+    where, indices, indptr, shape = entry
     data = np.concatenate([p.data for p in parts]) if len(parts) > 1 else parts[0].data
     return sps.csc_matrix((data[where], indices, indptr), shape=shape)
