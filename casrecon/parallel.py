@@ -25,7 +25,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from contextlib import contextmanager
 from functools import partial
 from typing import Any
@@ -116,6 +116,20 @@ def threads_for_one_task(wanted: int) -> int:
     except AttributeError:  # not on Linux
         cores = os.cpu_count() or 1
     return max(1, min(wanted, cores))
+
+
+def in_threads(fn: Callable, items: Iterable, threads: int = 2) -> Iterator:
+    """``fn(item)`` for each item, in order, computed on up to ``threads`` threads of this process
+    (:func:`threads_for_one_task`; one: in the calling thread). For work that releases the GIL
+    (SuperLU, CasADi's evaluations and constructions, large numpy operations). The pool is made for
+    the call: one kept between calls would not survive a fork."""
+    items = list(items)
+    threads = min(threads_for_one_task(threads), len(items))
+    if threads < 2:
+        yield from map(fn, items)
+        return
+    with ThreadPoolExecutor(threads) as pool:
+        yield from pool.map(fn, items)
 
 
 def report_progress(n: int = 1) -> None:

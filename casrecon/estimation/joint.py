@@ -28,6 +28,7 @@ from casrecon.estimation.parameters import ParameterSet
 from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import STATE_SCALE
 from casrecon.io.toml_fields import load_toml
+from casrecon.parallel import in_threads
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.scenario import Scenario
 
@@ -159,6 +160,13 @@ def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
     return out, next_col
 
 
+def _prepared_with_guess(scenario: Scenario) -> tuple[tuple, np.ndarray]:
+    """A drop's data and mesh (:func:`~casrecon.estimation.fit.prepare_drop`) and its initial node states."""
+    data, mesh = prepare_drop(scenario)
+    sc = scenario
+    return (data, mesh), initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
+
+
 def joint_settings(scenarios: list[Scenario], **overrides) -> tuple[FitSettings, list[str]]:
     """The joint fit's solver settings: the first drop's ``[estimation]`` (keyword overrides
     win), and notes naming drops whose settings differ (their values are not used)."""
@@ -182,11 +190,10 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
                                              max_iter=max_iter, tol=tol, print_level=print_level, solver=solver,
                                              method=method)
     t0 = time.perf_counter()
-    prepared = [prepare_drop(sc) for sc in scenarios]
+    # each drop's data read and checked, and its initial guess made, side by side (0.47 -> 0.36 s for the EES drops)
+    prepared, x0s = zip(*in_threads(_prepared_with_guess, scenarios))
     psets, shared = _parameter_sets(scenarios, cfg)
     measurements = [load_measurements(sc.config, data) for sc, (data, _) in zip(scenarios, prepared)]
-    x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
-           for sc, (data, mesh) in zip(scenarios, prepared)]
 
     def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
         layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses, measurements, altitudes)

@@ -12,8 +12,7 @@ so a joint fit's drops share the cores a single drop's one block cannot.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Iterator
 
 import numpy as np
 import scipy.sparse as sps
@@ -21,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.submatrix import pattern_key, sorted_csc, submatrix
-from casrecon.parallel import threads_for_one_task
+from casrecon.parallel import in_threads
 
 #: Threads over which the blocks are factorised and solved (1: in the calling thread); fewer on a
 #: machine of fewer cores, one in a worker of a parallel study (its siblings hold the other cores;
@@ -72,18 +71,6 @@ def block_layout(m: sps.csc_matrix, key: tuple | None = None) -> list | None:
     return layout
 
 
-def in_threads(fn: Callable, items: Iterable) -> Iterator:
-    """``fn(item)`` for each item, in order, computed on up to :data:`BLOCK_THREADS` threads (a pool
-    made for the call: a pool kept between calls would not survive a fork)."""
-    items = list(items)
-    threads = min(threads_for_one_task(BLOCK_THREADS), len(items))
-    if threads < 2:
-        yield from map(fn, items)
-        return
-    with ThreadPoolExecutor(threads) as pool:
-        yield from pool.map(fn, items)
-
-
 class BlockLu:
     """LU of a square sparse matrix by its independent diagonal blocks (one SuperLU each).
 
@@ -110,7 +97,8 @@ class BlockLu:
             self.blocks.append((every, every, splu(m, permc_spec=permc_spec)))
             return
         # each block cut by a remembered gather of the nonzeros, the LUs made side by side
-        lus = in_threads(lambda block: splu(submatrix(m, *block, pattern=pattern), permc_spec=permc_spec), layout)
+        lus = in_threads(lambda block: splu(submatrix(m, *block, pattern=pattern), permc_spec=permc_spec), layout,
+                         BLOCK_THREADS)
         self.blocks.extend((rows, cols, lu) for (rows, cols), lu in zip(layout, lus))
 
     @property
@@ -159,4 +147,4 @@ class BlockLu:
                 return None
             return into, None if used.size == every else used, lu.solve(np.ascontiguousarray(dense), trans=trans)
 
-        yield from (out for out in in_threads(solved, self.blocks) if out is not None)
+        yield from (out for out in in_threads(solved, self.blocks, BLOCK_THREADS) if out is not None)

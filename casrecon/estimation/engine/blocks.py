@@ -164,6 +164,8 @@ class BlockSet:
     def __init__(self, kind: BlockKind, cols: np.ndarray, data: list | None = None, determining: bool = True) -> None:
         self.kind, self.cols, self.data = kind, np.asarray(cols, np.int64), list(data or [])
         self.determining = determining
+        self._derivs: ca.Function | None = None
+        self._values: ca.Function | None = None
 
     def mapped(self, function: ca.Function) -> ca.Function:
         """``function`` mapped over every block, compiled first (see :mod:`.compiled`) when one
@@ -174,15 +176,22 @@ class BlockSet:
             function = compiled(function)
         return function.map(n, "thread", MAP_THREADS) if n > 1 else function
 
-    @cached_property
+    @property
     def derivs(self) -> ca.Function:
-        """The kind's derivative function over all blocks (built at first use)."""
-        return self.mapped(self.kind.derivatives)
+        """The kind's derivative function over all blocks (built at first use; several sets' may be
+        built at once on threads, which ``functools.cached_property``'s class-wide lock would
+        serialise in Python 3.11)."""
+        if self._derivs is None:
+            self._derivs = self.mapped(self.kind.derivatives)
+        return self._derivs
 
-    @cached_property
+    @property
     def value_function(self) -> ca.Function:
-        """The kind's value function (residuals[, constraints], no derivatives) over all blocks."""
-        return self.mapped(self.kind.values)
+        """The kind's value function (residuals[, constraints], no derivatives) over all blocks
+        (built at first use, as :attr:`derivs`)."""
+        if self._values is None:
+            self._values = self.mapped(self.kind.values)
+        return self._values
 
     @cached_property
     def hess(self) -> ca.Function:

@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sps
 
-from casrecon.estimation.engine.block_lu import in_threads
+from casrecon.estimation.engine import block_lu
 from casrecon.estimation.engine.submatrix import pattern_key
+from casrecon.parallel import in_threads
 
 #: Residual rows per chunk of :func:`projected_gram`.
 GRAM_CHUNK_ROWS = 4096
@@ -62,7 +63,7 @@ def projected_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tup
         jz = local @ sub[:, used]
         return used, jz.T @ jz, je[start:end].T @ jz if je.shape[1] else None
 
-    for out in in_threads(products, gram_chunks(jr)):
+    for out in in_threads(products, gram_chunks(jr), block_lu.BLOCK_THREADS):
         if out is None:
             continue
         used, gram, coupling = out
