@@ -30,6 +30,7 @@ from casrecon.estimation.parameters import ParameterSet, model_parameters
 from casrecon.estimation.profile import LEAST_TOLERANCE_M, ProfileGrid
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.problem import ProblemConfig
+from casrecon.parallel import in_threads
 from casrecon.physics.dynamics import FlightModel
 
 #: The measurement kinds of a 6-DOF drop fit, in residual order (a kind whose ``load`` returns
@@ -149,7 +150,7 @@ def parameter_names(layouts: list[DropLayout]) -> dict[int, str]:
 def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-newton") -> FitNlp:
     """The NLP of every drop's terms, plus one unit-norm constraint on each drop's first quaternion."""
     layouts = [c.layout for c in contexts]
-    terms = [t for c in contexts for t in drop_terms(c)]
+    terms = [t for drop in in_threads(drop_terms, contexts) for t in drop]  # CasADi's builds release the GIL
     terms.append(unit_norm_term(np.array([lay.node_offset + QUATERNION for lay in layouts])))
     nlp = assemble_nlp(terms, n_z, dependent=np.concatenate([lay.dependent_cols for lay in layouts]),
                        parameter_names=parameter_names(layouts), hessian=hessian,
