@@ -105,11 +105,16 @@ _CURRENT_CHUNK = -1
 _IN_POOL_WORKER = False
 
 
+def in_pool_worker() -> bool:
+    """Whether this process is a worker of :func:`parallel_map` (on local processes)."""
+    return _IN_POOL_WORKER
+
+
 def threads_for_one_task(wanted: int) -> int:
     """How many threads one computation of this process may use, at most ``wanted``: one in a
     worker of :func:`parallel_map` (its siblings hold the other cores), else ``wanted`` bounded by
     the cores this process may run on."""
-    if _IN_POOL_WORKER:
+    if in_pool_worker():
         return 1
     try:
         cores = len(os.sched_getaffinity(0))

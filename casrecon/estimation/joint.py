@@ -163,8 +163,8 @@ def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
 def _prepared_with_guess(scenario: Scenario) -> tuple[tuple, np.ndarray]:
     """A drop's data and mesh (:func:`~casrecon.estimation.fit.prepare_drop`) and its initial node states."""
     data, mesh = prepare_drop(scenario)
-    sc = scenario
-    return (data, mesh), initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
+    cfg = scenario.config
+    return (data, mesh), initial_guess(data, mesh, cfg.vehicle, scenario.atmosphere, cfg.site.ground_alt_msl_m)
 
 
 def joint_settings(scenarios: list[Scenario], **overrides) -> tuple[FitSettings, list[str]]:

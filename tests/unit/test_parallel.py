@@ -115,3 +115,46 @@ def test_an_input_error_in_a_worker_reaches_the_caller_as_itself(tmp_path):
     missing = [str(tmp_path / "a.csv"), str(tmp_path / "b.csv")]
     with pytest.raises(InputError, match=r"[ab]\.csv: cannot read file"):  # whichever worker fails first
         parallel_map(read_sounding, missing, workers=2)
+
+
+def _thread_of(item):
+    import threading
+
+    time.sleep(0.01)
+    return item, threading.get_ident()
+
+
+def test_in_threads_keeps_order_and_uses_other_threads(monkeypatch):
+    import threading
+
+    from casrecon import parallel
+
+    monkeypatch.setattr(parallel, "threads_for_one_task", lambda wanted: wanted)  # whatever the machine
+    out = list(parallel.in_threads(_thread_of, range(6), threads=2))
+    assert [item for item, _ in out] == list(range(6))
+    assert {ident for _, ident in out} != {threading.get_ident()}
+
+
+def test_in_a_pool_worker_in_threads_stays_in_the_calling_thread(monkeypatch):
+    import threading
+
+    from casrecon import parallel
+
+    monkeypatch.setattr(parallel, "in_pool_worker", lambda: True)
+    assert parallel.threads_for_one_task(8) == 1
+    out = list(parallel.in_threads(_thread_of, range(4), threads=2))
+    assert [item for item, _ in out] == list(range(4))
+    assert {ident for _, ident in out} == {threading.get_ident()}
+
+
+def test_pool_workers_know_they_are_workers():
+    from casrecon import parallel
+
+    flags = parallel_map(_worker_flag, [0, 1], workers=2)
+    assert flags == [True, True] and not parallel.in_pool_worker()
+
+
+def _worker_flag(_):
+    from casrecon import parallel
+
+    return parallel.in_pool_worker()
