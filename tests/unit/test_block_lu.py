@@ -108,3 +108,31 @@ def test_threads_do_not_change_a_bit(monkeypatch, threads):
     assert np.array_equal(lu.solve(b), x1) and np.array_equal(lu.solve(b, trans="T"), xt1)
     hr, c = projected_gram(jr, basis, jr[:, [2, 60]])
     assert np.array_equal(hr, hr1) and np.array_equal(c, c1)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_wide_products_and_solves_by_column_chunks(monkeypatch, threads):
+    """A basis wider than the chunk size is multiplied and solved for by column chunks: the same
+    numbers as whole dense products and solves (to round-off), whatever the number of threads."""
+    from casrecon.estimation.engine.projected_gram import wide_gram, wide_product
+
+    rng = np.random.default_rng(8)
+    monkeypatch.setattr("casrecon.estimation.engine.block_lu.BLOCK_THREADS", threads)
+    monkeypatch.setattr("casrecon.estimation.engine.block_lu.SOLVE_CHUNK_COLUMNS", 16)
+    monkeypatch.setattr("casrecon.estimation.engine.projected_gram.GRAM_CHUNK_COLUMNS", 16)
+    n = 120
+    m = (sps.random(n, n, density=0.05, random_state=rng) + sps.eye(n) * 3).tocsc()
+    b = rng.normal(size=(n, 53))  # 4 chunks of 13 or 14 columns
+    x = BlockLu(m).solve(b)
+    assert x == pytest.approx(np.linalg.solve(m.toarray(), b), abs=1e-12)
+    jr = sps.random(400, n, density=0.05, random_state=rng, format="csr")
+    je = jr[:, [3, 70]]
+    hr, c = wide_gram(jr, b, je)
+    jz = jr.toarray() @ b
+    assert hr == pytest.approx(jz.T @ jz, abs=1e-10) and np.array_equal(hr, hr.T)
+    assert c == pytest.approx(je.toarray().T @ jz, abs=1e-10)
+    assert np.hstack(wide_product(jr, b)) == pytest.approx(jz, abs=1e-12)
+    monkeypatch.setattr("casrecon.estimation.engine.block_lu.BLOCK_THREADS", 1)
+    assert np.array_equal(BlockLu(m).solve(b), x)
+    hr1, c1 = wide_gram(jr, b, je)
+    assert np.array_equal(hr1, hr) and np.array_equal(c1, c)

@@ -27,6 +27,10 @@ from casrecon.parallel import in_threads
 #: :func:`casrecon.parallel.threads_for_one_task`). The results do not depend on it: each block is
 #: factorised and solved alone, as on one thread.
 BLOCK_THREADS = 2
+#: Right-hand sides per solve when a matrix of one block is solved for many (an atmosphere-profile
+#: fit's hundreds of null-space directions): the chunks are solved on BLOCK_THREADS threads. They
+#: do not depend on the number of threads, so neither do the numbers.
+SOLVE_CHUNK_COLUMNS = 128
 
 #: The blocks of the last few patterns seen (an iteration's defect Jacobian has the previous one's
 #: pattern): pattern key -> list of (rows, columns) of each block, or None for one block.
@@ -69,6 +73,13 @@ def block_layout(m: sps.csc_matrix, key: tuple | None = None) -> list | None:
         _BLOCKS.clear()
     _BLOCKS[key] = layout
     return layout
+
+
+def column_chunks(n_columns: int, size: int) -> list[slice]:
+    """Consecutive slices of at most ``size`` of ``n_columns`` columns, of near-equal widths."""
+    n_chunks = -(-n_columns // size)
+    edges = np.linspace(0, n_columns, n_chunks + 1).round().astype(int)
+    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
 
 
 class BlockLu:
@@ -145,6 +156,16 @@ class BlockLu:
                 dense = part if used.size == every else part[:, used]
             if not used.size:
                 return None
-            return into, None if used.size == every else used, lu.solve(np.ascontiguousarray(dense), trans=trans)
+            return into, None if used.size == every else used, self._solve_dense(lu, dense, trans)
 
         yield from (out for out in in_threads(solved, self.blocks, BLOCK_THREADS) if out is not None)
+
+    def _solve_dense(self, lu, rhs: np.ndarray, trans: str) -> np.ndarray:
+        """``lu``'s solution for the dense right-hand sides ``rhs`` (n, k); with one block and more
+        than SOLVE_CHUNK_COLUMNS of them, by chunks of columns on threads (several blocks are
+        already solved side by side)."""
+        if self.n_blocks > 1 or rhs.shape[1] <= SOLVE_CHUNK_COLUMNS:
+            return lu.solve(np.ascontiguousarray(rhs), trans=trans)
+        parts = in_threads(lambda c: lu.solve(np.ascontiguousarray(rhs[:, c]), trans=trans),
+                           column_chunks(rhs.shape[1], SOLVE_CHUNK_COLUMNS), BLOCK_THREADS)
+        return np.hstack(list(parts))

@@ -45,7 +45,7 @@ from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 from casrecon.estimation.engine.constraint_split import ConstraintSplit, constraint_split
 from casrecon.estimation.engine.information import INFORMATION
 from casrecon.estimation.engine.nlp import Nlp
-from casrecon.estimation.engine.projected_gram import projected_gram
+from casrecon.estimation.engine.projected_gram import projected_gram, wide_gram, wide_product
 from casrecon.parallel import single_threaded_blas
 
 LOG = logging.getLogger(__name__)
@@ -338,7 +338,7 @@ def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix,
         basis = split.basis.copy()
         basis[elim] = 0.0
         split = dataclasses.replace(split, basis=basis)
-    hz = h @ split.basis
+    hz = np.hstack(wide_product(h, split.basis))
     return _reduced(split, split.basis.T @ hz, hz[elim], lambda: h[elim][:, elim].tocsc(), elim, a)
 
 
@@ -350,9 +350,8 @@ def reduced_hessian_from_jacobian(nlp: Nlp, jr: sps.csc_matrix, a: sps.csc_matri
     split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
     if split.lu.n_blocks > 1:  # a joint fit: Z is block-sparse
         hr, b = projected_gram(jr, split.basis, jr[:, elim])
-    else:  # one dense product is faster than chunks when every row reaches every column
-        jz = jr @ split.basis
-        hr, b = jz.T @ jz, jr[:, elim].T @ jz
+    else:  # dense products (by column chunks when Z is wide) are faster than row chunks when every row
+        hr, b = wide_gram(jr, split.basis, jr[:, elim])  # reaches every column
     return _reduced(split, hr, b, lambda: (jr[:, elim].T @ jr[:, elim]).tocsc(), elim, a)
 
 

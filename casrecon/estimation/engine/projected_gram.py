@@ -1,6 +1,8 @@
 """The reduced Gauss-Newton Hessian's products (J Z)^T (J Z) and J_E^T (J Z) from the residual
-Jacobian J itself, chunk by chunk of residual rows, for a null-space basis Z that is block-sparse
-(a joint fit's: each drop's rows reach its own directions and the shared ones); see
+Jacobian J itself: chunk by chunk of residual rows for a null-space basis Z that is block-sparse
+(a joint fit's: each drop's rows reach its own directions and the shared ones,
+:func:`projected_gram`), chunk by chunk of Z's columns for a wide dense one (an
+atmosphere-profile fit's hundreds of directions, :func:`wide_gram`); see
 :func:`.covariance.reduced_hessian_from_jacobian`.
 """
 
@@ -15,6 +17,8 @@ from casrecon.parallel import in_threads
 
 #: Residual rows per chunk of :func:`projected_gram`.
 GRAM_CHUNK_ROWS = 4096
+#: Columns of Z per chunk of :func:`wide_gram`; a basis at most this wide is multiplied whole.
+GRAM_CHUNK_COLUMNS = 128
 #: Chunk layouts of :func:`projected_gram` by residual-Jacobian pattern (the last few NLPs').
 _GRAM_CHUNKS: dict[tuple, list[tuple[int, int, int, int, np.ndarray, np.ndarray, np.ndarray]]] = {}
 
@@ -70,4 +74,39 @@ def projected_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tup
         hr[np.ix_(used, used)] += gram
         if coupling is not None:
             b[:, used] += coupling
+    return hr, b
+
+
+def wide_product(m: sps.spmatrix, dense: np.ndarray) -> list[np.ndarray]:
+    """``m @ dense`` as its column chunks (one when ``dense`` has at most GRAM_CHUNK_COLUMNS
+    columns), computed on :data:`~.block_lu.BLOCK_THREADS` threads (SciPy's sparse products release
+    the GIL); the chunks are :func:`~.block_lu.column_chunks` of that size, whatever the threads."""
+    if dense.shape[1] <= GRAM_CHUNK_COLUMNS:
+        return [m @ dense]
+    chunks = block_lu.column_chunks(dense.shape[1], GRAM_CHUNK_COLUMNS)
+    return list(in_threads(lambda c: m @ np.ascontiguousarray(dense[:, c]), chunks, block_lu.BLOCK_THREADS))
+
+
+def wide_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tuple[np.ndarray, np.ndarray]:
+    """((J Z)^T (J Z), J_E^T (J Z)) for a dense basis Z: J Z at once when Z has at most
+    GRAM_CHUNK_COLUMNS columns, else by chunks of that many columns computed on
+    :data:`~.block_lu.BLOCK_THREADS` threads (SciPy's sparse products and BLAS release the GIL), and
+    the Gram matrix block by block of chunks. The chunks do not depend on the number of threads, so
+    neither do the numbers."""
+    jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
+    n_w = basis.shape[1]
+    if n_w <= GRAM_CHUNK_COLUMNS:
+        jz = jr @ basis
+        return jz.T @ jz, je.T @ jz
+    chunks = block_lu.column_chunks(n_w, GRAM_CHUNK_COLUMNS)
+    threads = block_lu.BLOCK_THREADS
+    parts = wide_product(jr, basis)
+    pairs = [(i, j) for i in range(len(chunks)) for j in range(i, len(chunks))]
+    hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
+    for (i, j), block in zip(pairs, in_threads(lambda ij: parts[ij[0]].T @ parts[ij[1]], pairs, threads)):
+        hr[chunks[i], chunks[j]] = block
+        hr[chunks[j], chunks[i]] = block.T
+    if je.shape[1]:
+        for c, part in zip(chunks, parts):
+            b[:, c] = je.T @ part
     return hr, b
