@@ -46,7 +46,7 @@ from casrecon.estimation.engine.constraint_split import ConstraintSplit, constra
 from casrecon.estimation.engine.information import INFORMATION
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.projected_gram import projected_gram, wide_gram, wide_product
-from casrecon.parallel import single_threaded_blas
+from casrecon.parallel import in_threads, single_threaded_blas
 
 LOG = logging.getLogger(__name__)
 
@@ -160,19 +160,24 @@ class Covariance:
         every = np.unique(np.concatenate([np.asarray(s, np.int64).ravel() for s in index_sets]))
         reached = np.flatnonzero(np.any(self.basis[every] != 0.0, axis=0))
         basis, cov_w = self.basis[np.ix_(every, reached)], self.cov_w[np.ix_(reached, reached)]
-        for start in range(0, len(index_sets), self.BATCH):
+
+        def batch(start: int) -> np.ndarray:
             sets = index_sets[start:start + self.BATCH]
             rows = np.stack([basis[np.searchsorted(every, s)] for s in sets])  # (b, n_v, n_w)
             m = np.einsum("byv,bvw->byw", jacobians[start:start + len(sets)], rows)
             b, n_y, n_w = m.shape
             v = (m.reshape(b * n_y, n_w) @ cov_w).reshape(b, n_y, n_w)
-            out[start:start + b] = np.einsum("byw,byw->by", v, m)
-            if self.elimination is not None:
-                for k, s in enumerate(sets):
-                    extra = self.elimination.inverse_block(s)
-                    if extra.any():
-                        jk = jacobians[start + k]
-                        out[start + k] += np.einsum("yi,ij,yj->y", jk, extra, jk)
+            return np.einsum("byw,byw->by", v, m)
+
+        # the batches on two threads (numpy's products release the GIL; each batch is computed alone)
+        starts = range(0, len(index_sets), self.BATCH)
+        for start, variances in zip(starts, in_threads(batch, starts)):
+            out[start:start + variances.shape[0]] = variances
+        if self.elimination is not None:
+            for k, s in enumerate(index_sets):
+                extra = self.elimination.inverse_block(s)
+                if extra.any():
+                    out[k] += np.einsum("yi,ij,yj->y", jacobians[k], extra, jacobians[k])
         return out
 
     def variance_of_combination(self, idx, weights) -> float:

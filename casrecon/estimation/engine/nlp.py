@@ -23,6 +23,7 @@ import scipy.sparse as sps
 from casrecon.estimation.engine.blocks import BlockSet, SparseTarget, Term
 from casrecon.estimation.engine.buffers import BlockEvaluator
 from casrecon.parallel import in_threads
+from casrecon.physics.numpy_call import numpy_call
 
 
 @dataclass(frozen=True)
@@ -325,7 +326,8 @@ class BlockDerivatives:
         for bs, g_rows in zip(self.sets, self.g_rows):
             n_c = bs.kind.n_constraints
             lam = lam_g[g_rows[:, None] + np.arange(n_c)[None, :]].T if n_c else np.zeros((0, bs.n_blocks))
-            parts.append(np.asarray(bs.hess(bs.local(z), *bs.data, sigma, lam)).T.ravel())
+            sigmas = np.full(bs.n_blocks, float(sigma))  # numpy_call passes no DM copies (0.68 -> 0.6 s, profile fit)
+            parts.append(numpy_call(bs.hess, bs.local(z), *bs.data, sigmas, lam)[0].T.ravel())
         return self.exact_target.values(np.concatenate(parts))
 
     def observed_information(self, z, lam_g: np.ndarray) -> sps.csc_matrix:
