@@ -16,7 +16,8 @@ Medians (min, max) over --runs runs of, for ees-drop-1 (40 s drop, every 500 Hz 
   time and peak resident memory;
 - a second process's build (the compiled block functions then come from the disk cache);
 - with --joint: the four EES drops' joint fit against one drop, ees-drop-3 (acceptance: at most
-  4x), both as wall time in this process with loading the problems included.
+  4x), both as wall time in this process with loading the problems included, alternating, --runs
+  times each (the ratio of the medians, and run by run: the machine's speed drifts within minutes).
 
 The compile cache is whatever ``CASRECON_CACHE_DIR`` names (default ~/.cache/casrecon/codegen);
 ``--cold`` empties a private one first, so the first run shows the compile.
@@ -133,7 +134,8 @@ def joint_ratio(runs: int) -> None:
         fit_joint([Scenario.load(d) for d in drops], JointConfig("bench", tuple(drops)))
         joint.append(time.perf_counter() - t0)
     print(f"joint fit of the 4 EES drops {median(joint)}; one drop (ees-drop-3) {median(one)}; ratio of medians "
-          f"{statistics.median(joint) / statistics.median(one):.2f} (acceptance: <= 4)")
+          f"{statistics.median(joint) / statistics.median(one):.2f} (acceptance: <= 4); run by run "
+          + ", ".join(f"{j / o:.2f}" for j, o in zip(joint, one)))
 
 
 def main() -> None:
@@ -168,7 +170,7 @@ def main() -> None:
         print(f"  {label:27s} wall {median(walls)}; peak RSS {statistics.median(rss):.0f} MB; "
               f"build in that process {statistics.median(builds):.2f} s")
     if args.joint:
-        joint_ratio(max(1, min(args.runs, 3)))
+        joint_ratio(max(1, args.runs))
 
 
 if __name__ == "__main__":

@@ -40,6 +40,8 @@ REQUIRED_UNITS: dict[str, str] = {
     "lat": "deg", "lon": "deg", "hMSL": "m", "velN": "m/s", "velE": "m/s", "velD": "m/s",
     "hAcc": "m", "vAcc": "m", "sAcc": "m/s",
 }
+#: Largest value accepted in the count columns (numSV, gpsFix); a receiver tracks a few dozen satellites.
+MAX_COUNT = 255
 _ISO_UTC = re.compile(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d{1,6})?Z")
 _FS1_HEADER = ("time", "lat", "lon", "hMSL", "velN", "velE", "velD", "hAcc", "vAcc", "sAcc",
                "heading", "cAcc", "gpsFix", "numSV")
@@ -289,6 +291,10 @@ def _build(path: str | Path, fmt: str, located_header: tuple[list[str], int],
         if name in header:
             k = header.index(name)
             got = parse_floats(path, [r[k] for r in rows], numbers, name, allow_empty=True)
+            bad = np.flatnonzero(~np.isnan(got) & ~((got >= 0) & (got <= MAX_COUNT) & (got == np.round(got))))
+            if bad.size:
+                raise InputError(path, f"{name} {got[bad[0]]:g} is not a count (expected a whole number from 0 to "
+                                       f"{MAX_COUNT}, or empty)", line=numbers[bad[0]], field=name)
             counts[name] = np.where(np.isnan(got), -1, np.nan_to_num(got)).astype(np.int64)
     track = GpsTrack(str(path), fmt, t, v["lat"], v["lon"], v["hMSL"], v["velN"], v["velE"],
                      v["velD"], v["hAcc"], v["vAcc"], v["sAcc"], counts["numSV"], counts["gpsFix"])

@@ -137,6 +137,10 @@ FS1_BREAKS = {
     "missing column": (lambda L: _set(L, 1, 7, "hAccuracy"), 1, "hAcc"),
     "extra fields": (lambda L: _set(L, 15, 13, "6,7"), 15, None),
     "blank line inside": (lambda L: L[:40] + [""] + L[40:], 41, None),
+    "satellite count inf": (lambda L: _set(L, 16, 13, "inf"), 16, "numSV"),
+    "satellite count 1e300": (lambda L: _set(L, 17, 13, "1e300"), 17, "numSV"),
+    "fractional fix type": (lambda L: _set(L, 18, 12, "2.5"), 18, "gpsFix"),
+    "negative satellite count": (lambda L: _set(L, 19, 13, "-3"), 19, "numSV"),
 }
 
 

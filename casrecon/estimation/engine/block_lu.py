@@ -141,6 +141,7 @@ class BlockLu:
             rhs.eliminate_zeros()
         else:
             rhs = np.asarray(rhs, float)
+
         def solved(block: tuple) -> tuple | None:
             rows, cols, lu = block
             into, source = (cols, rows) if trans == "N" else (rows, cols)
