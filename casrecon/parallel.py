@@ -110,12 +110,20 @@ def in_pool_worker() -> bool:
     return _IN_POOL_WORKER
 
 
+#: Environment variable that caps the threads of :func:`in_threads` (e.g. ``1`` on a machine shared
+#: with other work); unset or not a positive integer: no cap beyond the cores.
+THREADS_ENV = "CASRECON_THREADS"
+
+
 def threads_for_one_task(wanted: int) -> int:
     """How many threads one computation of this process may use, at most ``wanted``: one in a
     worker of :func:`parallel_map` (its siblings hold the other cores), else ``wanted`` bounded by
-    the cores this process may run on."""
+    the cores this process may run on and by ``CASRECON_THREADS`` when that is set."""
     if in_pool_worker():
         return 1
+    cap = os.environ.get(THREADS_ENV, "").strip()
+    if cap.isdigit() and int(cap) > 0:
+        wanted = min(wanted, int(cap))
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux

@@ -158,3 +158,12 @@ def _worker_flag(_):
     from casrecon import parallel
 
     return parallel.in_pool_worker()
+
+
+@pytest.mark.parametrize(("value", "expected"), [("1", 1), ("2", 2), ("", 2), ("zero", 2), ("0", 2)])
+def test_casrecon_threads_caps_the_threads(monkeypatch, value, expected):
+    from casrecon import parallel
+
+    monkeypatch.setattr(parallel.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3}, raising=False)
+    monkeypatch.setenv("CASRECON_THREADS", value)
+    assert parallel.threads_for_one_task(2) == expected
