@@ -197,7 +197,7 @@ def _joint(args: argparse.Namespace) -> int:
     single = {} if args.no_single else single_drop_sigmas(list(cfg.drops))
     with atomic_folder(args.out, **args.where) as out:
         result.timings["total_s"] = time.perf_counter() - t0
-        products = {d.scenario.config.name: fit_products(d) for d in result.drops}
+        products = {d.scenario.config.name: fit_products(d, concurrent=True) for d in result.drops}
         write_joint_results(out, result, single, products)
         if not args.no_figures:
             _figures(out, args.formats)
