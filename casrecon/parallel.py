@@ -381,6 +381,14 @@ def parallel_map(fn: Callable[[Any], Any], items: Iterable, *, workers: int = 1,
     return [value for k in range(len(chunks)) for value in results[k]]
 
 
+def stop_child_processes() -> None:
+    """Terminate (SIGTERM) every child process of this one, e.g. the workers of a study whose
+    results are no longer wanted: their pool then finds them gone and its :func:`parallel_map`
+    raises in the thread that waits for it."""
+    for child in multiprocessing.active_children():
+        child.terminate()
+
+
 def spare_core() -> bool:
     """Whether a forked helper can run beside this process on a core of its own: more than one
     core available to this process, fork available, and this process not a daemon (which may not
