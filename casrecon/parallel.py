@@ -105,6 +105,14 @@ _CURRENT_CHUNK = -1
 _IN_POOL_WORKER = False
 
 
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
 def in_pool_worker() -> bool:
     """Whether this process is a worker of :func:`parallel_map` (on local processes)."""
     return _IN_POOL_WORKER
@@ -124,11 +132,7 @@ def threads_for_one_task(wanted: int) -> int:
     cap = os.environ.get(THREADS_ENV, "").strip()
     if cap.isdigit() and int(cap) > 0:
         wanted = min(wanted, int(cap))
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    return max(1, min(wanted, cores))
+    return max(1, min(wanted, available_cores()))
 
 
 def in_threads(fn: Callable, items: Iterable, threads: int = 2) -> Iterator:
@@ -393,11 +397,7 @@ def spare_core() -> bool:
     """Whether a forked helper can run beside this process on a core of its own: more than one
     core available to this process, fork available, and this process not a daemon (which may not
     have children)."""
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cores = os.cpu_count() or 1
-    return (cores > 1 and "fork" in multiprocessing.get_all_start_methods()
+    return (available_cores() > 1 and "fork" in multiprocessing.get_all_start_methods()
             and not multiprocessing.current_process().daemon)
 
 

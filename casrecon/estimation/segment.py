@@ -108,7 +108,6 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     notes.append(f"segment found from the data: {end - start:.1f} s, vertical speed up to "
                  f"{track.vel_d_mps[i0:i1].max():.1f} m/s (rule: longest run faster than {cfg.min_speed_mps} m/s, "
                  f"back to 2 m/s or to a fix not yet falling, ending {cfg.end_margin_s} s before the final drop "
-                 f"began at "
-                 f"{track.vel_d_mps[onset]:.1f} m/s, {t[i1 - 1] - t[onset]:.1f} s before the last fix faster than "
-                 f"{cfg.min_speed_mps} m/s)")
+                 f"began at {track.vel_d_mps[onset]:.1f} m/s, {t[i1 - 1] - t[onset]:.1f} s before the last fix "
+                 f"faster than {cfg.min_speed_mps} m/s)")
     return Segment(start, end, good, tuple(notes))

@@ -132,12 +132,11 @@ def constraint_split(a: sps.csc_matrix, dep: np.ndarray, n_determining: int,
     n_coo = n_basis.tocoo()
     basis[indep[n_coo.row], n_coo.col] = n_coo.data
     for into, used, part in lu.solve_blocks(a_i @ n_basis):  # basis[dep] = -A_D^-1 A_I N
-        rows = as_slice(dep[into])
-        if used is None and isinstance(rows, slice):  # a drop's dependent columns: one run of rows
-            np.negative(part, out=basis[rows])  # written in place (a profile fit's Z is 86 MB)
-        elif used is None:
-            basis[rows] = -part
-        else:
-            rows = dep[into]
+        rows = dep[into]
+        if used is not None:
             basis[rows[:, None], used] = -part
+        elif isinstance(run := as_slice(rows), slice):  # a drop's dependent columns: one run of rows
+            np.negative(part, out=basis[run])  # written in place (a profile fit's Z is 86 MB)
+        else:
+            basis[rows] = -part
     return ConstraintSplit(basis, lu, dep, indep, a_i, a_side_i)

@@ -88,22 +88,20 @@ def wide_product(m: sps.spmatrix, dense: np.ndarray) -> list[np.ndarray]:
 
 
 def wide_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tuple[np.ndarray, np.ndarray]:
-    """((J Z)^T (J Z), J_E^T (J Z)) for a dense basis Z: J Z at once when Z has at most
-    GRAM_CHUNK_COLUMNS columns, else by chunks of that many columns computed on
-    :data:`~.block_lu.BLOCK_THREADS` threads (SciPy's sparse products and BLAS release the GIL), and
-    the Gram matrix block by block of chunks. The chunks do not depend on the number of threads, so
-    neither do the numbers."""
+    """((J Z)^T (J Z), J_E^T (J Z)) for a dense basis Z: J Z by :func:`wide_product` (at once when
+    Z has at most GRAM_CHUNK_COLUMNS columns, else by chunks of that many computed on
+    :data:`~.block_lu.BLOCK_THREADS` threads), and the Gram matrix block by block of those chunks
+    on the threads too (BLAS releases the GIL). The chunks do not depend on the number of threads,
+    so neither do the numbers."""
     jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
     n_w = basis.shape[1]
-    if n_w <= GRAM_CHUNK_COLUMNS:
-        jz = jr @ basis
-        return jz.T @ jz, je.T @ jz
-    chunks = block_lu.column_chunks(n_w, GRAM_CHUNK_COLUMNS)
-    threads = block_lu.BLOCK_THREADS
     parts = wide_product(jr, basis)
+    edges = np.cumsum([0] + [part.shape[1] for part in parts])
+    chunks = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
     pairs = [(i, j) for i in range(len(chunks)) for j in range(i, len(chunks))]
     hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
-    for (i, j), block in zip(pairs, in_threads(lambda ij: parts[ij[0]].T @ parts[ij[1]], pairs, threads)):
+    gram_blocks = in_threads(lambda ij: parts[ij[0]].T @ parts[ij[1]], pairs, block_lu.BLOCK_THREADS)
+    for (i, j), block in zip(pairs, gram_blocks):
         hr[chunks[i], chunks[j]] = block
         hr[chunks[j], chunks[i]] = block.T
     if je.shape[1]:
