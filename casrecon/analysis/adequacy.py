@@ -32,6 +32,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from casrecon.analysis.process_scale import ProcessPrior, ProcessScale, process_findings, process_scale
+
 #: Family-wise false-alarm probability of the verdict on an exact model.
 FAMILY_ALPHA = 0.01
 #: Parameters at least this many prior sigmas from their prior mean are named in the report.
@@ -270,7 +272,7 @@ class Adequacy:
     alpha : float
         Family-wise level.
     n_tests : int
-        Tests it is shared among (2 per channel, the NEES, one per prior).
+        Tests it is shared among (2 per channel, the NEES, one per prior, one per prior process).
     notes : tuple of str
         What was not tested and why.
     cautions : tuple of str
@@ -278,7 +280,9 @@ class Adequacy:
         interval): those sigmas are pessimistic, the bands wider than the data need. Under the
         fit's model that can happen only by chance (at the per-test level's lower half) or where the
         fit's own unknowns absorb a channel; neither makes a band too narrow, so a caution does not
-        fail the verdict.
+        fail the verdict. A prior process smaller than its prior is a caution too.
+    processes : tuple of ProcessScale
+        The size tests of the prior processes (the atmosphere-profile corrections, when fitted).
     """
 
     trusted: bool
@@ -293,6 +297,7 @@ class Adequacy:
     n_tests: int
     notes: tuple[str, ...] = field(default=())
     cautions: tuple[str, ...] = field(default=())
+    processes: tuple[ProcessScale, ...] = field(default=())
 
     def channel(self, name: str) -> ChannelTest:
         """The test of channel ``name`` (KeyError listing the channels)."""
@@ -320,7 +325,8 @@ class Adequacy:
                    nees=PriorNees(**{**nees, "interval": tuple(nees["interval"])}) if nees else None,
                    ground=GroundCheck(**ground) if ground else None, alpha=float(doc["alpha"]),
                    n_tests=int(doc["n_tests"]), notes=tuple(doc.get("notes", ())),
-                   cautions=tuple(doc.get("cautions", ())))
+                   cautions=tuple(doc.get("cautions", ())),
+                   processes=tuple(ProcessScale.from_dict(p) for p in doc.get("processes", ())))
 
 
 #: Why a kind of failure matters, appended once to the verdict line.
@@ -401,7 +407,7 @@ def _small_scale(tests: list[ChannelTest]) -> tuple[list[str], str]:
 def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.ndarray, prior_sigma: np.ndarray,
            posterior_cov: np.ndarray, units: list[str] | None = None, ground: GroundCheck | None = None,
            alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = (), gps_model: bool = False,
-           prior_hint: str = HINTS["prior"]) -> Adequacy:
+           prior_hint: str = HINTS["prior"], processes: tuple[ProcessPrior, ...] = ()) -> Adequacy:
     """The verdict of one fit.
 
     Parameters
@@ -428,6 +434,8 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     prior_hint : str
         Why parameters far from their priors matter, for this kind of fit (default: the dynamic
         fit's inputs).
+    processes : tuple of ProcessPrior
+        Prior processes whose size is tested (:mod:`casrecon.analysis.process_scale`).
 
     Returns
     -------
@@ -435,9 +443,10 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     """
     n_priors = len(prior_names)
     channels = {name: r for name, r in channels.items() if np.isfinite(np.asarray(r, dtype=float)).any()}
-    n_tests = 2 * len(channels) + (1 if n_priors else 0) + n_priors
+    n_tests = 2 * len(channels) + (1 if n_priors else 0) + n_priors + len(processes)
     a = alpha / max(n_tests, 1)
     tests = [channel_test(name, r, a) for name, r in channels.items()]
+    scales = tuple(process_scale(p, a) for p in processes)
     values, prior_sigma = np.asarray(values, dtype=float), np.asarray(prior_sigma, dtype=float)
     z = values / prior_sigma if n_priors else np.zeros(0)
     z_limit = float(-_special().ndtri(a / 2))
@@ -447,6 +456,9 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     nees = prior_nees(values, prior_sigma, posterior_cov, a) if n_priors else None
     reasons, items, kinds = _findings(tests, deviations, z_limit, nees, ground)
     cautions, small = _small_scale(tests)
+    process_reasons, process_items, process_cautions, process_small = process_findings(scales)
+    reasons, items, cautions = reasons + process_reasons, items + process_items, cautions + process_cautions
+    small = "; ".join(([small] if small else []) + process_small)
     if not reasons:
         named = [f"{d.name} {d.z:+.1f} sigma" for d in deviations]
         extra = f"; {', '.join(named)} from its prior, within the family-wise {z_limit:.2f}" if named else ""
@@ -467,30 +479,4 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
         if small:
             line += f"; also {small}"
     return Adequacy(not reasons, line, tuple(reasons), tuple(tests), deviations, z_limit, nees, ground, alpha, n_tests,
-                    tuple(notes), tuple(cautions))
-
-
-def report_lines(adequacy: Adequacy) -> list[str]:
-    """The ``[[Model adequacy]]`` block of a text report (indented lines, the verdict last)."""
-    a = adequacy
-    lines = [f"[[Model adequacy]] {a.n_tests} tests, Bonferroni at {100 * a.alpha:g} % family-wise "
-             f"({a.alpha / max(a.n_tests, 1):.2g} each); residuals / sigma per channel:"]
-    for c in a.channels:
-        if not c.n:
-            lines.append(f"    {c.name:14s} no samples")
-            continue
-        flag = "" if c.scale_ok and c.white else "  <- small" if c.white and c.below else "  <-"
-        lines.append(f"    {c.name:14s} n {c.n:6d}  reduced chi2 {c.reduced_chi2:7.3f} in [{c.chi2_interval[0]:.3f}, "
-                     f"{c.chi2_interval[1]:.3f}]  lag-1 {c.lag1:+.2f}  Ljung-Box({c.lags}) {p_text(c.ljung_box_p)}"
-                     f"{flag}")
-    if a.nees is not None:
-        n = a.nees
-        lines.append(f"    priors: NEES {n.nees:.1f} on {n.dof} informed directions in [{n.interval[0]:.1f}, "
-                     f"{n.interval[1]:.1f}]; sum of squared z {n.prior_chi2:.1f} over {n.n_priors} priors")
-    beyond = ", ".join(f"{d.name} z {d.z:+.1f}" for d in a.deviations) or "none"
-    lines.append(f"    beyond {NAMED_Z:g} sigma of their prior: {beyond} (verdict limit |z| {a.z_limit:.2f})")
-    if a.ground is not None:
-        lines.append(f"    ground: {a.ground.explanation}")
-    lines += [f"    note: {n}" for n in a.notes]
-    lines.append(f"    VERDICT: {a.line}")
-    return lines
+                    tuple(notes), tuple(cautions), scales)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
+from casrecon.analysis.process_scale import ProcessPrior
 from casrecon.estimation import diagnostics as dg
 from casrecon.estimation.kinematic_terms import INTERVAL_RESIDUALS
 
@@ -102,11 +103,39 @@ def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAM
     ground, notes = impact_check(result)
     if result.part.n_u:
         notes += ("the Gauss-Markov priors of the disturbance states are not tested",)
-    if result.part.profile is not None:
-        notes += ("the Gauss-Markov prior of the atmosphere-profile corrections is not tested",)
     gps_model = result.scenario.config.gps.error_model.enabled
     return assess(drop_channels(imu, gps, others), names, values, prior_sigma, post, units, ground, alpha, notes,
-                  gps_model)
+                  gps_model, processes=profile_priors(result))
+
+
+#: Report names and units of the atmosphere-profile components (PROFILE_COMPONENTS order), and the
+#: factor from a component's sigma (SI) to that unit.
+PROFILE_NAMES = (("profile wind n", "m/s", 1.0), ("profile wind e", "m/s", 1.0), ("profile density", "%", 100.0))
+
+
+def profile_priors(result) -> tuple[ProcessPrior, ...]:
+    """The atmosphere-profile corrections of a 6-DOF fit (or of one drop of a joint fit) as prior
+    processes, one per corrected component (none without the profile model): the whitened prior
+    residuals at the estimate and their posterior covariance W P W^T (the prior is linear in the
+    scaled unknowns, so its residual Jacobian W is exact)."""
+    grid = result.part.profile
+    if grid is None:
+        return ()
+    nlp = result.nlp
+    rows = np.concatenate([np.arange(nlp.n_r)[nlp.groups[result.group(g)]] for g in ("profile_start", "profile")])
+    cols = result.part.extra("profile").cols
+    w = nlp.derivatives.jacobian_r(result.z).tocsr()[rows][:, cols].toarray()
+    u = nlp.residual_vector(result.z)[rows]
+    cov = result.covariance.covariance_of(cols)
+    component_of_col = np.arange(cols.size) % grid.n_components  # level-major, component-minor
+    component_of_row = component_of_col[np.argmax(w != 0, axis=1)]
+    priors = []
+    for k, (comp, sigma) in enumerate(zip(grid.components, grid.prior)):
+        r, c = component_of_row == k, component_of_col == k
+        wk = w[np.ix_(r, c)]
+        name, unit, factor = PROFILE_NAMES[comp]
+        priors.append(ProcessPrior(name, unit, float(sigma) * factor, u[r], wk @ cov[np.ix_(c, c)] @ wk.T))
+    return tuple(priors)
 
 
 def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:

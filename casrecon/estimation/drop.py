@@ -65,13 +65,18 @@ def load_measurements(cfg: ProblemConfig, data: FitData,
 
 def with_extra_columns(layout: DropLayout, cfg: ProblemConfig, measurements: dict[str, object], first_col: int,
                        kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS,
-                       node_alt_msl_m: np.ndarray | None = None) -> tuple[DropLayout, int]:
+                       node_alt_msl_m: np.ndarray | None = None,
+                       profile_prior_sigma: np.ndarray | None = None) -> tuple[DropLayout, int]:
     """The layout with the extra unknowns its kinds ask for (a kind's optional
     ``latent_size(config, measurements) -> (count, eliminable)``) from z column ``first_col`` on,
     and the next free column. ``node_alt_msl_m``: the altitude guess of the nodes (m MSL) the
-    profile grid is placed by (default: the GPS altitudes, see :func:`profile_grid`)."""
+    profile grid is placed by (default: the GPS altitudes, see :func:`profile_grid`);
+    ``profile_prior_sigma``: the profile prior's 1-sigma per corrected component, when not the
+    configured ones (:attr:`~casrecon.estimation.profile.ProfileGrid.prior_sigma`)."""
     extras, col = [], first_col
     grid, interval_cells, node_cells = profile_grid(layout, cfg, measurements, node_alt_msl_m)
+    if grid is not None and profile_prior_sigma is not None:
+        grid = replace(grid, prior_sigma=np.asarray(profile_prior_sigma, float))
     if grid is not None:
         extras.append(ExtraColumns("profile", col, grid.size))
         col += grid.size
@@ -161,11 +166,12 @@ def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-
 
 def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg: ProblemConfig,
               hessian: str = "gauss-newton", guess_clock_s: float | None = None,
-              measurements: dict[str, object] | None = None, node_alt_msl_m: np.ndarray | None = None) -> FitNlp:
+              measurements: dict[str, object] | None = None, node_alt_msl_m: np.ndarray | None = None,
+              profile_prior_sigma: np.ndarray | None = None) -> FitNlp:
     """The NLP of one drop. GPS fixes are put on collocation intervals for the clock offset
     ``guess_clock_s`` (default: the configured guess). ``measurements`` are the kinds' data from
     :func:`load_measurements` (read here when not given); ``node_alt_msl_m`` places the
-    atmosphere-profile grid (see :func:`with_extra_columns`)."""
+    atmosphere-profile grid and ``profile_prior_sigma`` sets its prior (see :func:`with_extra_columns`)."""
     n_sv = NS * mesh.t_nodes.size
     guess = cfg.estimation.clock_offset_guess_s if guess_clock_s is None else guess_clock_s
     layout = DropLayout(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), guess_clock_s=guess,
@@ -173,6 +179,6 @@ def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSe
     if measurements is None:
         measurements = load_measurements(cfg, data)
     layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.u_cols.size,
-                                     node_alt_msl_m=node_alt_msl_m)
+                                     node_alt_msl_m=node_alt_msl_m, profile_prior_sigma=profile_prior_sigma)
     context = DropContext(model, cfg, layout, data, measurements)
     return assemble_drops([context], n_z, hessian)

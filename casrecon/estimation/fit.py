@@ -8,13 +8,14 @@ a drop, resolved once from its ``[estimation]`` table, for the per-drop and the 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from casrecon.estimation.bands import MAX_BAND_NODES, columns_of, trajectory_with_bands
-from casrecon.estimation.continuation import clock_bounds, solve_fit
+from casrecon.estimation.continuation import clock_bounds, solve_fit, transferred
 from casrecon.estimation.drop import FitNlp, build_nlp, load_measurements, parameter_set
 from casrecon.estimation.engine.checks import (
     FitError,
@@ -28,6 +29,7 @@ from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet
+from casrecon.estimation.profile_sigma import estimate_profile_sigma, profile_refit, refit_text
 from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import Mesh, make_mesh
 from casrecon.io.errors import InputError
@@ -242,22 +244,38 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     x0 = initial_guess(data, mesh, cfg.vehicle, scenario.atmosphere, cfg.site.ground_alt_msl_m)
     t1 = time.perf_counter()
 
-    def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
-        return build_nlp(scenario.model, data, mesh, params, cfg, settings.hessian, guesses[cfg.name], measurements,
-                         altitudes.get(cfg.name))
+    def fitted(sc: Scenario, start, guess_clock_s: float, prior_sigma: np.ndarray | None = None,
+               notes: tuple[str, ...] = ()) -> FitResult:
+        def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
+            return build_nlp(sc.model, data, mesh, params, sc.config, settings.hessian, guesses[cfg.name],
+                             measurements, altitudes.get(cfg.name), profile_prior_sigma=prior_sigma)
 
-    def start(fit_nlp: FitNlp) -> np.ndarray:
-        return fit_nlp.pack(x0, np.zeros(params.n))
+        t2 = time.perf_counter()
+        fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: guess_clock_s}, settings)
+        t3 = time.perf_counter()
+        r = fit_nlp.nlp.residual_vector(sol.z)
+        cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced,
+                                 information=settings.information_for(fit_nlp.parts), lam_g=sol.lam_g)
+        timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
+                   "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s,
+                   "solve_linear_algebra_s": sol.linear_algebra_s}
+        result = drop_result(sc, data, fit_nlp, 0, sol, cov, r, timings)
+        t4 = time.perf_counter()
+        timings.update(covariance_s=t4 - t3, total_s=t4 - t0, fit_s=t4 - t2)
+        return dataclasses.replace(result, notes=result.notes + notes) if notes else result
 
-    fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: cfg.estimation.clock_offset_guess_s}, settings)
-    t3 = time.perf_counter()
-    r = fit_nlp.nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced,
-                             information=settings.information_for(fit_nlp.parts), lam_g=sol.lam_g)
-    timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
-               "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s,
-               "solve_linear_algebra_s": sol.linear_algebra_s}
-    result = drop_result(scenario, data, fit_nlp, 0, sol, cov, r, timings)
-    t4 = time.perf_counter()
-    timings.update(covariance_s=t4 - t3, total_s=t4 - t0)
-    return result
+    result = fitted(scenario, lambda fit_nlp: fit_nlp.pack(x0, np.zeros(params.n)), cfg.estimation.clock_offset_guess_s)
+    if not (cfg.atmosphere.profile_sigma_from_data and result.part.profile is not None and not result.part.n_u
+            and settings.method != "marginal"):
+        return result
+    estimate = estimate_profile_sigma(result)
+    if not estimate.refit:
+        return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
+    refit_cfg, prior = profile_refit(cfg, estimate)
+    first = result.fit_nlp
+    again = fitted(dataclasses.replace(scenario, config=refit_cfg),
+                   lambda fit_nlp: transferred(first, fit_nlp, result.z), first.parts[0].guess_clock_s, prior,
+                   (estimate.text() + f"; refitted {refit_text(estimate, prior)} (the first fit took "
+                    f"{result.timings['fit_s']:.1f} s)",))
+    again.timings.update(first_fit_s=result.timings["fit_s"], total_s=time.perf_counter() - t0)
+    return again

@@ -57,13 +57,18 @@ class ProfileGrid:
     components : tuple of int
         Indices (in PROFILE_COMPONENTS) of the corrected quantities (those with a non-zero sigma).
     sigma : (n_components,) array
-        1-sigma of each (m/s, m/s, fraction).
+        1-sigma of each (m/s, m/s, fraction) as configured: the unknowns' scale (a correction's
+        coefficients are sigma times the scaled unknowns), and the prior's unless ``prior_sigma``.
     length_m : float
         Correlation length in altitude, m.
     window_levels : int
         Spline coefficients a block sees: the cubic B-spline's 4 of its guessed cell and
         (window_levels - 4) / 2 more on each side, so that the correction is exact for an actual
         altitude within that many steps of the cell.
+    prior_sigma : (n_components,) array or None
+        The prior's 1-sigma of each, when it differs from ``sigma`` (a refit with the sizes the
+        data say, :mod:`casrecon.estimation.profile_sigma`): a prior-only change keeps the model's
+        expressions, and so their compiled code.
     """
 
     base_msl_m: float
@@ -73,6 +78,7 @@ class ProfileGrid:
     sigma: np.ndarray
     length_m: float
     window_levels: int = 6
+    prior_sigma: np.ndarray | None = None
 
     @classmethod
     def covering(cls, alt_msl_m: np.ndarray, step_m: float, sigmas: tuple[float, float, float],
@@ -90,6 +96,11 @@ class ProfileGrid:
         n = int(np.ceil((hi - base) / step_m)) + margin + 1
         return cls(float(base), float(step_m), n, comps, np.asarray(sigmas, float)[list(comps)], float(length_m),
                    4 + 2 * reach)
+
+    @property
+    def prior(self) -> np.ndarray:
+        """The prior's 1-sigma of each component (m/s, m/s, fraction)."""
+        return np.asarray(self.sigma if self.prior_sigma is None else self.prior_sigma, float)
 
     @property
     def n_components(self) -> int:

@@ -21,7 +21,14 @@ class AtmosphereConfig:
     0.5 to 1 m/s over a few hundred metres of height; neglecting humidity (the sounding's density
     from p / (R T)) is 0.2 to 1 %. Hence 0.5 m/s per wind component and 0.5 % in density, over a
     300 m correlation length. A sounding that is the air flown through (synthetic data) sets both
-    sigmas to 0."""
+    sigmas to 0.
+
+    ``profile_sigma_from_data``: after the fit, estimate the profile sigmas from the data (type-II
+    maximum likelihood, :mod:`casrecon.estimation.profile_sigma`) and, where they differ from the
+    configured ones by more than 25 %, fit again with them (without the profile model when the
+    data show none), so that neither the bands nor the aero sigmas rest on a guessed size. Per-drop
+    fits without disturbance states and with the MAP method only; costs a second fit when it
+    refits."""
 
     sounding: Path
     launch: int = 0
@@ -31,6 +38,7 @@ class AtmosphereConfig:
     profile_density_sigma: float = 0.005
     profile_length_m: float = 300.0
     profile_step_m: float = 10.0
+    profile_sigma_from_data: bool = True
 
 
 
@@ -42,7 +50,8 @@ def parse_atmosphere(t: Fields) -> AtmosphereConfig:
                            profile_wind_sigma_mps=t.number("profile_wind_sigma_mps", 0.5, minimum=0.0),
                            profile_density_sigma=t.number("profile_density_sigma", 0.005, minimum=0.0),
                            profile_length_m=t.number("profile_length_m", 300.0, positive=True),
-                           profile_step_m=t.number("profile_step_m", 10.0, positive=True))
+                           profile_step_m=t.number("profile_step_m", 10.0, positive=True),
+                           profile_sigma_from_data=t.boolean("profile_sigma_from_data", True))
     if cfg.profile_step_m > cfg.profile_length_m:
         raise t.error("profile_step_m", f"expected a grid step at most the correlation length profile_length_m = "
                                         f"{cfg.profile_length_m:g} m, got {cfg.profile_step_m:g} m")

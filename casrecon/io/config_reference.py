@@ -110,6 +110,10 @@ SIX_DOF = FileKind(
             key("profile_step_m", "float", "m", "Altitude step of the grid the profile errors are estimated on "
                "(the knots of the cubic B-spline the corrections are), at most profile_length_m",
                source=AtmosphereConfig, attr="atmosphere.profile_step_m"),
+            key("profile_sigma_from_data", "bool", "", "Estimate the two profile sigmas from the data after the fit "
+               "(type-II maximum likelihood) and fit again with them where they differ from the configured ones by "
+               "more than 25 % (without the profile model when the data show none); per-drop MAP fits without "
+               "disturbance states", source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
         ), required=True),
         DYNAMICS_TABLE,
         Table("release", (

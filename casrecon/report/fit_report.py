@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from casrecon.analysis.adequacy import Adequacy, report_lines
+from casrecon.analysis.adequacy import Adequacy
 from casrecon.analysis.fit_products import result_adequacy
 from casrecon.estimation.engine.information import information_text
 from casrecon.io.units import output_unit
 from casrecon.physics.aero import DISPERSION_NAMES
+from casrecon.report.adequacy_block import report_lines
 
 #: Correlations above this magnitude are flagged.
 CORRELATION_FLAG = 0.9

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from casrecon.analysis.adequacy import report_lines
+from casrecon.report.adequacy_block import report_lines
 
 #: A parameter whose estimate lies this many prior sigmas from its prior mean is named.
 PRIOR_Z_LIMIT = 3.0

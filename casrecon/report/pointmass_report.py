@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from casrecon.analysis.adequacy import Adequacy, report_lines
+from casrecon.analysis.adequacy import Adequacy
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
+from casrecon.report.adequacy_block import report_lines
 
 
 def pointmass_report(main, constant, adequacy: Adequacy | None = None) -> str:

@@ -92,6 +92,12 @@ def test_verdict_trusts_the_bands_and_calls_the_gps_position_sigmas_pessimistic(
     assert small and all(name.startswith("GPS pos") for name in small), a.cautions
     for name in small:
         assert a.channel(name).reduced_chi2 < 0.7
+    # the profile error the data say is the one flown (0.5 m/s, 0.5 m/s, 0.5 %), within a quarter
+    names = [t.name for t in a.processes]
+    assert names == ["profile wind n", "profile wind e", "profile density"]
+    for t in a.processes:
+        assert not (t.too_large or t.too_small), t
+        assert 0.75 < t.estimated_sigma / 0.5 < 1.25, t
 
 
 def test_profile_fit_of_exact_air_with_correlated_gps_converges(tmp_path):
@@ -109,10 +115,19 @@ def test_profile_fit_of_exact_air_with_correlated_gps_converges(tmp_path):
     rng = np.random.default_rng([0, 5])
     cfg = draw_truth(Scenario.load(FOLDER), rng).config
     errors = replace(cfg.truth.errors, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
-    scenario = Scenario.from_config(replace(cfg, truth=replace(cfg.truth, errors=errors)))
+    # the fit at the configured profile sigmas, as it was: no refit with the sizes the data say
+    atmosphere = replace(cfg.atmosphere, profile_sigma_from_data=False)
+    scenario = Scenario.from_config(replace(cfg, truth=replace(cfg.truth, errors=errors), atmosphere=atmosphere))
     scenario, _ = synthetic_scenario(scenario, tmp_path, seed=int(rng.integers(2**31)))
     r = fit_drop(scenario)
     assert r.converged and r.solver.hessian == "gauss-newton, then exact"
     assert r.solver.iterations <= GAUSS_NEWTON_IPOPT_ITER + 30
     errors, _ = parameter_errors(r, truth_parameters_by_name(scenario))
     assert np.all(np.abs(errors / r.sigma) < 3.0), dict(zip(r.params.names, errors / r.sigma))
+    # the air flown is the sounding: the verdict says the profile model is larger than the data show
+    from casrecon.analysis.fit_products import result_adequacy
+
+    a = result_adequacy(r)
+    assert [t.too_small for t in a.processes] == [True, True, True], a.processes
+    assert all(t.estimated_sigma < 0.5 * t.assumed_sigma for t in a.processes), a.processes
+    assert "atmosphere profile smaller than assumed" in a.line

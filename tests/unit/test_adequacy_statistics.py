@@ -19,9 +19,9 @@ from casrecon.analysis.adequacy import (
     ljung_box,
     ljung_box_lags,
     prior_nees,
-    report_lines,
 )
 from casrecon.analysis.fit_adequacy import joint_adequacy
+from casrecon.report.adequacy_block import report_lines
 
 
 def ar1(rng: np.random.Generator, n: int, phi: float) -> np.ndarray:

@@ -56,18 +56,30 @@ def linear_rows(name: str, cols: np.ndarray, weights: np.ndarray) -> BlockSet:
     return BlockSet(kind, cols.reshape(n_blocks, m * n), [ca.DM(np.asarray(weights, float).T)])
 
 
-def spline_level_prior_terms(cols: np.ndarray, phi: float, start_group: str, step_group: str) -> list[Term]:
+def spline_level_prior_terms(cols: np.ndarray, phi: float, start_group: str, step_group: str,
+                             weights: np.ndarray | None = None) -> list[Term]:
     """Gauss-Markov prior, exactly whitened, of the values at the levels of a cubic B-spline whose
     coefficients are at the z columns ``cols`` (K levels, n unit-variance processes, K >= 3): the
     value at level k is v_k = (g_k-1 + 4 g_k + g_k+1) / 6, a coefficient beyond the grid being 0.
     Rows: v_0, then (v_k - phi v_k-1) / sqrt(1 - phi^2); each step involves the coefficients k-2
-    to k+1, fewer at the grid's ends."""
+    to k+1, fewer at the grid's ends. ``weights`` (n,): each process's rows times its weight
+    (its scale over its prior sigma; default 1), one block set per process when they differ."""
+    if weights is not None and np.any(np.asarray(weights) != 1.0):
+        parts = [_level_prior_terms(cols[:, k:k + 1], phi, start_group, step_group, float(w))
+                 for k, w in enumerate(weights)]
+        return [Term(t.group, tuple(s for p in parts for s in p[i].sets)) for i, t in enumerate(parts[0])]
+    return _level_prior_terms(cols, phi, start_group, step_group, 1.0)
+
+
+def _level_prior_terms(cols: np.ndarray, phi: float, start_group: str, step_group: str, weight: float) -> list[Term]:
+    """:func:`spline_level_prior_terms` with every row times ``weight``."""
     n_levels = cols.shape[0]
     level = np.zeros((n_levels, n_levels + 2))  # v = level @ [0, g_0 .. g_K-1, 0]
     for k in range(n_levels):
         level[k, k:k + 3] = (1 / 6, 4 / 6, 1 / 6)
     steps = (level[1:] - phi * level[:-1]) / np.sqrt(1.0 - phi * phi)
-    terms = [Term(start_group, (linear_rows(start_group.rsplit("/", 1)[-1], cols[None, :2], level[None, 0, 1:3]),))]
+    first_rows = linear_rows(start_group.rsplit("/", 1)[-1], cols[None, :2], weight * level[None, 0, 1:3])
+    terms = [Term(start_group, (first_rows,))]
     sets = []
     # step k (1..K-1) reaches coefficients k-2..k+1: 3 at k = 1 and k = K-1, 4 in between
     for ks, first, width in ((np.array([1]), 0, 3), (np.arange(2, n_levels - 1), None, 4),
@@ -77,7 +89,7 @@ def spline_level_prior_terms(cols: np.ndarray, phi: float, start_group: str, ste
         lo = ks - 2 if first is None else np.full(ks.size, first)
         idx = lo[:, None] + np.arange(width)[None, :]
         weights = np.take_along_axis(steps[ks - 1], idx + 1, axis=1)  # +1: the padded column 0
-        sets.append(linear_rows(step_group.rsplit("/", 1)[-1], cols[idx], weights))
+        sets.append(linear_rows(step_group.rsplit("/", 1)[-1], cols[idx], weight * weights))
     terms.append(Term(step_group, tuple(sets)))
     return terms
 
@@ -90,4 +102,4 @@ def profile_terms(layout: DropLayout, group=lambda g: g) -> list[Term]:
     if grid is None:
         return []
     cols = layout.extra("profile").cols.reshape(grid.n_levels, grid.n_components)
-    return spline_level_prior_terms(cols, grid.phi, group("profile_start"), group("profile"))
+    return spline_level_prior_terms(cols, grid.phi, group("profile_start"), group("profile"), grid.sigma / grid.prior)

@@ -1,0 +1,195 @@
+"""The atmosphere-profile error's size from the data: type-II maximum likelihood of its prior sigmas.
+
+The profile model's sigmas (``[atmosphere] profile_wind_sigma_mps``, ``profile_density_sigma``)
+are a guess of how far the air flown is from the sounding. Too large, they make the aero sigmas
+pay for wind structure the data do not show (on ``ees-drop-1``, which flies its sounding, 1.5 to
+5.7 times the plain fit's); too small, the bands are too narrow. Their maximum-likelihood value
+is what the Laplace-approximated evidence of the data says, and at a converged profile fit it
+costs only small dense algebra on the fit's reduced system:
+
+with w the reduced coordinates (null-space directions) and H the fit's reduced Hessian, the
+profile prior's whitened rows in w are u_k + A_k dw for component group k (wind north and east
+together, as one configured sigma; density), A_k = W_k Z_k (W_k the prior's exact residual
+Jacobian, Z_k the basis rows of the profile columns). Scaling a group's prior sigma by rho_k
+divides its rows by rho_k; the data's part of the objective is the fit's quadratic model,
+H_d = H - sum A_k^T A_k with gradient g_d = -sum A_k^T u_k (the fit is stationary). Then
+
+    log Z(rho) = -1/2 chi2(rho) - 1/2 log det H(rho) - sum_k n_k log rho_k + const,
+
+chi2(rho) the minimum of the quadratic model (one dense solve) and H(rho) = H_d + sum A_k^T A_k /
+rho_k^2. Its gradient in log rho_k is chi2_k - gamma_k (the group's prior chi-square at the new
+minimum, less the values the data determine, n_k - tr(A_k H^-1 A_k^T) / rho_k^2): zero at
+MacKay's fixed point. log Z is maximised over log rho in [log MIN_RATIO, log MAX_RATIO] by
+L-BFGS-B; a group whose estimate explains the data better than none of its error by less than
+:data:`ZERO_EVIDENCE_NATS` (log evidence) has no profile error the data can see, and is taken as
+zero. The quadratic model is the fit's own (Gauss-Newton or observed information),
+exact for the prior, which is linear; a refit at the new sigmas (:func:`casrecon.estimation.fit.fit_drop`)
+gives the nonlinear optimum.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.linalg
+
+from casrecon.estimation.profile import PROFILE_COMPONENTS
+from casrecon.io.problem import ProblemConfig
+
+#: Smallest and largest ratio of a group's sigma to the fit's that the search considers; an
+#: optimum at the smallest means no profile error the data can see (taken as zero).
+MIN_RATIO, MAX_RATIO = 1e-4, 20.0
+#: A group whose estimate explains the data better than none of its error by less than this (log
+#: evidence, nats: a Bayes factor of e^3 = 20, "strong" on Jeffreys' scale) is taken as zero.
+ZERO_EVIDENCE_NATS = 3.0
+#: A refit is made when a group's estimate differs from the fit's sigma by more than this factor.
+REFIT_FACTOR = 1.25
+#: The configured sigma each component group shares: wind north and east one, density its own.
+GROUPS = {"wind": ("wind_n", "wind_e"), "density": ("density",)}
+
+
+@dataclass(frozen=True)
+class ProfileSigmaEstimate:
+    """The profile sigmas the data say (see the module docstring).
+
+    Attributes
+    ----------
+    fitted : dict of str to float
+        Group (``"wind"``, ``"density"``) -> the prior sigma the fit used (m/s; fraction).
+    estimated : dict of str to float
+        Group -> its type-II maximum-likelihood sigma (0: no profile error the data can see).
+    log_evidence_gain : float
+        log Z at the estimate minus at the fit's sigmas, nats (>= 0).
+    components : tuple of str
+        The fit's corrected components (PROFILE_COMPONENTS names), in its grid's order.
+    against_zero : dict of str to float
+        Group -> log evidence of its estimate over none of its error (the others at their
+        estimates), nats; below :data:`ZERO_EVIDENCE_NATS` the group is taken as zero.
+    """
+
+    fitted: dict[str, float]
+    estimated: dict[str, float]
+    log_evidence_gain: float
+    components: tuple[str, ...]
+    against_zero: dict[str, float]
+
+    @property
+    def refit(self) -> bool:
+        """Whether some group's estimate is beyond :data:`REFIT_FACTOR` of the fit's sigma."""
+        return any(not (self.fitted[g] / REFIT_FACTOR <= self.estimated[g] <= self.fitted[g] * REFIT_FACTOR)
+                   for g in self.fitted)
+
+    def text(self) -> str:
+        """One line: each group's estimate against the fit's sigma."""
+        unit = {"wind": (1.0, "m/s"), "density": (100.0, "%")}
+        parts = [f"{g} {unit[g][0] * self.estimated[g]:.3g} {unit[g][1]} (fitted with "
+                 f"{unit[g][0] * self.fitted[g]:.3g}; log evidence over none {self.against_zero[g]:+.1f})"
+                 for g in self.fitted]
+        return (f"atmosphere-profile sigmas the data say (type-II maximum likelihood): {', '.join(parts)}; "
+                f"log evidence +{self.log_evidence_gain:.1f}")
+
+
+@dataclass(frozen=True)
+class QuadraticModel:
+    """The fit's quadratic model in its reduced coordinates, split into the data's part and each
+    group's prior rows (see the module docstring)."""
+
+    h_data: np.ndarray
+    g_data: np.ndarray
+    rows: tuple[np.ndarray, ...]       # A_k, (n_k, n_w)
+    residuals: tuple[np.ndarray, ...]  # u_k, (n_k,)
+
+    def log_evidence(self, log_ratio: np.ndarray) -> tuple[float, np.ndarray]:
+        """(log Z up to a constant, its gradient in ``log_ratio``) at ratios exp(``log_ratio``)."""
+        inv2 = np.exp(-2.0 * np.asarray(log_ratio, float))
+        h = self.h_data + sum(a.T @ a * s for a, s in zip(self.rows, inv2))
+        rhs = -(self.g_data + sum(a.T @ u * s for a, u, s in zip(self.rows, self.residuals, inv2)))
+        chol = scipy.linalg.cholesky(h, lower=True)
+        dw = scipy.linalg.cho_solve((chol, True), rhs)
+        prior = [float(np.sum((u + a @ dw) ** 2)) * s for a, u, s in zip(self.rows, self.residuals, inv2)]
+        chi2 = 2.0 * float(self.g_data @ dw) + float(dw @ self.h_data @ dw) + sum(prior)
+        n = np.array([a.shape[0] for a in self.rows], float)
+        value = -0.5 * chi2 - float(np.sum(np.log(np.diag(chol)))) - float(n @ np.asarray(log_ratio, float))
+        # tr(A H^-1 A^T) = |L^-1 A^T|_F^2
+        gamma = np.array([a.shape[0] - float(np.sum(scipy.linalg.solve_triangular(chol, a.T, lower=True) ** 2)) * s
+                          for a, s in zip(self.rows, inv2)])
+        return value, np.array(prior) - gamma
+
+
+def quadratic_model(result) -> tuple[QuadraticModel, list[str]]:
+    """The :class:`QuadraticModel` of a converged profile fit (a
+    :class:`~casrecon.estimation.fit.FitResult` with a null-space covariance), and its groups."""
+    grid, nlp, cov = result.part.profile, result.nlp, result.covariance
+    rows = np.concatenate([np.arange(nlp.n_r)[nlp.groups[result.group(g)]] for g in ("profile_start", "profile")])
+    cols = result.part.extra("profile").cols
+    w = nlp.derivatives.jacobian_r(result.z).tocsr()[rows][:, cols]
+    u = nlp.residual_vector(result.z)[rows]
+    a = np.asarray(w @ cov.basis[cols])
+    component_of_col = np.array([PROFILE_COMPONENTS[c] for c in grid.components])[np.arange(cols.size) %
+                                                                                    grid.n_components]
+    first = np.asarray(abs(w).argmax(axis=1)).ravel()
+    component_of_row = component_of_col[first]
+    groups = [g for g, comps in GROUPS.items() if np.isin(component_of_row, comps).any()]
+    masks = [np.isin(component_of_row, GROUPS[g]) for g in groups]
+    h = np.linalg.inv(cov.cov_w)
+    a_k = tuple(a[m] for m in masks)
+    u_k = tuple(u[m] for m in masks)
+    h_data = 0.5 * (h + h.T) - sum(x.T @ x for x in a_k)
+    g_data = -sum(x.T @ r for x, r in zip(a_k, u_k))
+    return QuadraticModel(h_data, g_data, a_k, u_k), groups
+
+
+def estimate_profile_sigma(result) -> ProfileSigmaEstimate:
+    """Type-II maximum-likelihood profile sigmas of a converged profile fit (see the module
+    docstring). Raises ValueError for a fit without a profile or with disturbance states (whose
+    covariance is not a reduced system)."""
+    from scipy.optimize import minimize
+
+    grid = result.part.profile
+    if grid is None or not hasattr(result.covariance, "cov_w"):
+        raise ValueError("the profile sigmas are estimated only for a profile fit without disturbance states")
+    model, groups = quadratic_model(result)
+    prior = dict(zip([PROFILE_COMPONENTS[c] for c in grid.components], grid.prior))
+    fitted = {g: float(prior[GROUPS[g][0]]) for g in groups}
+    base, _ = model.log_evidence(np.zeros(len(groups)))
+    bounds = [(np.log(MIN_RATIO), np.log(MAX_RATIO))] * len(groups)
+    best = minimize(lambda x: tuple(-v for v in model.log_evidence(x)), np.zeros(len(groups)), jac=True,
+                    method="L-BFGS-B", bounds=bounds)
+    ratio = np.exp(best.x)
+    against_zero = {}
+    for k, g in enumerate(groups):  # how much better than none of this group's error the estimate explains the data
+        none = best.x.copy()
+        none[k] = np.log(MIN_RATIO)
+        against_zero[g] = float(-best.fun - model.log_evidence(none)[0])
+        if against_zero[g] < ZERO_EVIDENCE_NATS:
+            ratio[k] = 0.0
+    estimated = {g: fitted[g] * float(r) for g, r in zip(groups, ratio)}
+    return ProfileSigmaEstimate(fitted, estimated, max(0.0, float(-best.fun - base)), tuple(prior), against_zero)
+
+
+def group_of(component: str) -> str:
+    """The sigma group (``"wind"``, ``"density"``) of a PROFILE_COMPONENTS name."""
+    return next(g for g, comps in GROUPS.items() if component in comps)
+
+
+def profile_refit(cfg: ProblemConfig, estimate: ProfileSigmaEstimate) -> tuple[ProblemConfig, np.ndarray | None]:
+    """The configuration and profile prior sigmas (one per corrected component, or None) of the
+    refit with the sigmas the data say: without the profile model when every group is estimated
+    at zero (the plain fit); else the same profile unknowns, and so the same compiled code, with
+    each group's prior at its estimate, a group at zero held at MIN_RATIO of the fitted sigma."""
+    if not any(estimate.estimated.values()):
+        atm = replace(cfg.atmosphere, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
+        return replace(cfg, atmosphere=atm), None
+    prior = [max(estimate.estimated[group_of(c)], MIN_RATIO * estimate.fitted[group_of(c)])
+             for c in estimate.components]
+    return cfg, np.array(prior)
+
+
+def refit_text(estimate: ProfileSigmaEstimate, prior: np.ndarray | None) -> str:
+    """How the refit of :func:`profile_refit` was made, for the fit's notes."""
+    if prior is None:
+        return "without the atmosphere-profile model"
+    scale = {"wind_n": (1.0, "m/s"), "wind_e": (1.0, "m/s"), "density": (100.0, "%")}
+    parts = [f"{c} {scale[c][0] * p:.3g} {scale[c][1]}" for c, p in zip(estimate.components, prior)]
+    return f"with the profile prior sigmas {', '.join(parts)} (the unknowns scaled as configured)"

@@ -1,0 +1,103 @@
+"""The atmosphere-profile sigmas from the data (casrecon.estimation.profile_sigma): a drop whose air
+differs from its sounding by a known profile error, fitted with the default model (0.5 m/s, 0.5 %)
+and ``profile_sigma_from_data`` on. The estimate finds the flown size and the refit with it keeps
+the truth within 3 sigma with smaller aero sigmas; a drop that flies its sounding exactly is
+refitted without the profile model."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from conftest import PROBLEMS
+
+from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
+from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.profile_sigma import estimate_profile_sigma
+from casrecon.scenario import Scenario
+from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
+
+FOLDER = PROBLEMS / "ees-drop-3-model-error"
+
+
+def drop_with_profile_error(tmp_path, wind_mps: float, density: float, seed: int) -> Scenario:
+    """ees-drop-3-model-error drawn again (truth from the priors, case ``seed``) with the flown air
+    off its sounding by a Gauss-Markov profile of the given sizes (300 m), fitted by default."""
+    rng = np.random.default_rng([0, seed])
+    cfg = draw_truth(Scenario.load(FOLDER), rng).config
+    errors = replace(cfg.truth.errors, profile_wind_sigma_mps=wind_mps, profile_density_sigma=density)
+    scenario = Scenario.from_config(replace(cfg, truth=replace(cfg.truth, errors=errors)))
+    return synthetic_scenario(scenario, tmp_path, seed=int(rng.integers(2**31)))[0]
+
+
+@pytest.fixture(scope="module")
+def smaller_error(tmp_path_factory):
+    """A profile error of 0.15 m/s and 0.15 %, a third of what the fit assumes."""
+    scenario = drop_with_profile_error(tmp_path_factory.mktemp("small"), 0.15, 0.0015, 1)
+    fixed = replace(scenario, config=replace(scenario.config, atmosphere=replace(
+        scenario.config.atmosphere, profile_sigma_from_data=False)))
+    return scenario, fit_drop(fixed), fit_drop(scenario)
+
+
+def test_the_estimate_finds_the_flown_size(smaller_error):
+    _, fixed, _ = smaller_error
+    estimate = estimate_profile_sigma(fixed)
+    assert estimate.fitted == pytest.approx({"wind": 0.5, "density": 0.005})
+    assert 0.8 < estimate.estimated["wind"] / 0.15 < 1.25, estimate
+    assert 0.7 < estimate.estimated["density"] / 0.0015 < 1.4, estimate
+    assert estimate.refit and estimate.log_evidence_gain > 10
+
+
+def test_the_refit_holds_the_truth_with_smaller_aero_sigmas(smaller_error):
+    scenario, fixed, refit = smaller_error
+    assert refit.converged and any("refitted with the profile prior sigmas" in n for n in refit.notes)
+    prior = refit.part.profile.prior
+    assert np.all(np.abs(prior / np.array([0.15, 0.15, 0.0015]) - 1) < 0.4), prior
+    errors, _ = parameter_errors(refit, truth_parameters_by_name(scenario))
+    assert np.all(np.abs(errors / refit.sigma) < 3.0), dict(zip(refit.params.names, errors / refit.sigma))
+    aero = [i for i, s in enumerate(refit.params.specs) if s.group == "aero"]
+    ratio = refit.sigma[aero] / fixed.sigma[aero]
+    print(dict(zip([refit.params.names[i] for i in aero], np.round(ratio, 3))))
+    assert np.all(ratio <= 1.02) and np.min(ratio) < 0.6
+
+
+@pytest.fixture(scope="module")
+def exact_air(tmp_path_factory):
+    """A drop that flies its sounding exactly (its GPS errors Gauss-Markov, as the fit's model but
+    for its 1 % white share), fitted by default and without the profile model."""
+    scenario = drop_with_profile_error(tmp_path_factory.mktemp("exact"), 0.0, 0.0, 2)
+    atmosphere = replace(scenario.config.atmosphere, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
+    plain = fit_drop(replace(scenario, config=replace(scenario.config, atmosphere=atmosphere)))
+    return scenario, fit_drop(scenario), plain
+
+
+def aero_sigma_ratio(r, plain) -> dict[str, float]:
+    aero = [i for i, s in enumerate(r.params.specs) if s.group == "aero"]
+    return {r.params.names[i]: float(r.sigma[i] / plain.sigma[i]) for i in aero}
+
+
+def test_a_drop_flying_its_sounding_is_refitted_with_a_negligible_profile(exact_air):
+    """The data say a wind profile error of about a millimetre per second (the model's other
+    approximations take that much slack: on ees-drop-1, white GPS errors, they say none) and no
+    density error, far below the assumed 0.5 m/s and 0.5 %; the refit with them holds the truth,
+    and the force and damping factors' sigmas are within 10 % of the fit without the profile model
+    (1.5 to 3 times at the assumed sigmas, on ees-drop-1)."""
+    scenario, r, plain = exact_air
+    note = next(n for n in r.notes if "type-II" in n)
+    print(note)
+    assert r.converged and "refitted" in note and r.timings["first_fit_s"] > 0
+    assert r.part.profile is None or np.all(r.part.profile.prior < 0.02 * r.part.profile.sigma)
+    errors, _ = parameter_errors(r, truth_parameters_by_name(scenario))
+    assert np.all(np.abs(errors / r.sigma) < 3.0), dict(zip(r.params.names, errors / r.sigma))
+    ratio = aero_sigma_ratio(r, plain)
+    print(ratio)
+    assert all(v < 1.1 for k, v in ratio.items() if k not in ("Cm_add", "Cn_add")), ratio
+
+
+@pytest.mark.xfail(strict=True, reason="issue 18's 20 % ceiling: the millimetre-per-second wind profile the data say "
+                                       "still costs Cm_add 1.5 and Cn_add 1.8 times the fit without it on this drop")
+def test_exact_air_costs_at_most_20_percent_in_every_aero_sigma(exact_air):
+    _, r, plain = exact_air
+    ratio = aero_sigma_ratio(r, plain)
+    assert all(v < 1.2 for v in ratio.values()), ratio
