@@ -231,6 +231,9 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
 
     ``linear_solver``, ``hessian``, ``solver``, ``method`` ("map" or "marginal") and
     ``information`` ("auto", "observed" or "expected") override the problem's ``[estimation]`` settings.
+    With the atmosphere-profile model and ``[atmosphere] profile_sigma_from_data`` (the default), a
+    MAP fit without disturbance states is made again with the profile sigmas the data say when they
+    differ from the configured ones (:mod:`casrecon.estimation.profile_sigma`; the notes say so).
     """
     cfg = scenario.config
     settings = FitSettings.from_estimation(cfg.estimation, linear_solver=linear_solver, hessian=hessian,
@@ -273,9 +276,13 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
         return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
     refit_cfg, prior = profile_refit(cfg, estimate)
     first = result.fit_nlp
-    again = fitted(dataclasses.replace(scenario, config=refit_cfg),
-                   lambda fit_nlp: transferred(first, fit_nlp, result.z), first.parts[0].guess_clock_s, prior,
-                   (estimate.text() + f"; refitted {refit_text(estimate, prior)} (the first fit took "
-                    f"{result.timings['fit_s']:.1f} s)",))
+    try:
+        again = fitted(dataclasses.replace(scenario, config=refit_cfg),
+                       lambda fit_nlp: transferred(first, fit_nlp, result.z), first.parts[0].guess_clock_s, prior,
+                       (estimate.text() + f"; refitted {refit_text(estimate, prior)} (the first fit took "
+                        f"{result.timings['fit_s']:.1f} s)",))
+    except FitError as err:  # the first fit stands, and says why it was not replaced
+        return dataclasses.replace(result, notes=result.notes + (f"{estimate.text()}; the refit "
+                                                                 f"{refit_text(estimate, prior)} failed: {err}",))
     again.timings.update(first_fit_s=result.timings["fit_s"], total_s=time.perf_counter() - t0)
     return again

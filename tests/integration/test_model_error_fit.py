@@ -28,6 +28,8 @@ def test_converges_with_the_error_models(fit):
     assert 0.98 < fit.reduced_chi2 < 1.06
     assert any("atmosphere-profile corrections" in n for n in fit.notes)
     assert any("GPS errors Gauss-Markov" in n for n in fit.notes)
+    # the profile sigmas the data say are the configured ones within 25 %: no refit
+    assert any("type-II maximum likelihood" in n and n.endswith("; no refit") for n in fit.notes), fit.notes
     # the GPS altitude at the start is 12 m off the truth, beyond the profile windows' 10 m
     # tolerance: the windows are placed again by the fitted altitudes (which hold the truth)
     assert fit.solver.profile_placements >= 1
