@@ -271,7 +271,11 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     if not (cfg.atmosphere.profile_sigma_from_data and result.part.profile is not None and not result.part.n_u
             and settings.method != "marginal"):
         return result
-    estimate = estimate_profile_sigma(result)
+    try:
+        estimate = estimate_profile_sigma(result)
+    except (np.linalg.LinAlgError, ValueError) as err:
+        return dataclasses.replace(result, notes=result.notes + (f"atmosphere-profile sigmas not estimated from the "
+                                                                 f"data ({err}): fitted with the configured ones",))
     if not estimate.refit:
         return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
     refit_cfg, prior = profile_refit(cfg, estimate)

@@ -43,6 +43,8 @@ MIN_RATIO, MAX_RATIO = 1e-4, 20.0
 #: A group whose estimate explains the data better than none of its error by less than this (log
 #: evidence, nats: a Bayes factor of e^3 = 20, "strong" on Jeffreys' scale) is taken as zero.
 ZERO_EVIDENCE_NATS = 3.0
+#: Penalty (nats) of a ratio where the quadratic model's Hessian is not positive definite.
+NOT_DEFINITE = 1e12
 #: A refit is made when a group's estimate differs from the fit's sigma by more than this factor.
 REFIT_FACTOR = 1.25
 #: The configured sigma each component group shares: wind north and east one, density its own.
@@ -101,11 +103,17 @@ class QuadraticModel:
     residuals: tuple[np.ndarray, ...]  # u_k, (n_k,)
 
     def log_evidence(self, log_ratio: np.ndarray) -> tuple[float, np.ndarray]:
-        """(log Z up to a constant, its gradient in ``log_ratio``) at ratios exp(``log_ratio``)."""
+        """(log Z up to a constant, its gradient in ``log_ratio``) at ratios exp(``log_ratio``).
+        Where the model's Hessian is not positive definite (an observed information whose data part
+        is indefinite, with a weak prior) there is no Laplace evidence: a penalty of -NOT_DEFINITE
+        that falls towards smaller ratios is returned, so the search stays where it is defined."""
         inv2 = np.exp(-2.0 * np.asarray(log_ratio, float))
         h = self.h_data + sum(a.T @ a * s for a, s in zip(self.rows, inv2))
         rhs = -(self.g_data + sum(a.T @ u * s for a, u, s in zip(self.rows, self.residuals, inv2)))
-        chol = scipy.linalg.cholesky(h, lower=True)
+        try:
+            chol = scipy.linalg.cholesky(h, lower=True)
+        except np.linalg.LinAlgError:
+            return -NOT_DEFINITE * (1.0 + float(np.sum(1.0 / inv2))), -NOT_DEFINITE * 2.0 / inv2
         dw = scipy.linalg.cho_solve((chol, True), rhs)
         prior = [float(np.sum((u + a @ dw) ** 2)) * s for a, u, s in zip(self.rows, self.residuals, inv2)]
         chi2 = 2.0 * float(self.g_data @ dw) + float(dw @ self.h_data @ dw) + sum(prior)
