@@ -11,6 +11,8 @@ from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, asse
 from casrecon.analysis.process_scale import ProcessPrior
 from casrecon.estimation import diagnostics as dg
 from casrecon.estimation.kinematic_terms import INTERVAL_RESIDUALS
+from casrecon.estimation.profile import PROFILE_COMPONENTS, PROFILE_UNITS
+from casrecon.estimation.profile_sigma import profile_prior_rows
 
 #: Accepted distance (m) between the fitted height at impact and the site's ground altitude, on top
 #: of 3 sigma of the fitted height: terrain relief over a landing area of a few kilometres, the
@@ -108,11 +110,6 @@ def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAM
                   gps_model, processes=profile_priors(result))
 
 
-#: Report names and units of the atmosphere-profile components (PROFILE_COMPONENTS order), and the
-#: factor from a component's sigma (SI) to that unit.
-PROFILE_NAMES = (("profile wind n", "m/s", 1.0), ("profile wind e", "m/s", 1.0), ("profile density", "%", 100.0))
-
-
 def profile_priors(result) -> tuple[ProcessPrior, ...]:
     """The atmosphere-profile corrections of a 6-DOF fit (or of one drop of a joint fit) as prior
     processes, one per corrected component (none without the profile model): the whitened prior
@@ -121,20 +118,16 @@ def profile_priors(result) -> tuple[ProcessPrior, ...]:
     grid = result.part.profile
     if grid is None:
         return ()
-    nlp = result.nlp
-    rows = np.concatenate([np.arange(nlp.n_r)[nlp.groups[result.group(g)]] for g in ("profile_start", "profile")])
-    cols = result.part.extra("profile").cols
-    w = nlp.derivatives.jacobian_r(result.z).tocsr()[rows][:, cols].toarray()
-    u = nlp.residual_vector(result.z)[rows]
-    cov = result.covariance.covariance_of(cols)
-    component_of_col = np.arange(cols.size) % grid.n_components  # level-major, component-minor
-    component_of_row = component_of_col[np.argmax(w != 0, axis=1)]
+    prior = profile_prior_rows(result)
+    cov = result.covariance.covariance_of(prior.cols)
     priors = []
     for k, (comp, sigma) in enumerate(zip(grid.components, grid.prior)):
-        r, c = component_of_row == k, component_of_col == k
-        wk = w[np.ix_(r, c)]
-        name, unit, factor = PROFILE_NAMES[comp]
-        priors.append(ProcessPrior(name, unit, float(sigma) * factor, u[r], wk @ cov[np.ix_(c, c)] @ wk.T))
+        r, c = prior.component_of_row == k, prior.component_of_col == k
+        wk = prior.jacobian[np.ix_(r, c)]
+        name = PROFILE_COMPONENTS[comp]
+        unit, factor = PROFILE_UNITS[name]
+        priors.append(ProcessPrior(f"profile {name.replace('_', ' ')}", unit, float(sigma) * factor,
+                                   prior.residuals[r], wk @ cov[np.ix_(c, c)] @ wk.T))
     return tuple(priors)
 
 

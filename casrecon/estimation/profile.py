@@ -29,6 +29,8 @@ from casrecon.physics.dynamics import PARAMETER_NAMES
 #: The corrected quantities, and the FlightModel parameter each is added to.
 PROFILE_COMPONENTS = ("wind_n", "wind_e", "density")
 PROFILE_PARAMETERS = ("wind_bias_n", "wind_bias_e", "density_factor")
+#: Report unit of each corrected quantity and the factor from its SI sigma to that unit.
+PROFILE_UNITS = {"wind_n": ("m/s", 1.0), "wind_e": ("m/s", 1.0), "density": ("%", 100.0)}
 #: Levels added beyond the guessed altitude range at each end, besides those of the window's reach.
 MARGIN_LEVELS = 2
 #: Least distance (m) by which a fitted altitude may differ from its guess with the correction

@@ -34,7 +34,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
-from casrecon.estimation.profile import PROFILE_COMPONENTS
+from casrecon.estimation.profile import PROFILE_COMPONENTS, PROFILE_UNITS
 from casrecon.io.problem import ProblemConfig
 
 #: Smallest and largest ratio of a group's sigma to the fit's that the search considers; an
@@ -84,9 +84,9 @@ class ProfileSigmaEstimate:
 
     def text(self) -> str:
         """One line: each group's estimate against the fit's sigma."""
-        unit = {"wind": (1.0, "m/s"), "density": (100.0, "%")}
-        parts = [f"{g} {unit[g][0] * self.estimated[g]:.3g} {unit[g][1]} (fitted with "
-                 f"{unit[g][0] * self.fitted[g]:.3g}; log evidence over none {self.against_zero[g]:+.1f})"
+        unit = {g: PROFILE_UNITS[GROUPS[g][0]] for g in self.fitted}
+        parts = [f"{g} {unit[g][1] * self.estimated[g]:.3g} {unit[g][0]} (fitted with "
+                 f"{unit[g][1] * self.fitted[g]:.3g}; log evidence over none {self.against_zero[g]:+.1f})"
                  for g in self.fitted]
         return (f"atmosphere-profile sigmas the data say (type-II maximum likelihood): {', '.join(parts)}; "
                 f"log evidence +{self.log_evidence_gain:.1f}")
@@ -125,19 +125,50 @@ class QuadraticModel:
         return value, np.array(prior) - gamma
 
 
+@dataclass(frozen=True)
+class ProfilePriorRows:
+    """The atmosphere-profile prior of a fit's drop at its estimate: the prior is linear in the
+    scaled unknowns, so its residual Jacobian is exact.
+
+    Attributes
+    ----------
+    cols : int array
+        The profile's z columns (level-major, component-minor).
+    jacobian : ndarray (n_rows, len(cols))
+        W, the whitened prior rows' Jacobian in those columns.
+    residuals : ndarray (n_rows,)
+        u_hat, the whitened prior residuals.
+    component_of_col, component_of_row : int arrays
+        Index in the grid's ``components`` of each column and of each row (a row involves one).
+    """
+
+    cols: np.ndarray
+    jacobian: np.ndarray
+    residuals: np.ndarray
+    component_of_col: np.ndarray
+    component_of_row: np.ndarray
+
+
+def profile_prior_rows(result) -> ProfilePriorRows:
+    """:class:`ProfilePriorRows` of a fit with the profile model (a
+    :class:`~casrecon.estimation.fit.FitResult`, one drop of a joint fit included)."""
+    grid, nlp = result.part.profile, result.nlp
+    rows = np.concatenate([np.arange(nlp.n_r)[nlp.groups[result.group(g)]] for g in ("profile_start", "profile")])
+    cols = result.part.extra("profile").cols
+    w = nlp.derivatives.jacobian_r(result.z).tocsr()[rows][:, cols].toarray()
+    component_of_col = np.arange(cols.size) % grid.n_components
+    return ProfilePriorRows(cols, w, nlp.residual_vector(result.z)[rows], component_of_col,
+                            component_of_col[np.argmax(w != 0, axis=1)])
+
+
 def quadratic_model(result) -> tuple[QuadraticModel, list[str]]:
     """The :class:`QuadraticModel` of a converged profile fit (a
     :class:`~casrecon.estimation.fit.FitResult` with a null-space covariance), and its groups."""
-    grid, nlp, cov = result.part.profile, result.nlp, result.covariance
-    rows = np.concatenate([np.arange(nlp.n_r)[nlp.groups[result.group(g)]] for g in ("profile_start", "profile")])
-    cols = result.part.extra("profile").cols
-    w = nlp.derivatives.jacobian_r(result.z).tocsr()[rows][:, cols]
-    u = nlp.residual_vector(result.z)[rows]
-    a = np.asarray(w @ cov.basis[cols])
-    component_of_col = np.array([PROFILE_COMPONENTS[c] for c in grid.components])[np.arange(cols.size) %
-                                                                                    grid.n_components]
-    first = np.asarray(abs(w).argmax(axis=1)).ravel()
-    component_of_row = component_of_col[first]
+    grid, cov = result.part.profile, result.covariance
+    prior = profile_prior_rows(result)
+    u = prior.residuals
+    a = prior.jacobian @ cov.basis[prior.cols]
+    component_of_row = np.array([PROFILE_COMPONENTS[c] for c in grid.components])[prior.component_of_row]
     groups = [g for g, comps in GROUPS.items() if np.isin(component_of_row, comps).any()]
     masks = [np.isin(component_of_row, GROUPS[g]) for g in groups]
     h = np.linalg.inv(cov.cov_w)
@@ -198,6 +229,5 @@ def refit_text(estimate: ProfileSigmaEstimate, prior: np.ndarray | None) -> str:
     """How the refit of :func:`profile_refit` was made, for the fit's notes."""
     if prior is None:
         return "without the atmosphere-profile model"
-    scale = {"wind_n": (1.0, "m/s"), "wind_e": (1.0, "m/s"), "density": (100.0, "%")}
-    parts = [f"{c} {scale[c][0] * p:.3g} {scale[c][1]}" for c, p in zip(estimate.components, prior)]
+    parts = [f"{c} {PROFILE_UNITS[c][1] * p:.3g} {PROFILE_UNITS[c][0]}" for c, p in zip(estimate.components, prior)]
     return f"with the profile prior sigmas {', '.join(parts)} (the unknowns scaled as configured)"
