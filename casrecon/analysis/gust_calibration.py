@@ -56,9 +56,12 @@ class GustCase:
     subsample_s : float
         Spacing of the nodes at which the gust NEES is taken, s.
     interval_s : float or None
-        The fit's collocation interval, s (None: the problem's ``[estimation] interval_s``, whose
-        default with gust states is 12.5 ms). The truth's gusts vary between the fit's nodes, which
-        the fit's disturbance (linear between nodes) cannot follow; a finer mesh shrinks that part.
+        The fit's collocation interval, s (None: the problem's ``[estimation] interval_s``, 25 ms by
+        default). The truth's gusts vary between the fit's nodes; the fit models that part to first
+        order (:mod:`casrecon.estimation.subgrid`), and a finer mesh shrinks it.
+    fit_noise_scale : tuple of 2 float
+        The fit's accelerometer and gyro noise sigmas as multiples of the truth's (1, 1: the data's
+        own): a diagnostic of which channel over-trusts what it sees of the gusts.
     """
 
     problem: Path
@@ -68,6 +71,7 @@ class GustCase:
     truth_gusts: bool = True
     subsample_s: float = 1.0
     interval_s: float | None = None
+    fit_noise_scale: tuple[float, float] = (1.0, 1.0)
 
 
 def case_scenario(case: GustCase, folder: Path) -> Scenario:
@@ -108,7 +112,16 @@ def _fit_case(case: GustCase) -> tuple[Scenario, FitResult]:
     """The case's scenario and its fit (the synthetic data live in a temporary folder)."""
     with tempfile.TemporaryDirectory() as tmp:
         sc = case_scenario(case, Path(tmp))
-        return sc, fit_drop(sc)
+        return sc, fit_drop(with_fit_noise(sc, case.fit_noise_scale))
+
+
+def with_fit_noise(sc: Scenario, scale: tuple[float, float]) -> Scenario:
+    """``sc`` with its accelerometer and gyro noise sigmas times ``scale`` (the fit's, not the data's)."""
+    if tuple(scale) == (1.0, 1.0):
+        return sc
+    imu = dataclasses.replace(sc.config.imu, accel_noise_mps2=sc.config.imu.accel_noise_mps2 * scale[0],
+                              gyro_noise_radps=sc.config.imu.gyro_noise_radps * scale[1])
+    return dataclasses.replace(sc, config=dataclasses.replace(sc.config, imu=imu))
 
 
 def _case_figures(case: GustCase, sc: Scenario, r: FitResult, seconds: float) -> dict:

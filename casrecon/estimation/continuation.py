@@ -117,7 +117,7 @@ def transferred(old: FitNlp, new: FitNlp, z_old: np.ndarray) -> np.ndarray:
     for a, b in zip(old.parts, new.parts, strict=True):
         z[b.node_cols] = z_old[a.node_cols]
         z[b.theta_cols] = z_old[a.theta_cols]
-        z[b.u_cols.ravel()] = z_old[a.u_cols.ravel()]
+        z[b.u_all_cols] = z_old[a.u_all_cols]
         for extra in b.extras:
             source = a.extra(extra.name)
             if extra.name == "profile":

@@ -178,7 +178,7 @@ def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSe
                         disturbance=cfg.estimation.disturbance, u_offset=n_sv + params.n)
     if measurements is None:
         measurements = load_measurements(cfg, data)
-    layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.u_cols.size,
+    layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.n_u_values,
                                      node_alt_msl_m=node_alt_msl_m, profile_prior_sigma=profile_prior_sigma)
     context = DropContext(model, cfg, layout, data, measurements)
     return assemble_drops([context], n_z, hessian)

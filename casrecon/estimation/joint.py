@@ -151,7 +151,7 @@ def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
         layouts.append(DropLayout(sc.config.name, mesh, ps, int(off), np.array(cols),
                                   guess_clock_s=guesses[sc.config.name],
                                   disturbance=sc.config.estimation.disturbance, u_offset=next_col))
-        next_col += layouts[-1].u_cols.size  # the drop's latent disturbance values, if any
+        next_col += layouts[-1].n_u_values  # the drop's latent disturbance values, if any
     out = []
     for sc, layout, meas in zip(scenarios, layouts, measurements):
         layout, next_col = with_extra_columns(layout, sc.config, meas, next_col,

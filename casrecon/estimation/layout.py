@@ -17,6 +17,7 @@ import numpy as np
 
 from casrecon.estimation.parameters import ParameterSet
 from casrecon.estimation.profile import ProfileGrid
+from casrecon.estimation.subgrid import subgrid_integral_sigma
 from casrecon.estimation.transcription import STATE_SCALE, Mesh
 from casrecon.physics.disturbance import N_DISTURBANCES, DisturbanceModel
 from casrecon.physics.dynamics import PARAMETER_NAMES
@@ -174,6 +175,51 @@ class DropLayout:
         return self.u_offset + np.arange(self.n_nodes * self.n_u).reshape(self.n_nodes, self.n_u)
 
     @property
+    def u_mid_cols(self) -> np.ndarray:
+        """z indices of the disturbance values at the interval midpoints, (K - 1, n_u), after the
+        node values: the collocation evaluates the dynamics at the midpoints too, and a disturbance
+        linear between nodes would leave out what it does there (docs/design.md, Weak-constraint
+        disturbances)."""
+        start = self.u_offset + self.n_nodes * self.n_u
+        return start + np.arange((self.n_nodes - 1) * self.n_u).reshape(self.n_nodes - 1, self.n_u)
+
+    @property
+    def u_sub_cols(self) -> np.ndarray:
+        """z indices (K - 1, n_u) of each interval's sub-grid integral of each disturbance entry
+        (the integral over the interval of its departure from the quadratic through the node and
+        midpoint values, :mod:`casrecon.estimation.subgrid`), after the midpoint values."""
+        start = self.u_offset + (2 * self.n_nodes - 1) * self.n_u
+        return start + np.arange((self.n_nodes - 1) * self.n_u).reshape(self.n_nodes - 1, self.n_u)
+
+    @property
+    def u_sub_scale(self) -> np.ndarray:
+        """Prior sigma of the sub-grid integrals (SI times s), their scale in z."""
+        if not self.n_u:
+            return np.zeros(0)
+        return subgrid_integral_sigma(self.u_scale, np.asarray(self.disturbance.time_s)[list(self.active)],
+                                      self.mesh.h)
+
+    @property
+    def n_u_values(self) -> int:
+        """Number of latent disturbance unknowns: node and midpoint values, sub-grid integrals."""
+        return (3 * self.n_nodes - 2) * self.n_u if self.n_u else 0
+
+    @property
+    def u_all_cols(self) -> np.ndarray:
+        """Every latent disturbance column: node and midpoint values, sub-grid integrals."""
+        if not self.n_u:
+            return np.zeros(0, np.int64)
+        return self.u_offset + np.arange(self.n_u_values)
+
+    @property
+    def u_chain_cols(self) -> np.ndarray:
+        """z indices (2K - 1, n_u) of the disturbance values in time order: node 0, midpoint 0,
+        node 1, ..., node K - 1 (half an interval apart)."""
+        out = np.empty((2 * self.n_nodes - 1, self.n_u), np.int64)
+        out[0::2], out[1::2] = self.u_cols, self.u_mid_cols
+        return out
+
+    @property
     def n_states(self) -> int:
         return self.state_scale.size
 
@@ -209,6 +255,13 @@ class DropLayout:
             out[:, list(self.active)] = np.asarray(z)[self.u_cols] * self.u_scale
         return out
 
+    def midpoint_disturbances(self, z: np.ndarray) -> np.ndarray:
+        """Disturbance at the interval midpoints (K - 1, 9), SI, zero in the entries not estimated."""
+        out = np.zeros((self.n_nodes - 1, N_DISTURBANCES))
+        if self.n_u:
+            out[:, list(self.active)] = np.asarray(z)[self.u_mid_cols] * self.u_scale
+        return out
+
     def pack(self, states: np.ndarray, values: np.ndarray, n_z: int) -> np.ndarray:
         """Scaled z (length ``n_z``) holding this drop's node states (K, n_states) and parameter
         values (SI); everything else (latent disturbances, other drops) zero."""
@@ -217,14 +270,17 @@ class DropLayout:
         z[self.theta_cols] = np.asarray(values) / self.params.scales
         return z
 
-    def two_node_columns(self, k: np.ndarray) -> np.ndarray:
-        """Global columns (len(k), 2 n_states + n_params + 2 n_u + n_profile_local) of the two-node
-        blocks on intervals ``k``: [x_k, x_k+1, theta, u_k, u_k+1, profile cell]."""
+    def two_node_columns(self, k: np.ndarray, midpoint: bool = False) -> np.ndarray:
+        """Global columns (len(k), 2 n_states + n_params + (2 or 3) n_u + n_profile_local) of the
+        two-node blocks on intervals ``k``: [x_k, x_k+1, theta, u_k, u_k+1, (u_mid, u_sub,) profile cell];
+        ``midpoint``: with the disturbance values at the intervals' midpoints (the collocation
+        blocks)."""
         k = np.asarray(k, np.int64)
         first = self.node_offset + self.n_states * k[:, None] + np.arange(2 * self.n_states)[None, :]
         profile = self.profile_cell_columns(self.interval_cells[k] if self.profile is not None else k)
+        mid = [self.u_mid_cols[k], self.u_sub_cols[k]] if midpoint and self.n_u else []
         return np.column_stack([first, np.tile(self.theta_cols, (k.size, 1)), self.u_cols[k], self.u_cols[k + 1],
-                                profile])
+                                *mid, profile])
 
     def interval_of(self, t_imu_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(interval index, fraction tau within it) of IMU-clock times (s) for measurements whose
@@ -242,13 +298,17 @@ class BlockLocals:
     Parameters
     ----------
     layout : DropLayout
+    midpoint : bool
+        Whether the block also holds the disturbance values at its interval's midpoint
+        (:meth:`DropLayout.two_node_columns` with ``midpoint``; read with :meth:`midpoint_u`).
     """
 
-    def __init__(self, layout: DropLayout) -> None:
+    def __init__(self, layout: DropLayout, midpoint: bool = False) -> None:
         self.layout = layout
         self.params = layout.params
         self.n_s, self.n_p, self.n_u = layout.n_states, layout.params.n, layout.n_u
-        self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u + layout.n_profile_local)
+        self.n_mid = self.n_u if midpoint else 0
+        self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u + 2 * self.n_mid + layout.n_profile_local)
         #: Per-block data symbols the locals need (the profile window's lowest altitude), to be listed
         #: after a kind's own data, with :meth:`DropLayout.profile_block_data` as their values.
         self.data = [ca.SX.sym("profile_window_msl_m")] if layout.profile is not None else []
@@ -280,6 +340,22 @@ class BlockLocals:
         u_scale = ca.DM(self.layout.u_scale)
         uk, uk1 = v[end:end + self.n_u] * u_scale, v[end + self.n_u:end + 2 * self.n_u] * u_scale
         return xk, xk1, theta, uk, uk1
+
+    def midpoint_u(self, v: ca.SX | None = None) -> ca.SX:
+        """The disturbance values at the interval's midpoint (SI) of a block made with ``midpoint``."""
+        if not self.n_mid:
+            raise ValueError("this block holds no midpoint disturbance values")
+        v = self.symbol if v is None else v
+        start = 2 * self.n_s + self.n_p + 2 * self.n_u
+        return v[start:start + self.n_mid] * ca.DM(self.layout.u_scale)
+
+    def subgrid_integral(self, v: ca.SX | None = None) -> ca.SX:
+        """The sub-grid integrals (SI times s) of a block made with ``midpoint``."""
+        if not self.n_mid:
+            raise ValueError("this block holds no sub-grid integrals")
+        v = self.symbol if v is None else v
+        start = 2 * self.n_s + self.n_p + 2 * self.n_u + self.n_mid
+        return v[start:start + self.n_mid] * ca.DM(self.layout.u_sub_scale)
 
     def theta_of(self, theta: ca.SX, name: str, default: float = 0.0):
         """The parameter ``name`` from the SI parameter vector, or ``default`` when not estimated."""

@@ -129,25 +129,33 @@ def imu_model_function(model: FlightModel, active=()) -> ca.Function:
 
 
 def interval_function(model: FlightModel, h: float, active=()) -> ca.Function:
-    """``interval(xk, xk1, pk, pk1, bias6, d, R, uk, uk1) -> (defect13 scaled, r_imu, c)`` for one
-    interval.
+    """``interval(xk, xk1, pk, pk1, bias6, d, R, uk, uk1, um, ui, bu) -> (defect13 scaled, r_imu, c)``
+    for one interval.
 
     ``pk``, ``pk1`` are the model parameters at the two nodes (they differ only by the
     atmosphere-profile corrections; linear in between); ``d`` holds Q^T W y of the 6 IMU channels
     and ``R`` their R factors (column major), stacked at ``D_OFFSETS`` and ``R_OFFSETS``; ``bias6``
     the accelerometer and gyro biases (IMU axes); ``c`` the model's basis coefficients of every
     channel (see the module docstring); ``uk``, ``uk1`` the estimated disturbance entries
-    ``active`` at the two nodes (linear in between).
+    ``active`` at the two nodes and ``um`` at the midpoint, where the collocation evaluates the
+    dynamics too (Simpson's rule and the accelerometers' quadratic see the disturbance at three
+    points; docs/design.md, Weak-constraint disturbances), and ``ui`` the integral over the interval
+    of its departure from the quadratic through those three values (SI times s), which adds
+    B ui to what Simpson's rule gives the state's change, B = ``bu`` reshaped (13, n_u) (column
+    major) the state derivative's sensitivity to the disturbances on a reference trajectory
+    (:mod:`casrecon.estimation.subgrid`).
     """
     xk, xk1 = ca.SX.sym("xk", 13), ca.SX.sym("xk1", 13)
     pk, pk1, b = ca.SX.sym("pk", model.n_params), ca.SX.sym("pk1", model.n_params), ca.SX.sym("b", 6)
     d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
-    uk, uk1 = ca.SX.sym("uk", len(active)), ca.SX.sym("uk1", len(active))
+    uk, uk1, um = ca.SX.sym("uk", len(active)), ca.SX.sym("uk1", len(active)), ca.SX.sym("um", len(active))
+    ui, bu = ca.SX.sym("ui", len(active)), ca.SX.sym("bu", 13 * len(active))
     imu = imu_model_function(model, active)
     (fk, yk), (fk1, yk1) = imu(xk, pk, uk), imu(xk1, pk1, uk1)
     xm = 0.5 * (xk + xk1) + h / 8 * (fk - fk1)
-    fm, ym = imu(xm, 0.5 * (pk + pk1), 0.5 * (uk + uk1))
-    defect = (xk1 - xk - h / 6 * (fk + 4 * fm + fk1)) / ca.DM(STATE_SCALE)
+    fm, ym = imu(xm, 0.5 * (pk + pk1), um)
+    subgrid = ca.reshape(bu, 13, len(active)) @ ui if len(active) else 0
+    defect = (xk1 - xk - h / 6 * (fk + 4 * fm + fk1) - subgrid) / ca.DM(STATE_SCALE)
     c_ib = ca.DM(np.asarray(model.vehicle.imu_to_body)).T
     wdot_k, wdot_k1 = c_ib @ fk[10:13], c_ib @ fk1[10:13]
     coefs = [ca.vertcat(yk[c], ym[c], yk1[c]) + b[c] for c in range(3)]
@@ -156,9 +164,10 @@ def interval_function(model: FlightModel, h: float, active=()) -> ca.Function:
     for c, n in enumerate(CHANNEL_BASIS):
         r_c = ca.reshape(rr[int(R_OFFSETS[c]):int(R_OFFSETS[c + 1])], n, n)
         res.append(d[int(D_OFFSETS[c]):int(D_OFFSETS[c + 1])] - r_c @ coefs[c])
-    return ca.Function("interval", [xk, xk1, pk, pk1, b, d, rr, uk, uk1],
+    return ca.Function("interval", [xk, xk1, pk, pk1, b, d, rr, uk, uk1, um, ui, bu],
                        [defect, ca.vertcat(*res), ca.vertcat(*coefs)],
-                       ["xk", "xk1", "pk", "pk1", "bias", "d", "R", "uk", "uk1"], ["defect", "r_imu", "c"])
+                       ["xk", "xk1", "pk", "pk1", "bias", "d", "R", "uk", "uk1", "um", "ui", "bu"],
+                       ["defect", "r_imu", "c"])
 
 
 def gps_function(model: FlightModel, h: float, active=()) -> ca.Function:
@@ -189,7 +198,8 @@ class ImuBlocks:
     n_used: np.ndarray
 
 
-def compress_imu(mesh: Mesh, y_imu: np.ndarray, valid: np.ndarray, sigma: np.ndarray) -> ImuBlocks:
+def compress_imu(mesh: Mesh, y_imu: np.ndarray, valid: np.ndarray, sigma: np.ndarray,
+                 extra_covariance: np.ndarray | None = None) -> ImuBlocks:
     """Per-interval thin-QR compression of the IMU samples.
 
     Parameters
@@ -198,18 +208,42 @@ def compress_imu(mesh: Mesh, y_imu: np.ndarray, valid: np.ndarray, sigma: np.nda
         (the sample at the last node is not used).
     valid : (S, 6) bool, False for masked samples.
     sigma : (6,) 1-sigma noise per channel.
+    extra_covariance : (N, 6, k, k) array, optional
+        Errors correlated between the samples of one interval, added to the white noise (per
+        interval and channel, SI squared; :mod:`casrecon.estimation.subgrid`). The samples are then
+        whitened by the Cholesky factor of sigma^2 I + extra instead of 1 / sigma.
     """
     k, n = mesh.samples_per_interval, mesh.n_intervals
     bases = channel_bases(k)
     d, big_r = np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n))
     const, used = np.zeros(6), np.zeros(6, int)
     for c, basis in enumerate(bases):
-        w = valid[:n * k, c].reshape(n, k) / sigma[c]
-        wy = y_imu[:n * k, c].reshape(n, k) * w
-        q, r = np.linalg.qr(basis[None, :, :] * w[:, :, None])  # batched over intervals
+        ok = valid[:n * k, c].reshape(n, k)
+        if extra_covariance is None:
+            w = ok / sigma[c]
+            wy = y_imu[:n * k, c].reshape(n, k) * w
+            wb = basis[None, :, :] * w[:, :, None]
+        else:
+            wy, wb = _correlated_whitening(y_imu[:n * k, c].reshape(n, k), ok, basis, sigma[c],
+                                           extra_covariance[:, c])
+        q, r = np.linalg.qr(wb)  # batched over intervals
         qty = np.einsum("nkb,nk->nb", q, wy)
         d[D_OFFSETS[c]:D_OFFSETS[c + 1]] = qty.T
         big_r[R_OFFSETS[c]:R_OFFSETS[c + 1]] = r.transpose(0, 2, 1).reshape(n, -1).T  # column major
         const[c] = float(np.sum(wy * wy) - np.sum(qty * qty))
         used[c] = int(valid[:n * k, c].sum())
     return ImuBlocks(d, big_r, const, used)
+
+
+def _correlated_whitening(y: np.ndarray, ok: np.ndarray, basis: np.ndarray, sigma: float,
+                          extra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """L^-1 y and L^-1 B per interval, L L^T = sigma^2 I + extra over the unmasked samples (a masked
+    sample's row and column are replaced by the identity's and its data and basis rows by zeros, so
+    it adds nothing); y, ok (N, k), basis (k, m), extra (N, k, k)."""
+    k = basis.shape[0]
+    keep = ok[:, :, None] & ok[:, None, :]
+    cov = np.where(keep, extra, 0.0) + np.eye(k)[None] * np.where(ok, sigma * sigma, 1.0)[:, :, None]
+    chol = np.linalg.cholesky(cov)
+    rhs = np.concatenate([np.where(ok, y, 0.0)[:, :, None], basis[None] * ok[:, :, None]], axis=2)
+    white = np.linalg.solve(chol, rhs)
+    return white[:, :, 0], white[:, :, 1:]

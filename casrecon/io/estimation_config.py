@@ -15,8 +15,6 @@ from casrecon.physics.disturbance import DisturbanceModel
 
 #: Default collocation interval, s (see :attr:`EstimationConfig.interval_s`).
 INTERVAL_S = 0.025
-#: Default collocation interval with disturbance states, s (see :attr:`EstimationConfig.interval_s`).
-DISTURBANCE_INTERVAL_S = 0.0125
 
 
 @dataclass(frozen=True)
@@ -33,14 +31,12 @@ class EstimationConfig:
         Release and impact on the IMU clock; found from the IMU when not given.
     interval_s : float, optional
         Target collocation interval; the mesh takes the nearest whole number of IMU samples (at
-        least 4). Not given: 25 ms, or 12.5 ms when disturbance states are estimated
-        (:meth:`EstimationConfig.resolved_interval_s`). 25 ms keeps the Hermite-Simpson
-        discretisation error of a 500 Hz drop well below the reported sigmas (at 50 ms a
-        noise-free fit of ees-drop-3 is off by 4.4 sigma along its best-determined CA/Cmn
-        combination; at 24 ms by 0.23 sigma). Gust states need the finer mesh: the fit's gusts are
-        linear between nodes, and on 25 ms the gust content between them left the east gust's
-        sigmas too small (NEES 646 over 568 dof, outside its 95 % interval; on 12.5 ms 539), at
-        about 2.4 times the cost (README, issue 13).
+        least 4). Not given: 25 ms (:meth:`EstimationConfig.resolved_interval_s`), which keeps the
+        Hermite-Simpson discretisation error of a 500 Hz drop well below the reported sigmas (at
+        50 ms a noise-free fit of ees-drop-3 is off by 4.4 sigma along its best-determined CA/Cmn
+        combination; at 24 ms by 0.23 sigma). With disturbance states the same: what a gust does
+        between the nodes is modelled (:mod:`casrecon.estimation.subgrid`), and the whole-drop gust
+        calibration passes on 25 ms (README, issue 13).
     samples_per_interval : int, optional
         IMU samples per collocation interval; overrides ``interval_s`` when given.
     hessian : {"auto", "gauss-newton", "exact"}
@@ -153,11 +149,8 @@ class EstimationConfig:
         return "gauss-newton" if self.disturbance is None else "exact"
 
     def resolved_interval_s(self) -> float:
-        """The collocation interval in s: ``interval_s`` when given, else :data:`INTERVAL_S`, or
-        :data:`DISTURBANCE_INTERVAL_S` with disturbance states."""
-        if self.interval_s is not None:
-            return self.interval_s
-        return INTERVAL_S if self.disturbance is None else DISTURBANCE_INTERVAL_S
+        """The collocation interval in s: ``interval_s`` when given, else :data:`INTERVAL_S`."""
+        return INTERVAL_S if self.interval_s is None else self.interval_s
 
     def mesh_samples(self, imu_rate_hz: float) -> int:
         """IMU samples per collocation interval at an IMU rate of ``imu_rate_hz`` (Hz)."""

@@ -1,14 +1,15 @@
-"""Whole-drop gust calibration of the marginal-likelihood estimator (slow, about 10 min on 2 cores).
+"""Whole-drop gust calibration of the marginal-likelihood estimator (slow, about 4 min on 2 cores).
 
 Issue 13's acceptance setup on its minimum of 8 seeds: ees-drop-3 from 3.5 s after release to
 impact through full-size Gauss-Markov gusts (0.5, 0.5, 0.25 m/s, 3 s) the balloon did not see,
 parameter truth drawn from the priors, each case fitted by the joint MAP and moved to the marginal
-estimate, on a 12.5 ms mesh (MESH_S). The simulator's gusts vary every 2 ms; the fit's are linear
-between its nodes, and on the problem's 25 ms mesh the part it cannot follow made the east gust's
-sigmas too small (NEES 340.3 over 284 on these seeds, 646.1 over 568 on 16; the changes between
-nodes carried the excess). Measured on 12.5 ms (seeds 1-8): marginal parameter NEES 179.8 over
-152 dof, aero factors' mean z within +-0.43, gust NEES at 1 s nodes N 266.1, E 296.3, D 300.4 over
-284 dof; the joint MAP's parameter NEES 617.5.
+estimate, on the default 25 ms mesh. The simulator's gusts vary every 2 ms; the fit models what
+they do between its nodes (midpoint values, sub-grid integrals and the IMU samples' departures,
+docs/design.md). With the gusts linear between nodes instead, the part the fit could not follow
+made the east gust's sigmas too small on 25 ms (NEES 340.3 over 284 on these seeds) and a 12.5 ms
+mesh was needed. Measured with the model (seeds 1-8, 25 ms): marginal parameter NEES 178.8 over
+152 dof, aero factors' mean z within +-0.44, gust NEES at 1 s nodes N 264.1, E 271.5, D 303.7
+over 284 dof; the joint MAP's parameter NEES 602.0.
 """
 
 from functools import partial
@@ -23,14 +24,12 @@ from casrecon.parallel import parallel_map
 
 pytestmark = pytest.mark.slow
 SEEDS = tuple(range(1, 9))
-#: The fit's collocation interval, s: fine enough for the gusts (see the module docstring).
-MESH_S = 0.0125
 AERO = ("CA_mult", "CN_add", "CNY_mult", "CY_add", "Cm_add", "Cmn_mult", "Cn_add", "Cmq_mult", "Cl_add")
 
 
 @pytest.fixture(scope="module")
 def cases() -> list[dict]:
-    tasks = [GustCase(PROBLEMS / "ees-drop-3", s, start_s=3.5, interval_s=MESH_S) for s in SEEDS]
+    tasks = [GustCase(PROBLEMS / "ees-drop-3", s, start_s=3.5) for s in SEEDS]
     rows = parallel_map(partial(run_gust_case, marginal=True), tasks, workers=2)
     assert all(c["map"]["converged"] and c["marginal"]["converged"] for c in rows)
     return rows

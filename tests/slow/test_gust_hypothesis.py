@@ -4,7 +4,7 @@ The strong-constraint fit cannot explain them (it fails or leaves a reduced chi-
 the weak-constraint fit with gust states at the nodes recovers the horizontal gust history (error well below
 the gust itself, at least 95 % of the nodes inside the 3-sigma band), with a reduced chi-square near
 1. The joint MAP does not recover the vertical gust (a near-constant offset), and its parameters are
-biased (on the 12.5 ms mesh of gust fits the worst is 4.2 sigma off); the marginal-likelihood
+biased (the worst was 4.2 sigma off on a 12.5 ms mesh); the marginal-likelihood
 estimate of the same fit recovers the vertical gust and has every parameter within 4 sigma.
 
 Not tested here: whether the gust sigmas are calibrated. One realisation spans only a few
@@ -69,7 +69,7 @@ def test_gust_states_recover_the_horizontal_gusts(gusty, weak_fit):
     assert 0.9 < r.reduced_chi2 < 1.1
     _check_recovered(r, gusty, [(0, "gust_n_mps"), (1, "gust_e_mps")])
     # the joint MAP's parameters are not asserted: with gusts it biases the slope multipliers by
-    # several sigma (test_gust_calibration.py); on the 12.5 ms mesh its worst here is 4.2 sigma
+    # several sigma (test_gust_calibration.py); on a 12.5 ms mesh its worst here was 4.2 sigma
     print("joint MAP worst parameter z", _worst_z(r, gusty))
 
 

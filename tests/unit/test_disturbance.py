@@ -104,8 +104,8 @@ def test_config_reads_and_checks_the_disturbance(tmp_path):
         assert d.sigma == (1.0, 1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.2, 0.0)
         assert d.time_s[:3] == (4.0,) * 3 and d.time_s[7] == 1.0
         assert list(d.active) == [0, 1, 2, 7]
-        est = load_problem(path).estimation  # no interval_s given: the gusts' finer mesh (issue 13)
-        assert est.interval_s is None and est.resolved_interval_s() == 0.0125 and est.mesh_samples(500.0) == 6
+        est = load_problem(path).estimation  # no interval_s given: 25 ms, with or without gust states (issue 13)
+        assert est.interval_s is None and est.resolved_interval_s() == 0.025 and est.mesh_samples(500.0) == 13
         assert replace(est, disturbance=None).resolved_interval_s() == 0.025
         path.write_text(text.replace("[estimation]\n", "[estimation]\ninterval_s = 0.02\n", 1))
         assert load_problem(path).estimation.resolved_interval_s() == 0.02
@@ -168,10 +168,33 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
 
 def test_gust_fit_on_a_coarse_mesh_says_its_gust_bands_are_too_narrow(short_weak_fit):
     """A 50 ms mesh (25 samples at 500 Hz) with gust states: the report's notes name the mesh and
-    the default interval that the calibration study passed with; at 12.5 ms no such note."""
+    the default interval that the calibration study passed with; at 25 ms no such note."""
     from casrecon.estimation.fit import GUST_MESH_S, weak_constraint_notes
 
     notes = [n for n in short_weak_fit.notes if n.startswith("gust states on a")]
     assert len(notes) == 1 and "on a 50 ms mesh" in notes[0] and f"it is then {GUST_MESH_S:g} s" in notes[0]
     fine = replace(short_weak_fit.part, mesh=replace(short_weak_fit.part.mesh, h=GUST_MESH_S))
     assert not [n for n in weak_constraint_notes(fine) if n.startswith("gust states on a")]
+
+
+def test_midpoint_disturbance_values_enter_the_collocation_and_the_prior(short_weak_fit):
+    """The disturbance has unknowns at the nodes and at the interval midpoints, where the
+    Hermite-Simpson collocation evaluates the dynamics: the Gauss-Markov prior chains them in time
+    order with steps of half an interval, and a midpoint value moves its own interval's defect only."""
+    part, nlp, z = short_weak_fit.part, short_weak_fit.nlp, short_weak_fit.solver.z
+    k_nodes, n_u = part.mesh.t_nodes.size, part.n_u
+    assert part.u_mid_cols.shape == (k_nodes - 1, n_u)
+    assert part.n_u_values == (3 * k_nodes - 2) * n_u and part.u_sub_cols.shape == (k_nodes - 1, n_u)
+    chain = part.u_chain_cols
+    assert np.array_equal(chain[0::2], part.u_cols) and np.array_equal(chain[1::2], part.u_mid_cols)
+    assert np.unique(chain).size == chain.size and not np.intersect1d(chain, part.theta_cols).size
+    counts = nlp.n_measurements
+    assert counts["disturbance_start"] == n_u and counts["disturbance"] == (2 * k_nodes - 2) * n_u
+    # the step rows of one process: (u_m - phi u_k) / sqrt(1 - phi^2), phi over h / 2
+    d = nlp.derivatives
+    d._z = None
+    j_g = d.jacobian_g(z).tocsc()
+    col = int(part.u_mid_cols[3, 1])  # gust east at the midpoint of interval 3
+    rows = set(j_g[:, col].nonzero()[0].tolist())
+    node_rows = [set(j_g[:, int(part.node_cols[part.n_states * k + 10])].nonzero()[0].tolist()) for k in (3, 4)]
+    assert rows and rows <= node_rows[0] & node_rows[1]  # the defects of interval 3, which joins nodes 3 and 4

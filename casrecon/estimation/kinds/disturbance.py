@@ -39,11 +39,19 @@ def gauss_markov_terms(cols: np.ndarray, phi: np.ndarray, start_group: str, step
 
 
 def disturbance_terms(layout: DropLayout, group=lambda g: g) -> list[Term]:
-    """The start and step terms of a drop's latent disturbances (empty without them)."""
+    """The start and step terms of a drop's latent disturbances (empty without them): one
+    Gauss-Markov chain through the node and midpoint values in time order, steps of half an
+    interval; and the sub-grid integrals' independent unit-variance rows (they are scaled by their
+    sigma)."""
     if not layout.n_u:
         return []
-    phi = np.tile(layout.disturbance.transition(layout.mesh.h), (layout.n_nodes - 1, 1))
-    return gauss_markov_terms(layout.u_cols, phi, group("disturbance_start"), group("disturbance"))
+    cols = layout.u_chain_cols
+    phi = np.tile(layout.disturbance.transition(0.5 * layout.mesh.h), (cols.shape[0] - 1, 1))
+    n = layout.n_u
+    u = ca.SX.sym("u", n)
+    white = BlockKind("disturbance_subgrid", u, [], u, None)
+    return gauss_markov_terms(cols, phi, group("disturbance_start"), group("disturbance")) + [
+        Term(group("disturbance_subgrid"), (BlockSet(white, layout.u_sub_cols),))]
 
 
 def linear_rows(name: str, cols: np.ndarray, weights: np.ndarray) -> BlockSet:

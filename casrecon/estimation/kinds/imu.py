@@ -13,9 +13,11 @@ import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
 from casrecon.estimation.fitdata import FitData
+from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.kinds.base import DropContext
 from casrecon.estimation.layout import BlockLocals
 from casrecon.estimation.parameters import ParameterSpec
+from casrecon.estimation.subgrid import SubgridModel
 from casrecon.estimation.transcription import (
     D_OFFSETS,
     R_OFFSETS,
@@ -68,17 +70,22 @@ class ImuKind:
         mesh = layout.mesh
         n_int, k = mesh.n_intervals, mesh.samples_per_interval
         y, valid = measured_imu(context.data, n_int * k)
-        blocks = compress_imu(mesh, y, valid, imu_sigma(context.config))
-        loc = BlockLocals(layout)
+        subgrid = subgrid_model(context)
+        blocks = compress_imu(mesh, y, valid, imu_sigma(context.config), subgrid and subgrid.imu_covariance)
+        loc = BlockLocals(layout, midpoint=True)
         d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
+        bu = ca.SX.sym("bu", 13 * layout.n_u) if subgrid else ca.SX(0, 1)
         xk, xk1, theta, uk, uk1 = loc.split()
+        um, ui = (loc.midpoint_u(), loc.subgrid_integral()) if layout.n_u else (uk, uk)
         defect, r_imu, _ = interval_function(model, mesh.h, layout.active)(
             xk, xk1, loc.point_params(theta, xk), loc.point_params(theta, xk1), loc.select(theta, SENSOR_NAMES), d,
-            rr, uk, uk1)
-        kind = BlockKind("interval", loc.symbol, [d, rr, *loc.data], r_imu, defect)
+            rr, uk, uk1, um, ui, bu)
+        kicks = [bu] if subgrid else []
+        kind = BlockKind("interval", loc.symbol, [d, rr, *kicks, *loc.data], r_imu, defect)
         k_all = np.arange(n_int)
-        blockset = BlockSet(kind, layout.two_node_columns(k_all),
-                            [ca.DM(blocks.d), ca.DM(blocks.R), *layout.profile_block_data(k_all)])
+        kick_data = [ca.DM(subgrid.state_sensitivity)] if subgrid else []
+        blockset = BlockSet(kind, layout.two_node_columns(k_all, midpoint=True),
+                            [ca.DM(blocks.d), ca.DM(blocks.R), *kick_data, *layout.profile_block_data(k_all)])
         return [Term(context.group(self.name), (blockset,), float(blocks.const_chi2.sum()), int(blocks.n_used.sum()))]
 
     def residuals(self, result) -> dict[str, np.ndarray]:
@@ -91,16 +98,28 @@ class ImuKind:
         f = interval_function(model, mesh.h, layout.active).map(n, "thread", 2)
         x = result.states.T
         u = layout.disturbances(result.z)[:, list(layout.active)].T
+        u_mid = layout.midpoint_disturbances(result.z)[:, list(layout.active)].T
         pk, pk1 = interval_parameters(result)
         coefs = numpy_call(f, x[:, :-1], x[:, 1:], pk, pk1, np.tile(b[:, None], n),
                            np.zeros((int(D_OFFSETS[-1]), n)), np.zeros((int(R_OFFSETS[-1]), n)),
-                           u[:, :-1], u[:, 1:])[2]
+                           u[:, :-1], u[:, 1:], u_mid, np.zeros_like(u_mid), np.zeros((13 * layout.n_u, n)))[2]
         pred = np.zeros((n * k, 6))
         for c, basis in enumerate(channel_bases(k)):
             pred[:, c] = (basis @ coefs[D_OFFSETS[c]:D_OFFSETS[c + 1]]).T.ravel()
         y, valid = measured_imu(data, n * k)
         return {"time_imu_s": data.imu_time_s[:n * k], "residual": y - pred, "valid": valid,
                 "sigma": imu_sigma(result.scenario.config)}
+
+
+def subgrid_model(context: DropContext) -> SubgridModel | None:
+    """With disturbance states, what they do between the nodes (:mod:`casrecon.estimation.subgrid`),
+    its sensitivities taken on the initial guess; None without them."""
+    layout, model, cfg = context.layout, context.model, context.config
+    if not layout.n_u:
+        return None
+    states = initial_guess(context.data, layout.mesh, cfg.vehicle, model.atmosphere, cfg.site.ground_alt_msl_m)
+    return SubgridModel.on(model, layout.active, layout.u_scale, np.asarray(layout.disturbance.time_s)[
+        list(layout.active)], layout.mesh.h, layout.mesh.samples_per_interval, states, np.zeros(model.n_params))
 
 
 def interval_parameters(result) -> tuple[np.ndarray, np.ndarray]:
