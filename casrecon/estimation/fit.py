@@ -185,7 +185,8 @@ def weak_constraint_notes(part: DropLayout) -> tuple[str, ...]:
     if not part.n_u:
         return ()
     names = ", ".join(DISTURBANCE_NAMES[i] for i in part.active)
-    notes = [f"weak constraint: {names} estimated at every node with a Gauss-Markov prior; covariance from a sparse "
+    notes = [f"weak constraint: {names} estimated at every node and interval midpoint with a Gauss-Markov prior, "
+             "and what they do between those points to first order (docs/design.md); covariance from a sparse "
              f"LU of the KKT matrix, 3-sigma bands computed at {min(MAX_BAND_NODES, part.mesh.t_nodes.size)} nodes "
              "and interpolated between them"]
     gusts = any(DISTURBANCE_NAMES[i].startswith("gust") for i in part.active)

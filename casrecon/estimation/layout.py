@@ -270,15 +270,15 @@ class DropLayout:
         z[self.theta_cols] = np.asarray(values) / self.params.scales
         return z
 
-    def two_node_columns(self, k: np.ndarray, midpoint: bool = False) -> np.ndarray:
-        """Global columns (len(k), 2 n_states + n_params + (2 or 3) n_u + n_profile_local) of the
-        two-node blocks on intervals ``k``: [x_k, x_k+1, theta, u_k, u_k+1, (u_mid, u_sub,) profile cell];
-        ``midpoint``: with the disturbance values at the intervals' midpoints (the collocation
-        blocks)."""
+    def two_node_columns(self, k: np.ndarray, collocation: bool = False) -> np.ndarray:
+        """Global columns (len(k), 2 n_states + n_params + (2 or 4) n_u + n_profile_local) of the
+        two-node blocks on intervals ``k``: [x_k, x_k+1, theta, u_k, u_k+1, (u_mid, u_sub,) profile
+        cell]; ``collocation``: with the disturbance unknowns only the collocation blocks see (the
+        midpoint values and the sub-grid integrals)."""
         k = np.asarray(k, np.int64)
         first = self.node_offset + self.n_states * k[:, None] + np.arange(2 * self.n_states)[None, :]
         profile = self.profile_cell_columns(self.interval_cells[k] if self.profile is not None else k)
-        mid = [self.u_mid_cols[k], self.u_sub_cols[k]] if midpoint and self.n_u else []
+        mid = [self.u_mid_cols[k], self.u_sub_cols[k]] if collocation and self.n_u else []
         return np.column_stack([first, np.tile(self.theta_cols, (k.size, 1)), self.u_cols[k], self.u_cols[k + 1],
                                 *mid, profile])
 
@@ -298,16 +298,17 @@ class BlockLocals:
     Parameters
     ----------
     layout : DropLayout
-    midpoint : bool
-        Whether the block also holds the disturbance values at its interval's midpoint
-        (:meth:`DropLayout.two_node_columns` with ``midpoint``; read with :meth:`midpoint_u`).
+    collocation : bool
+        Whether the block also holds its interval's disturbance midpoint values and sub-grid
+        integrals (:meth:`DropLayout.two_node_columns` with ``collocation``; read with
+        :meth:`midpoint_u` and :meth:`subgrid_integral`).
     """
 
-    def __init__(self, layout: DropLayout, midpoint: bool = False) -> None:
+    def __init__(self, layout: DropLayout, collocation: bool = False) -> None:
         self.layout = layout
         self.params = layout.params
         self.n_s, self.n_p, self.n_u = layout.n_states, layout.params.n, layout.n_u
-        self.n_mid = self.n_u if midpoint else 0
+        self.n_mid = self.n_u if collocation else 0
         self.symbol = ca.SX.sym("v", 2 * self.n_s + self.n_p + 2 * self.n_u + 2 * self.n_mid + layout.n_profile_local)
         #: Per-block data symbols the locals need (the profile window's lowest altitude), to be listed
         #: after a kind's own data, with :meth:`DropLayout.profile_block_data` as their values.
@@ -342,7 +343,7 @@ class BlockLocals:
         return xk, xk1, theta, uk, uk1
 
     def midpoint_u(self, v: ca.SX | None = None) -> ca.SX:
-        """The disturbance values at the interval's midpoint (SI) of a block made with ``midpoint``."""
+        """The disturbance values at the interval's midpoint (SI) of a block made with ``collocation``."""
         if not self.n_mid:
             raise ValueError("this block holds no midpoint disturbance values")
         v = self.symbol if v is None else v
@@ -350,7 +351,7 @@ class BlockLocals:
         return v[start:start + self.n_mid] * ca.DM(self.layout.u_scale)
 
     def subgrid_integral(self, v: ca.SX | None = None) -> ca.SX:
-        """The sub-grid integrals (SI times s) of a block made with ``midpoint``."""
+        """The sub-grid integrals (SI times s) of a block made with ``collocation``."""
         if not self.n_mid:
             raise ValueError("this block holds no sub-grid integrals")
         v = self.symbol if v is None else v

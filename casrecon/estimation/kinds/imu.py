@@ -72,7 +72,7 @@ class ImuKind:
         y, valid = measured_imu(context.data, n_int * k)
         subgrid = subgrid_model(context)
         blocks = compress_imu(mesh, y, valid, imu_sigma(context.config), subgrid and subgrid.imu_covariance)
-        loc = BlockLocals(layout, midpoint=True)
+        loc = BlockLocals(layout, collocation=True)
         d, rr = ca.SX.sym("d", int(D_OFFSETS[-1])), ca.SX.sym("R", int(R_OFFSETS[-1]))
         bu = ca.SX.sym("bu", 13 * layout.n_u) if subgrid else ca.SX(0, 1)
         xk, xk1, theta, uk, uk1 = loc.split()
@@ -84,7 +84,7 @@ class ImuKind:
         kind = BlockKind("interval", loc.symbol, [d, rr, *kicks, *loc.data], r_imu, defect)
         k_all = np.arange(n_int)
         kick_data = [ca.DM(subgrid.state_sensitivity)] if subgrid else []
-        blockset = BlockSet(kind, layout.two_node_columns(k_all, midpoint=True),
+        blockset = BlockSet(kind, layout.two_node_columns(k_all, collocation=True),
                             [ca.DM(blocks.d), ca.DM(blocks.R), *kick_data, *layout.profile_block_data(k_all)])
         return [Term(context.group(self.name), (blockset,), float(blocks.const_chi2.sum()), int(blocks.n_used.sum()))]
 
