@@ -83,12 +83,12 @@ def marginal_fit(weak_fit):
     return with_marginal_estimate(weak_fit)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 13: with the gusts' midpoint values (docs/design.md, Weak-constraint "
-                   "disturbances) the marginal vertical gust on this 24 s window is off by a near-constant -1.24 sigma "
-                   "(RMS error 0.146 m/s against the test's 0.138, half the true RMS; 0.141 with midpoint values alone, "
-                   "0.140 on a 12.5 ms mesh), every node inside its 3-sigma band); with gusts linear between nodes "
-                   "0.124. Over 24 whole-drop seeds the vertical gust is calibrated (NEES 810.8 over 857, window-mean "
-                   "z RMS 1.00, mean +0.10)")
+@pytest.mark.xfail(strict=True, reason=(
+    "issue 13: with the gusts' midpoint values (docs/design.md, Weak-constraint disturbances) the marginal "
+    "vertical gust on this 24 s window is off by a near-constant -1.24 sigma: RMS error 0.146 m/s against the "
+    "test's 0.138, half the true RMS (0.141 with midpoint values alone, 0.140 on a 12.5 ms mesh), every node "
+    "inside its 3-sigma band; with gusts linear between nodes 0.124. Over 24 whole-drop seeds the vertical gust "
+    "is calibrated (NEES 810.8 over 857, window-mean z RMS 1.00, mean +0.10)"))
 def test_marginal_estimate_recovers_the_vertical_gust(gusty, marginal_fit):
     """The joint MAP's vertical gust over the 24 s window was off by 0.23 m/s RMS (true RMS 0.28)
     with RMS z 2.0, a near-constant offset traded against the drag and density parameters; the
