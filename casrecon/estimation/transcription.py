@@ -20,7 +20,10 @@ IMU samples (every one, at its own time)
     samples, W = 1 / sigma) and r0 = |(I - Q Q^T) W y|^2 independent of the unknowns. The NLP
     carries the rows Q^T W y - R c (3 per accelerometer, 4 per gyro channel and interval); r0 is
     added back for the chi-square. This is an exact rewriting of the per-sample sum, not a
-    decimation: masked (saturated) samples simply have w_i = 0.
+    decimation: masked (saturated) samples simply have w_i = 0. With disturbance states the
+    samples of an interval also carry correlated errors (what the disturbance does between the
+    collocation points, :mod:`casrecon.estimation.subgrid`), and W is the inverse Cholesky factor of
+    their whole covariance instead of 1 / sigma; the rewriting stays exact.
 
 GPS fixes
     Each fix is compared with the antenna position and velocity on the collocation polynomial at

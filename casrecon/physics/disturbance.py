@@ -8,8 +8,9 @@ tau: dd/dt = -d / tau + w, w white. Its exact discretisation over a step h is
     d(t + h) = phi d(t) + sigma sqrt(1 - phi^2) e,   phi = exp(-h / tau),   e ~ N(0, 1),
 
 which the simulator samples (:meth:`DisturbanceModel.sample`) and the fit uses as the prior of the
-node values of d (weak-constraint option): the residuals (d_k+1 - phi d_k) / (sigma sqrt(1 - phi^2))
-per interval and d_0 / sigma at the first node are exactly whitened.
+values of d at the nodes and interval midpoints, in time order (weak-constraint option): the
+residuals (d_k+1 - phi d_k) / (sigma sqrt(1 - phi^2)) per half interval and d_0 / sigma at the first
+node are exactly whitened.
 """
 
 from __future__ import annotations
