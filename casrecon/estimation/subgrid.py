@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from casrecon.estimation.transcription import disturbance_selection
+from casrecon.estimation.transcription import ACCEL_TAU, disturbance_selection, hermite_basis, lagrange_matrix
 from casrecon.physics.dynamics import FlightModel
 from casrecon.physics.sensors import imu_specific_force
 
@@ -41,10 +41,8 @@ def _departure(h_s: float, m: int) -> tuple[np.ndarray, np.ndarray]:
     """Grid times t (m + 1 points on [0, h_s], m even) and the matrix taking a process's values on
     them to its departure e from the quadratic through its values at 0, h_s / 2 and h_s."""
     t = np.linspace(0.0, h_s, m + 1)
-    tau = t / h_s
-    quadratic = np.column_stack([2 * (tau - 0.5) * (tau - 1), -4 * tau * (tau - 1), 2 * tau * (tau - 0.5)])
     depart = np.eye(m + 1)
-    depart[:, [0, m // 2, m]] -= quadratic
+    depart[:, [0, m // 2, m]] -= lagrange_matrix(t / h_s, ACCEL_TAU)
     return t, depart
 
 
@@ -88,8 +86,8 @@ def interval_kernels(h_s: float, samples: int, time_s: np.ndarray,
     m = samples * substeps
     t, depart = _departure(h_s, m)
     integral = _running_integral(h_s, m)
-    tau = t / h_s
-    remainder = (integral - np.outer(3 * tau**2 - 2 * tau**3, integral[-1])) @ depart
+    h01 = hermite_basis(t / h_s)[:, 2]
+    remainder = (integral - np.outer(h01, integral[-1])) @ depart
     at = np.arange(samples) * substeps
     accel, gyro = [], []
     for tc in np.atleast_1d(np.asarray(time_s, float)):
