@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,11 +30,12 @@ from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet
-from casrecon.estimation.profile_sigma import estimate_profile_sigma, profile_refit, refit_text
+from casrecon.estimation.profile_sigma import MAX_REFITS, estimate_profile_sigma, profile_refit, refit_text
 from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import Mesh, make_mesh
 from casrecon.io.errors import InputError
 from casrecon.io.estimation_config import INTERVAL_S
+from casrecon.io.problem import ProblemConfig
 from casrecon.physics.dynamics import DISTURBANCE_NAMES
 from casrecon.scenario import Scenario
 
@@ -272,22 +274,42 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     if not (cfg.atmosphere.profile_sigma_from_data and result.part.profile is not None and not result.part.n_u
             and settings.method != "marginal"):
         return result
-    try:
-        estimate = estimate_profile_sigma(result)
-    except (np.linalg.LinAlgError, ValueError) as err:
-        return dataclasses.replace(result, notes=result.notes + (f"atmosphere-profile sigmas not estimated from the "
-                                                                 f"data ({err}): fitted with the configured ones",))
-    if not estimate.refit:
-        return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
-    refit_cfg, prior = profile_refit(cfg, estimate)
-    first = result.fit_nlp
-    try:
-        again = fitted(dataclasses.replace(scenario, config=refit_cfg),
-                       lambda fit_nlp: transferred(first, fit_nlp, result.z), first.parts[0].guess_clock_s, prior,
-                       (estimate.text() + f"; refitted {refit_text(estimate, prior)} (the first fit took "
-                        f"{result.timings['fit_s']:.1f} s)",))
-    except FitError as err:  # the first fit stands, and says why it was not replaced
-        return dataclasses.replace(result, notes=result.notes + (f"{estimate.text()}; the refit "
-                                                                 f"{refit_text(estimate, prior)} failed: {err}",))
-    again.timings.update(first_fit_s=result.timings["fit_s"], total_s=time.perf_counter() - t0)
-    return again
+    return with_profile_sigma_from_data(result, cfg, t0, fitted)
+
+
+def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: float,
+                                 fitted: Callable[..., FitResult]) -> FitResult:
+    """The profile fit ``result`` made again with the profile sigmas the data say, until the estimate
+    made on a fit agrees with the sigmas it was made with (at most MAX_REFITS refits; see
+    :mod:`casrecon.estimation.profile_sigma`); ``cfg`` is the problem's configuration, ``t0`` the
+    ``perf_counter`` at which the fit began, and ``fitted(scenario, start, guess_clock_s, prior,
+    notes)`` makes one fit. The result's timings ``first_fit_s`` is the time of the fits before
+    the last. A refit that fails leaves the fit before it, whose notes say why."""
+    earlier_s, intended, history = 0.0, None, ()
+    for _ in range(MAX_REFITS):
+        try:
+            estimate = estimate_profile_sigma(result)
+        except (np.linalg.LinAlgError, ValueError) as err:
+            return dataclasses.replace(result, notes=result.notes + (
+                f"atmosphere-profile sigmas not estimated from the data ({err}): fitted with the "
+                f"{'configured' if intended is None else 'last estimated'} ones",))
+        if not estimate.differs_from(estimate.fitted if intended is None else intended):
+            return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
+        refit_cfg, prior = profile_refit(cfg, estimate)
+        before = result.fit_nlp
+        earlier_s += result.timings["fit_s"]
+        history += (f"{estimate.text()}; refitted {refit_text(estimate, prior)} (the fit before took "
+                    f"{result.timings['fit_s']:.1f} s)",)
+        try:
+            again = fitted(dataclasses.replace(result.scenario, config=refit_cfg),
+                           lambda fit_nlp, before=before, z=result.z: transferred(before, fit_nlp, z),
+                           before.parts[0].guess_clock_s, prior, history)
+        except FitError as err:  # the fit before stands, and says why it was not replaced
+            return dataclasses.replace(result, notes=result.notes + (f"{estimate.text()}; the refit "
+                                                                     f"{refit_text(estimate, prior)} failed: {err}",))
+        again.timings.update(first_fit_s=earlier_s, total_s=time.perf_counter() - t0)
+        if prior is None:  # without the profile model: nothing left to estimate
+            return again
+        result, intended = again, estimate.estimated
+    return dataclasses.replace(result, notes=result.notes + (
+        f"atmosphere-profile sigmas: still changing after {MAX_REFITS} refits; the last fit stands",))

@@ -27,8 +27,8 @@ class AtmosphereConfig:
     maximum likelihood, :mod:`casrecon.estimation.profile_sigma`) and, where they differ from the
     configured ones by more than 25 %, fit again with them (without the profile model when the
     data show none), so that neither the bands nor the aero sigmas rest on a guessed size. Per-drop
-    fits without disturbance states and with the MAP method only; costs a second fit when it
-    refits."""
+    fits without disturbance states and with the MAP method only; each refit costs a fit, and the
+    estimate is made again on it (at most three refits)."""
 
     sounding: Path
     launch: int = 0

@@ -78,26 +78,26 @@ def aero_sigma_ratio(r, plain) -> dict[str, float]:
 
 
 def test_a_drop_flying_its_sounding_is_refitted_with_a_negligible_profile(exact_air):
-    """The data say a wind profile error of about a millimetre per second (the model's other
-    approximations take that much slack: on ees-drop-1, white GPS errors, they say none) and no
-    density error, far below the assumed 0.5 m/s and 0.5 %; the refit with them holds the truth,
-    and the force and damping factors' sigmas are within 10 % of the fit without the profile model
-    (1.5 to 3 times at the assumed sigmas, on ees-drop-1)."""
+    """The fit at the configured sigmas says a wind profile error of about a millimetre per second
+    (the fit's quadratic model extrapolated from 0.5 m/s: the fit's GPS model keeps 1 % white where
+    these errors have none) and no density error; the estimate made again on the refit at that size
+    says none, so the last fit is without the profile model, holds the truth, and its aero sigmas
+    are those of the fit without it."""
     scenario, r, plain = exact_air
-    note = next(n for n in r.notes if "type-II" in n)
-    print(note)
-    assert r.converged and "refitted" in note and r.timings["first_fit_s"] > 0
+    notes = [n for n in r.notes if "type-II" in n]
+    print("\n".join(notes))
+    assert r.converged and "refitted" in notes[0] and r.timings["first_fit_s"] > 0
     assert r.part.profile is None or np.all(r.part.profile.prior < 0.02 * r.part.profile.sigma)
     errors, _ = parameter_errors(r, truth_parameters_by_name(scenario))
     assert np.all(np.abs(errors / r.sigma) < 3.0), dict(zip(r.params.names, errors / r.sigma))
     ratio = aero_sigma_ratio(r, plain)
     print(ratio)
-    assert all(v < 1.1 for k, v in ratio.items() if k not in ("Cm_add", "Cn_add")), ratio
+    assert all(v < 1.1 for v in ratio.values()), ratio
 
 
-@pytest.mark.xfail(strict=True, reason="issue 18's 20 % ceiling: the millimetre-per-second wind profile the data say "
-                                       "still costs Cm_add 1.5 and Cn_add 1.8 times the fit without it on this drop")
 def test_exact_air_costs_at_most_20_percent_in_every_aero_sigma(exact_air):
+    """Issue 18's ceiling. With one estimate (none made again on the refit) the millimetre-per-second
+    profile stood and cost Cm_add 1.51 and Cn_add 1.81 times the fit without it."""
     _, r, plain = exact_air
     ratio = aero_sigma_ratio(r, plain)
     assert all(v < 1.2 for v in ratio.values()), ratio

@@ -95,3 +95,23 @@ def test_a_refit_without_any_profile_error_the_data_see_is_the_plain_fit():
     assert same is cfg and np.allclose(prior, [0.2, 0.2, MIN_RATIO * 0.005])
     close = ProfileSigmaEstimate(fitted, {"wind": 0.45, "density": 0.0055}, 1.0, comps, {"wind": 99., "density": 9.})
     assert not close.refit
+
+
+def test_the_estimate_on_a_refit_is_judged_against_the_sigmas_the_refit_was_meant_to_have():
+    """differs_from: a group the refit held at its floor because its estimate was 0 agrees only with
+    an estimate of 0 again; a group estimated at a size agrees within REFIT_FACTOR of it."""
+    from casrecon.estimation.profile_sigma import MIN_RATIO, REFIT_FACTOR, ProfileSigmaEstimate
+
+    comps = ("wind_n", "wind_e", "density")
+    fitted = {"wind": 1.8e-3, "density": MIN_RATIO * 0.005}  # the refit: wind at its estimate, density at its floor
+    meant = {"wind": 1.8e-3, "density": 0.0}
+    again = ProfileSigmaEstimate(fitted, {"wind": 1.7e-3, "density": 0.0}, 0.1, comps, {"wind": 9.0, "density": 0.0})
+    assert not again.differs_from(meant)
+    assert again.refit  # against the floor's literal sigma the zero would differ: why the refit keeps what it meant
+    none = ProfileSigmaEstimate(fitted, {"wind": 0.0, "density": 0.0}, 18.1, comps, {"wind": 0.0, "density": 0.0})
+    assert none.differs_from(meant)
+    grown = ProfileSigmaEstimate(fitted, {"wind": 1.8e-3 * REFIT_FACTOR * 1.01, "density": 0.0}, 1.0, comps,
+                                 {"wind": 20.0, "density": 0.0})
+    assert grown.differs_from(meant)
+    floor_grew = ProfileSigmaEstimate(fitted, {"wind": 1.8e-3, "density": 1e-4}, 1.0, comps, {"wind": 2, "density": 4})
+    assert floor_grew.differs_from(meant)
