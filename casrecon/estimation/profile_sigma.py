@@ -23,8 +23,10 @@ MacKay's fixed point. log Z is maximised over log rho in [log MIN_RATIO, log MAX
 L-BFGS-B; a group whose estimate explains the data better than none of its error by less than
 :data:`ZERO_EVIDENCE_NATS` (log evidence) has no profile error the data can see, and is taken as
 zero. The quadratic model is the fit's own (Gauss-Newton or observed information),
-exact for the prior, which is linear; a refit at the new sigmas (:func:`casrecon.estimation.fit.fit_drop`)
-gives the nonlinear optimum.
+exact for the prior, which is linear; where the data's part of an observed information is
+indefinite, the Gauss-Newton one (:func:`quadratic_model`). A refit at the new sigmas
+(:func:`casrecon.estimation.fit.fit_drop`) gives the nonlinear optimum, and the estimate is made
+again on it.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
+from casrecon.estimation.engine.covariance import reduced_system_at
 from casrecon.estimation.profile import PROFILE_COMPONENTS, PROFILE_UNITS
 from casrecon.io.problem import ProblemConfig
 
@@ -73,6 +76,9 @@ class ProfileSigmaEstimate:
     against_zero : dict of str to float
         Group -> log evidence of its estimate over none of its error (the others at their
         estimates), nats; below :data:`ZERO_EVIDENCE_NATS` the group is taken as zero.
+    gauss_newton_fallback : bool
+        The fit's curvature was the observed information, and the estimate was made on the
+        Gauss-Newton one because the observed one's data part is indefinite (:func:`quadratic_model`).
     """
 
     fitted: dict[str, float]
@@ -80,6 +86,7 @@ class ProfileSigmaEstimate:
     log_evidence_gain: float
     components: tuple[str, ...]
     against_zero: dict[str, float]
+    gauss_newton_fallback: bool = False
 
     @property
     def refit(self) -> bool:
@@ -103,7 +110,9 @@ class ProfileSigmaEstimate:
         parts = [f"{g} {unit[g][1] * self.estimated[g]:.3g} {unit[g][0]} (fitted with "
                  f"{unit[g][1] * self.fitted[g]:.3g}; log evidence over none {self.against_zero[g]:+.1f})"
                  for g in self.fitted]
-        return (f"atmosphere-profile sigmas the data say (type-II maximum likelihood): {', '.join(parts)}; "
+        fallback = (", on the Gauss-Newton curvature: the observed information's data part is indefinite"
+                    if self.gauss_newton_fallback else "")
+        return (f"atmosphere-profile sigmas the data say (type-II maximum likelihood{fallback}): {', '.join(parts)}; "
                 f"log evidence +{self.log_evidence_gain:.1f}")
 
 
@@ -116,6 +125,7 @@ class QuadraticModel:
     g_data: np.ndarray
     rows: tuple[np.ndarray, ...]       # A_k, (n_k, n_w)
     residuals: tuple[np.ndarray, ...]  # u_k, (n_k,)
+    gauss_newton: bool = False         # the data's curvature is J^T J (else the observed information)
 
     def log_evidence(self, log_ratio: np.ndarray) -> tuple[float, np.ndarray]:
         """(log Z up to a constant, its gradient in ``log_ratio``) at ratios exp(``log_ratio``).
@@ -178,20 +188,30 @@ def profile_prior_rows(result) -> ProfilePriorRows:
 
 def quadratic_model(result) -> tuple[QuadraticModel, list[str]]:
     """The :class:`QuadraticModel` of a converged profile fit (a
-    :class:`~casrecon.estimation.fit.FitResult` with a null-space covariance), and its groups."""
+    :class:`~casrecon.estimation.fit.FitResult` with a null-space covariance), and its groups: the
+    fit's own curvature, or the Gauss-Newton one (``QuadraticModel.gauss_newton``) where the data's
+    part of an observed information is indefinite (its Laplace evidence then exists only for
+    sigmas near the fit's: on a drop flying 1 m/s off its sounding, fitted at 0.5 m/s, it ended
+    at 1.1 times the fitted sigma and the estimate could not say more)."""
     grid, cov = result.part.profile, result.covariance
     prior = profile_prior_rows(result)
-    u = prior.residuals
-    a = prior.jacobian @ cov.basis[prior.cols]
     component_of_row = np.array([PROFILE_COMPONENTS[c] for c in grid.components])[prior.component_of_row]
     groups = [g for g, comps in GROUPS.items() if np.isin(component_of_row, comps).any()]
     masks = [np.isin(component_of_row, GROUPS[g]) for g in groups]
-    h = np.linalg.inv(cov.cov_w)
-    a_k = tuple(a[m] for m in masks)
-    u_k = tuple(u[m] for m in masks)
-    h_data = 0.5 * (h + h.T) - sum(x.T @ x for x in a_k)
-    g_data = -sum(x.T @ r for x, r in zip(a_k, u_k))
-    return QuadraticModel(h_data, g_data, a_k, u_k), groups
+
+    def model(basis: np.ndarray, h: np.ndarray, gauss_newton: bool) -> QuadraticModel:
+        a = prior.jacobian @ basis[prior.cols]
+        a_k = tuple(a[m] for m in masks)
+        u_k = tuple(prior.residuals[m] for m in masks)
+        h_data = 0.5 * (h + h.T) - sum(x.T @ x for x in a_k)
+        g_data = -sum(x.T @ r for x, r in zip(a_k, u_k))
+        return QuadraticModel(h_data, g_data, a_k, u_k, gauss_newton)
+
+    own = model(cov.basis, np.linalg.inv(cov.cov_w), not cov.information.startswith("observed"))
+    if own.gauss_newton or np.linalg.eigvalsh(own.h_data)[0] >= 0:
+        return own, groups
+    system = reduced_system_at(result.nlp, result.z)
+    return model(system.basis, system.hessian, True), groups
 
 
 def estimate_profile_sigma(result) -> ProfileSigmaEstimate:
@@ -219,7 +239,9 @@ def estimate_profile_sigma(result) -> ProfileSigmaEstimate:
         if against_zero[g] < ZERO_EVIDENCE_NATS:
             ratio[k] = 0.0
     estimated = {g: fitted[g] * float(r) for g, r in zip(groups, ratio)}
-    return ProfileSigmaEstimate(fitted, estimated, max(0.0, float(-best.fun - base)), tuple(prior), against_zero)
+    fallback = model.gauss_newton and result.covariance.information.startswith("observed")
+    return ProfileSigmaEstimate(fitted, estimated, max(0.0, float(-best.fun - base)), tuple(prior), against_zero,
+                                fallback)
 
 
 def group_of(component: str) -> str:

@@ -101,3 +101,25 @@ def test_exact_air_costs_at_most_20_percent_in_every_aero_sigma(exact_air):
     _, r, plain = exact_air
     ratio = aero_sigma_ratio(r, plain)
     assert all(v < 1.2 for v in ratio.values()), ratio
+
+
+@pytest.fixture(scope="module")
+def larger_error(tmp_path_factory):
+    """A profile error of 1 m/s and 1 %, twice what the fit assumes."""
+    scenario = drop_with_profile_error(tmp_path_factory.mktemp("large"), 1.0, 0.01, 0)
+    return scenario, fit_drop(scenario)
+
+
+def test_a_larger_profile_error_than_configured_is_estimated(larger_error):
+    """The observed information's data part is indefinite on this drop, so its evidence stopped at
+    about 1.1 times the configured sigmas (no refit); the estimate on the Gauss-Newton curvature
+    finds the flown size, the refit's estimate agrees with it, and the refit holds the truth."""
+    scenario, r = larger_error
+    notes = [n for n in r.notes if "type-II" in n]
+    print("\n".join(notes))
+    assert r.converged and len(notes) == 2 and "refitted with the profile prior sigmas" in notes[0]
+    assert "Gauss-Newton curvature" in notes[0] and notes[1].endswith("no refit")
+    prior = r.part.profile.prior
+    assert np.all(np.abs(prior / np.array([1.0, 1.0, 0.01]) - 1) < 0.2), prior
+    errors, _ = parameter_errors(r, truth_parameters_by_name(scenario))
+    assert np.all(np.abs(errors / r.sigma) < 3.0), dict(zip(r.params.names, errors / r.sigma))
