@@ -210,7 +210,8 @@ def quadratic_model(result) -> tuple[QuadraticModel, list[str]]:
     own = model(cov.basis, np.linalg.inv(cov.cov_w), not cov.information.startswith("observed"))
     if own.gauss_newton or np.linalg.eigvalsh(own.h_data)[0] >= 0:
         return own, groups
-    system = reduced_system_at(result.nlp, result.z)
+    # the convergence test's Gauss-Newton system, when it was formed at the solution itself
+    system = result.solver.reduced or reduced_system_at(result.nlp, result.z)
     return model(system.basis, system.hessian, True), groups
 
 
