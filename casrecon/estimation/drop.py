@@ -160,8 +160,19 @@ def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-
     nlp = assemble_nlp(terms, n_z, dependent=np.concatenate([lay.dependent_cols for lay in layouts]),
                        parameter_names=parameter_names(layouts), hessian=hessian,
                        latent=any(lay.n_u for lay in layouts),
-                       eliminated=np.concatenate([lay.eliminated_cols for lay in layouts]))
+                       eliminated=np.concatenate([lay.eliminated_cols for lay in layouts]),
+                       stages=node_stages(layouts, n_z))
     return FitNlp(nlp, tuple(contexts))
+
+
+def node_stages(layouts: list[DropLayout], n_z: int) -> np.ndarray:
+    """The node of each of ``n_z`` columns (:attr:`Nlp.stages`): each drop's node states at their
+    node, the drops one after another; every other column -1."""
+    stages, first = np.full(n_z, -1, np.int64), 0
+    for layout in layouts:
+        stages[layout.node_cols] = first + np.arange(layout.node_cols.size) // layout.n_states
+        first += layout.n_nodes
+    return stages
 
 
 def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg: ProblemConfig,

@@ -25,8 +25,9 @@ def pendulum(x, p):
     return ca.vertcat(x[1], -p[0] * ca.sin(x[0]) - p[1] * x[1])
 
 
-def pendulum_nlp(seed: int = 0) -> tuple[Nlp, np.ndarray, np.ndarray]:
-    """(NLP, the noise-free states (N, 2), the noisy angles) of a pendulum released at 1.2 rad.
+def pendulum_nlp(seed: int = 0, staged: bool = False) -> tuple[Nlp, np.ndarray, np.ndarray]:
+    """(NLP, the noise-free states (N, 2), the noisy angles) of a pendulum released at 1.2 rad;
+    ``staged``: with each state's node (:attr:`Nlp.stages`), for the full-space solver.
 
     z = [theta_k, omega_k for every node, omega0^2, damping]."""
     f = ca.Function("f", [x := ca.SX.sym("x", 2), p := ca.SX.sym("p", 2)], [pendulum(x, p)])
@@ -53,7 +54,9 @@ def pendulum_nlp(seed: int = 0) -> tuple[Nlp, np.ndarray, np.ndarray]:
     first = BlockKind("first", first_local, [y0], (y0 - first_local[0]) / SIGMA, None)
     terms = [Term("angles", (BlockSet(interval, cols, [ca.DM(angles[1:]).T]),)),
              Term("angle0", (BlockSet(first, np.array([[0]]), [ca.DM(angles[0])]),))]
-    nlp = assemble_nlp(terms, n_z, dependent=np.arange(2, 2 * N_NODES), parameter_names={n_z - 2: "w2", n_z - 1: "c"})
+    stages = np.r_[np.repeat(np.arange(N_NODES), 2), -1, -1] if staged else None
+    nlp = assemble_nlp(terms, n_z, dependent=np.arange(2, 2 * N_NODES), parameter_names={n_z - 2: "w2", n_z - 1: "c"},
+                       stages=stages)
     return nlp, states, angles
 
 
@@ -124,3 +127,39 @@ def test_a_latent_or_exact_hessian_nlp_goes_to_ipopt():
     assert not gauss_newton.applies(exact)
     with pytest.raises(ValueError, match="expected one of"):
         solve(nlp, start_from(angles, TRUTH), method="newton")
+
+
+def test_the_full_space_solver_takes_the_same_steps(monkeypatch):
+    """With more free directions than the null-space solver takes (here: none allowed) and nodes to
+    order its KKT matrix by, the same Gauss-Newton iteration is solved in the full space: the same
+    optimum, the constraints met, the multipliers those of the null-space solver."""
+    nlp, _, angles = pendulum_nlp(staged=True)
+    z0 = start_from(angles, (2.0, 1.0))
+    reference = solve(nlp, z0)
+    monkeypatch.setattr(gauss_newton, "MAX_REDUCED", 0)
+    assert not gauss_newton.applies(nlp) and solve_module.full_space_applies(nlp)
+    full = solve(nlp, z0)
+    assert full.method == "gauss-newton (full space)" and full.converged, full.status
+    assert full.linear_solver == "superlu (time-ordered KKT)"
+    cov = covariance_or_fail(nlp, reference.z, nlp.residual_vector(reference.z), reference.reduced)
+    sigma = np.sqrt(np.diag(cov.covariance_of(np.arange(nlp.n_z))))
+    assert np.max(np.abs(full.z - reference.z) / sigma) < 1e-2
+    assert np.abs(nlp.derivatives.constraints(full.z)).max() <= 1e-8
+    np.testing.assert_allclose(full.lam_g, reference.lam_g, rtol=1e-3, atol=1e-6 * np.abs(reference.lam_g).max())
+    # without nodes the NLP goes to Ipopt, as before
+    plain, _, _ = pendulum_nlp()
+    assert not solve_module.full_space_applies(plain)
+    assert solve(plain, z0).method == "ipopt"
+
+
+def test_the_full_space_solver_holds_a_bound_like_the_null_space_one(monkeypatch):
+    nlp, _, angles = pendulum_nlp(staged=True)
+    lo, hi = np.full(nlp.n_z, -np.inf), np.full(nlp.n_z, np.inf)
+    hi[-1] = 0.2  # the damping (truth 0.3) may not exceed 0.2
+    z0 = start_from(angles, (3.0, 0.1))
+    reference = solve(nlp, z0, bounds=(lo, hi))
+    monkeypatch.setattr(gauss_newton, "MAX_REDUCED", 0)
+    full = solve(nlp, z0, bounds=(lo, hi))
+    assert full.method == "gauss-newton (full space)" and full.converged, full.status
+    assert full.z[-1] == pytest.approx(0.2, abs=1e-12)
+    assert full.z[-2] == pytest.approx(reference.z[-2], abs=1e-5)

@@ -62,6 +62,10 @@ class Nlp:
         Columns in no constraint whose Hessian block is sparse (e.g. latent sensor errors with a
         Gauss-Markov prior): the null-space covariance and the decrement test eliminate them by a
         Schur complement instead of carrying them in Z (see :mod:`.covariance`).
+    stages : int array or None
+        The node (time index, counted on across drops) of each z column, -1 for columns tied to no
+        node: the time order of the full-space KKT factorisations
+        (:func:`.bordered_kkt.time_order`); None where the NLP has no nodes.
     """
 
     n_z: int
@@ -76,6 +80,7 @@ class Nlp:
     parameter_names: dict[int, str]
     latent: bool = False
     eliminated: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    stages: np.ndarray | None = None
 
     @cached_property
     def symbolic(self) -> tuple[ca.MX, ca.MX, ca.MX]:
@@ -345,7 +350,7 @@ class BlockDerivatives:
 
 def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, parameter_names: dict[int, str],
                  hessian: str = "gauss-newton", latent: bool = False,
-                 eliminated: np.ndarray = ()) -> Nlp:
+                 eliminated: np.ndarray = (), stages: np.ndarray | None = None) -> Nlp:
     """The NLP made of ``terms`` over a decision vector of ``n_z`` scaled entries.
 
     Parameters
@@ -361,6 +366,8 @@ def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, paramete
     latent : bool
         See :class:`Nlp`.
     eliminated : int array
+        See :class:`Nlp`.
+    stages : int array, optional
         See :class:`Nlp`.
     """
     groups, const, counts, start = {}, {}, {}, 0
@@ -393,4 +400,5 @@ def assemble_nlp(terms: list[Term], n_z: int, *, dependent: np.ndarray, paramete
     n_determining = sum(bs.kind.n_constraints * bs.n_blocks for bs in determining)
     derivs = BlockDerivatives(sets, g_rows, [r_row[id(bs)] for bs in sets], n_z, row, start, hessian)
     return Nlp(n_z, row, start, groups, const, counts, derivs, np.asarray(dependent, np.int64), n_determining,
-               dict(sorted(parameter_names.items())), latent, np.unique(np.asarray(eliminated, np.int64)))
+               dict(sorted(parameter_names.items())), latent, np.unique(np.asarray(eliminated, np.int64)),
+               None if stages is None else np.asarray(stages, np.int64))

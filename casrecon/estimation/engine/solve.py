@@ -1,8 +1,10 @@
 """Solve a fit NLP, with timings: the null-space Gauss-Newton solver where it applies, else Ipopt.
 
 ``method="auto"`` (default) uses :mod:`.gauss_newton` for NLPs without latent process values,
-with the Gauss-Newton Hessian and few free directions (:func:`.gauss_newton.applies`), and hands
-its last iterate to Ipopt if it stops unconverged; NLPs with latent process values start Ipopt
+with the Gauss-Newton Hessian and few free directions (:func:`.gauss_newton.applies`), the same
+iteration solved in the full space (:func:`.kkt_gauss_newton.solve_kkt_gauss_newton`) for those
+with many (an atmosphere-profile grid), and hands the last iterate to Ipopt if it stops
+unconverged; NLPs with latent process values start Ipopt
 from a few full-space Gauss-Newton steps (:func:`.kkt_gauss_newton.warm_start`).
 ``method="ipopt"`` always uses Ipopt from the given start.
 
@@ -198,11 +200,32 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
         sol = solve_ipopt(nlp, z_warm, linear_solver, max_iter, tol, print_level, bounds)
         return dataclasses.replace(sol, iterations=steps + sol.iterations, solve_s=seconds + sol.solve_s,
                                    method=f"gauss-newton ({steps} steps), then ipopt")
-    if method == "ipopt" or not gauss_newton.applies(nlp):
-        return ipopt_then_exact(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
+    if method == "auto" and gauss_newton.applies(nlp):
+        return _gauss_newton_then_ipopt(gauss_newton.solve_gauss_newton, "gauss-newton", "superlu (null space)", nlp,
+                                        z0, linear_solver, max_iter, tol, print_level, bounds)
+    if method == "auto" and full_space_applies(nlp):
+        return _gauss_newton_then_ipopt(kkt_gauss_newton.solve_kkt_gauss_newton, "gauss-newton (full space)",
+                                        "superlu (time-ordered KKT)", nlp, z0, linear_solver, max_iter, tol,
+                                        print_level, bounds)
+    return ipopt_then_exact(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
+
+
+def full_space_applies(nlp: Nlp) -> bool:
+    """Whether :func:`.kkt_gauss_newton.solve_kkt_gauss_newton` is the default for ``nlp``: no latent
+    process values, the Gauss-Newton Hessian, too many free directions for the null-space solver
+    (an atmosphere-profile grid), and nodes to order the KKT matrix by."""
+    return (not nlp.latent and nlp.derivatives.hessian == "gauss-newton" and nlp.stages is not None
+            and not gauss_newton.applies(nlp))
+
+
+def _gauss_newton_then_ipopt(run_gauss_newton, method: str, linear_solver_name: str, nlp: Nlp, z0: np.ndarray,
+                             linear_solver: str, max_iter: int, tol: float, print_level: int,
+                             bounds: tuple[np.ndarray, np.ndarray] | None) -> SolveResult:
+    """``run_gauss_newton(nlp, z0, max_iter, bounds)`` (a :class:`.gauss_newton.GaussNewtonRun`), and
+    Ipopt from its last iterate when it stops unconverged (or from ``z0`` when it cannot start)."""
     t0 = time.perf_counter()
     try:
-        run = gauss_newton.solve_gauss_newton(nlp, z0, min(max_iter, GAUSS_NEWTON_MAX_ITER), bounds)
+        run = run_gauss_newton(nlp, z0, min(max_iter, GAUSS_NEWTON_MAX_ITER), bounds)
     except gauss_newton.GaussNewtonFailure as err:
         LOG.info("Gauss-Newton could not start (%s); solving with Ipopt", err)
         return ipopt_then_exact(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
@@ -211,14 +234,14 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
         r = nlp.derivatives.residuals(run.z)
         return SolveResult(z=run.z, lam_g=run.multipliers, objective=0.5 * float(r @ r), converged=True,
                            status=run.status, iterations=run.iterations, build_s=0.0, solve_s=seconds,
-                           hessian="gauss-newton", linear_solver="superlu (null space)", decrement=run.decrement,
-                           evaluation_s=run.evaluation_s, reduced=run.system, method="gauss-newton",
+                           hessian="gauss-newton", linear_solver=linear_solver_name, decrement=run.decrement,
+                           evaluation_s=run.evaluation_s, reduced=run.system, method=method,
                            linear_algebra_s=run.linear_algebra_s)
     LOG.info("%s after %d iterations; Ipopt continues from its last iterate", run.status, run.iterations)
     sol = ipopt_then_exact(nlp, run.z, linear_solver, max_iter, tol, print_level, bounds)
     return dataclasses.replace(sol, status=f"{sol.status} (after {run.status})", iterations=run.iterations +
                                sol.iterations, solve_s=seconds + sol.solve_s, evaluation_s=run.evaluation_s +
-                               sol.evaluation_s, method="gauss-newton, then ipopt",
+                               sol.evaluation_s, method=f"{method}, then ipopt",
                                linear_algebra_s=run.linear_algebra_s)
 
 
