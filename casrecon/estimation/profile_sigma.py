@@ -36,7 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg
 
-from casrecon.estimation.engine.covariance import reduced_system_at
+from casrecon.estimation.engine.covariance import gauss_newton_system
 from casrecon.estimation.profile import PROFILE_COMPONENTS, PROFILE_UNITS
 from casrecon.io.problem import ProblemConfig
 
@@ -210,8 +210,9 @@ def quadratic_model(result) -> tuple[QuadraticModel, list[str]]:
     own = model(cov.basis, np.linalg.inv(cov.cov_w), not cov.information.startswith("observed"))
     if own.gauss_newton or np.linalg.eigvalsh(own.h_data)[0] >= 0:
         return own, groups
-    # the convergence test's Gauss-Newton system, when it was formed at the solution itself
-    system = result.solver.reduced or reduced_system_at(result.nlp, result.z)
+    # the solver's Gauss-Newton system when it was formed at the solution itself, else one on the
+    # covariance's null space
+    system = result.solver.reduced or gauss_newton_system(result.nlp, result.z, cov.split)
     return model(system.basis, system.hessian, True), groups
 
 

@@ -121,6 +121,9 @@ class Covariance:
         Which curvature was inverted: "observed" (exact Hessian of the Lagrangian) or "expected"
         (J^T J), the latter with the reason when the observed one was asked for (see
         :func:`compute_covariance`).
+    split : ConstraintSplit or None
+        The constraint Jacobian's split at the solution the basis was formed with (another
+        curvature's reduced system at the same z reuses it: :func:`gauss_newton_system`).
     """
 
     basis: np.ndarray
@@ -129,6 +132,7 @@ class Covariance:
     condition: float
     elimination: Elimination | None = None
     information: str = "expected"
+    split: ConstraintSplit | None = None
 
     def rows(self, idx) -> np.ndarray:
         """Z rows of the given z indices (scaled units)."""
@@ -360,6 +364,16 @@ def reduced_hessian_from_jacobian(nlp: Nlp, jr: sps.csc_matrix, a: sps.csc_matri
     return _reduced(split, hr, b, lambda: (jr[:, elim].T @ jr[:, elim]).tocsc(), elim, a)
 
 
+def gauss_newton_system(nlp: Nlp, z: np.ndarray, split: ConstraintSplit | None) -> ReducedSystem:
+    """The Gauss-Newton reduced system at ``z`` (scaled), on the constraint split ``split`` already
+    made there (e.g. an observed-information covariance's: the null space is the same, only the
+    curvature differs; 0.7 s instead of 1.2 to 2 s on an atmosphere-profile fit), else formed."""
+    if split is None:
+        return reduced_system_at(nlp, z)
+    h, a = fisher_and_jacobian(nlp, z)
+    return reduced_hessian(nlp, h, a, split)
+
+
 def reduced_system_at(nlp: Nlp, z: np.ndarray) -> ReducedSystem:
     """The reduced system at ``z`` (scaled), from the residual Jacobian (the solver's way, so the
     covariance recomputed at a solution is the reported one to the last bit)."""
@@ -435,7 +449,7 @@ def _null_space_covariance(nlp: Nlp, system: ReducedSystem, chi2: float, dof: in
     if eig[0] <= 0 or cond_s > MAX_CONDITION:
         raise SingularCovariance(_weakest_direction(nlp, system.basis, weakest, cond_s))
     cov_w = (vec / eig) @ vec.T
-    return Covariance(system.basis, cov_w, chi2 / max(dof, 1), cond, system.elimination, information)
+    return Covariance(system.basis, cov_w, chi2 / max(dof, 1), cond, system.elimination, information, system.split)
 
 
 def scaled_condition(hessian: np.ndarray) -> tuple[float, np.ndarray]:

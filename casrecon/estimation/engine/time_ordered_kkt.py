@@ -14,7 +14,7 @@ That order is only usable without pivoting, and then every pivot must be nonzero
 Gauss-Newton block can be singular (its states seen only through the next node). So the primal
 diagonal is shifted by REGULARIZATION and each solve refined against the unshifted matrix
 (iterative refinement, at most MAX_REFINEMENTS steps, until every row's residual is below
-REFINEMENT_TOL times that row's size |K_i| |x|_inf + |f_i|: two steps on ees-drop-1). A matrix on
+REFINEMENT_TOL times that row's (|K| |x| + |f|)_i: two to four steps on ees-drop-1). A matrix on
 which that does not converge is factorised again with SuperLU's pivoting order, the parameters as a
 border (:class:`.bordered_kkt.BorderedKkt`), so a solve returns the same answer either way, only
 slower.
@@ -31,14 +31,22 @@ from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 
-#: Shift of the primal diagonal (z is scaled to order one).
-REGULARIZATION = 1e-8
-#: Iterative-refinement steps at most per solve.
-MAX_REFINEMENTS = 4
-#: Largest residual of a refined solve in each row, relative to |K_i| |x|_inf + |f_i| (|K_i| the
-#: row's largest entry). Row by row, not over the whole matrix: there the stiff IMU rows' entries
-#: (1e6) let a constraint row keep a residual of 1e-7, above the constraints' tolerance.
+#: Shift of the primal diagonal (z is scaled to order one). Larger than round-off needs: the pivots'
+#: growth, not the shift, limits the refinement (on ees-drop-1's KKT matrix the first solve's worst
+#: row was 2.4e3 times its bound with 1e-8 and converged in 4 steps, 27 times with 1e-6 and
+#: converged in 2; 1e-10 did not converge, 1e-4 took 3 steps).
+REGULARIZATION = 1e-6
+#: Iterative-refinement steps at most per solve (each costs a solve and a product, 10 to 20 ms on
+#: ees-drop-1; the pivoting factorisation it avoids, 5 to 8 s).
+MAX_REFINEMENTS = 10
+#: Largest residual of a refined solve in each row, relative to that row's (|K| |x| + |f|)_i: row by
+#: row and with the row's own entries of x, because a norm over the whole matrix or over x lets a
+#: constraint row keep a residual of 1e-7 (the stiff IMU rows' entries are 1e6; with a small
+#: profile prior the multipliers reach 1e6), and the Gauss-Newton iteration then stalled at a
+#: constraint violation of 1e-8 to 4e-8 for 30 iterations on ees-drop-1's profile refit.
 REFINEMENT_TOL = 1e-12
+#: Each row's bound is at least this fraction of the largest row's (for rows whose |K| |x| + |f| is 0).
+FLOOR = 1e-8
 
 
 def time_order(kkt: sps.spmatrix, n_z: int, stages: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -114,10 +122,7 @@ class TimeOrderedKkt:
     def __init__(self, pattern: OrderedPattern, source: np.ndarray) -> None:
         self.order, self._n_last = pattern.order, pattern.n_last
         self._matrix = pattern.matrix(source)
-        magnitude = np.abs(self._matrix.data)
-        nonempty = np.diff(pattern.indptr) > 0  # a column's largest entry is its row's (K is symmetric)
-        self._row_size = np.zeros(pattern.shape[0])
-        self._row_size[nonempty] = np.maximum.reduceat(magnitude, pattern.indptr[:-1][nonempty])
+        self._magnitude = abs(self._matrix)
         shifted = sps.csc_matrix((self._matrix.data + pattern.shift, pattern.indices, pattern.indptr),
                                  shape=pattern.shape)
         self._lu = splu(shifted, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
@@ -131,8 +136,8 @@ class TimeOrderedKkt:
             return x
         for _ in range(MAX_REFINEMENTS + 1):
             residual = f - self._matrix @ x
-            x_size = np.abs(x).max(axis=0, initial=0.0)
-            bound = REFINEMENT_TOL * (np.multiply.outer(self._row_size, x_size) + np.abs(f))
+            size = self._magnitude @ np.abs(x) + np.abs(f)
+            bound = REFINEMENT_TOL * (size + FLOOR * size.max(axis=0, initial=0.0))
             if np.all(np.abs(residual) <= bound):
                 return x
             x = x + self._lu.solve(np.ascontiguousarray(residual))
