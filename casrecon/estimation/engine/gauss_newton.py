@@ -130,39 +130,51 @@ def reduced_step(system: ReducedSystem, grad: np.ndarray, jr: sps.spmatrix, c: n
 def _bounded_reduced_solve(s: np.ndarray, rhs: np.ndarray, rows: np.ndarray, start: np.ndarray,
                            lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """w minimising 1/2 w^T S w + rhs^T w with lo <= start + rows w <= hi (a primal active set over
-    the few bounded columns; bounds are met within round-off)."""
+    the few bounded columns, :func:`hold_bounds`; bounds are met within round-off)."""
     chol = _damped_cholesky(s)
 
     def solve_s(v):
         return np.linalg.solve(chol.T, np.linalg.solve(chol, v))
 
-    active: dict[int, float] = {}
-    for _ in range(2 * rows.shape[0] + 1):
-        if active:
-            idx = np.array(sorted(active))
+    def solve_held(idx: np.ndarray, held: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if not idx.size:
+            w, mu = -solve_s(rhs), np.zeros(0)
+        else:
             c = rows[idx]
-            target = np.array([active[i] for i in idx]) - start[idx]
             s_inv_ct = solve_s(c.T)
             s_inv_rhs = solve_s(rhs)
             # KKT: S w + C^T mu = -rhs, C w = target
-            mu = np.linalg.solve(c @ s_inv_ct, -c @ s_inv_rhs - target)
+            mu = np.linalg.solve(c @ s_inv_ct, -c @ s_inv_rhs - (held - start[idx]))
             w = -s_inv_rhs - s_inv_ct @ mu
-            # a bound whose multiplier pulls the variable inwards is released
-            signs = np.array([1.0 if active[i] == lo[i] else -1.0 for i in idx])
-            leaving = idx[signs * mu > 1e-12]
-            if leaving.size:
-                del active[int(leaving[0])]
-                continue
-        else:
-            w = -solve_s(rhs)
-        value = start + rows @ w
-        violated = np.flatnonzero((value < lo - 1e-12) | (value > hi + 1e-12))
-        violated = [i for i in violated if i not in active]
+        return w, start + rows @ w, mu
+
+    return hold_bounds(solve_held, lo, hi, "the bounded reduced step did not settle")
+
+
+def hold_bounds(solve_held: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
+                lo: np.ndarray, hi: np.ndarray, unsettled: str) -> np.ndarray:
+    """A primal active set over a few bounded values: ``solve_held(idx, held)`` solves with the
+    bounded values ``idx`` held at ``held`` and returns (solution, every bounded value, each held
+    bound's force, positive where it pushes a lower bound inwards, negative an upper one). A held
+    bound whose force pulls the value inwards is released; else the most violated free bound is
+    held, until none is violated (within 1e-12). Raises GaussNewtonFailure(``unsettled``) when that
+    takes more than twice as many rounds as there are bounds."""
+    active: dict[int, float] = {}  # index among the bounded values -> the bound held
+    for _ in range(2 * lo.size + 1):
+        idx = np.array(sorted(active), np.int64)
+        held = np.array([active[i] for i in idx])
+        solution, value, force = solve_held(idx, held)
+        signs = np.where(held == lo[idx], 1.0, -1.0)
+        leaving = idx[signs * force > 1e-12]
+        if leaving.size:
+            del active[int(leaving[0])]
+            continue
+        violated = [i for i in np.flatnonzero((value < lo - 1e-12) | (value > hi + 1e-12)) if i not in active]
         if not violated:
-            return w
+            return solution
         i = int(violated[np.argmax(np.maximum(lo[violated] - value[violated], value[violated] - hi[violated]))])
         active[i] = lo[i] if value[i] < lo[i] else hi[i]
-    raise GaussNewtonFailure("the bounded reduced step did not settle")
+    raise GaussNewtonFailure(unsettled)
 
 
 def _damped_cholesky(s: np.ndarray) -> np.ndarray:

@@ -49,6 +49,7 @@ from casrecon.estimation.engine.gauss_newton import (
     GaussNewtonFailure,
     GaussNewtonRun,
     bounded_columns,
+    hold_bounds,
     line_search,
 )
 from casrecon.estimation.engine.nlp import Nlp
@@ -135,26 +136,15 @@ class KktFactors:
 def bounded_step(factor: TimeOrderedKkt, rhs: np.ndarray, z: np.ndarray,
                  bounded: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
     """K^-1 ``rhs`` (the step [dz; lambda]) with z + dz kept within the bounds of the ``bounded``
-    columns by a primal active set: a bound is held while its row's force pushes outwards."""
+    columns by a primal active set (:func:`.gauss_newton.hold_bounds`): a held bound's row is
+    dropped, and its residual rhs - K x there is the force holding it."""
     cols, lo, hi = bounded
-    active: dict[int, float] = {}  # index into cols -> the bound held
-    for _ in range(2 * cols.size + 1):
-        idx = np.array(sorted(active), np.int64)
-        held = np.array([active[i] for i in idx])
+
+    def solve_held(idx: np.ndarray, held: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         sol, force = factor.solve_fixed(rhs, cols[idx], held - z[cols[idx]])
-        # a held bound whose row pushes inwards is released (force = rhs - K sol on that row)
-        lower = np.array([active[i] == lo[i] for i in idx], bool)
-        leaving = idx[(lower & (force > 1e-12)) | (~lower & (force < -1e-12))]
-        if leaving.size:
-            del active[int(leaving[0])]
-            continue
-        value = z[cols] + sol[cols]
-        violated = [i for i in np.flatnonzero((value < lo - 1e-12) | (value > hi + 1e-12)) if i not in active]
-        if not violated:
-            return sol
-        i = int(violated[np.argmax(np.maximum(lo[violated] - value[violated], value[violated] - hi[violated]))])
-        active[i] = lo[i] if value[i] < lo[i] else hi[i]
-    raise GaussNewtonFailure("the bounded full-space step did not settle")
+        return sol, z[cols] + sol[cols], force
+
+    return hold_bounds(solve_held, lo, hi, "the bounded full-space step did not settle")
 
 
 @single_threaded_blas()

@@ -65,7 +65,7 @@ class Nlp:
     stages : int array or None
         The node (time index, counted on across drops) of each z column, -1 for columns tied to no
         node: the time order of the full-space KKT factorisations
-        (:func:`.bordered_kkt.time_order`); None where the NLP has no nodes.
+        (:func:`.time_ordered_kkt.time_order`); None where the NLP has no nodes.
     """
 
     n_z: int
