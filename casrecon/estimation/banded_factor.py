@@ -51,7 +51,11 @@ class SymmetricFactor:
         csc = sps.csc_matrix(a)
         permuted = csc[self.order][:, self.order].tocsc()
         self._lu = splu(permuted, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        self.fill = int(self._lu.L.nnz + self._lu.U.nnz)
+
+    @property
+    def fill(self) -> int:
+        """Nonzeros of the LU factors (read when asked: SuperLU copies them out)."""
+        return int(self._lu.L.nnz + self._lu.U.nnz)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """A^-1 b for a vector or the columns of a matrix ``b``."""

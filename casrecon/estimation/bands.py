@@ -89,8 +89,9 @@ def _output_function(model: FlightModel, part: DropLayout) -> ca.Function:
 
 def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, cov):
     """One drop's node values of its columns (:func:`columns_of`) and their absolute 1-sigma,
-    arrays (K, n_columns). With disturbance states the sigmas are computed at up to
-    MAX_BAND_NODES evenly spaced nodes and linearly interpolated in time between them."""
+    arrays (K, n_columns); the sigmas None when ``cov`` is None. With disturbance states the
+    sigmas are computed at up to MAX_BAND_NODES evenly spaced nodes and linearly interpolated in
+    time between them."""
     k = part.mesh.t_nodes.size
     fn = _output_function(model, part).map(k, "thread", 2)
     zx = z[part.node_cols].reshape(k, NS).T
@@ -99,6 +100,8 @@ def trajectory_with_bands(model: FlightModel, part: DropLayout, z: np.ndarray, c
     cell_cols, zg, base = node_cell_inputs(part, z, np.arange(k))
     y, jac = numpy_call(fn, zx, zt, zu, zg, base)
     y = y.T
+    if cov is None:
+        return y, None
     ny, nv = y.shape[1], NS + part.params.n + part.n_u + part.n_profile_local
     jac = jac.reshape(ny, k, nv).transpose(1, 0, 2)  # (k, ny, nv)
     nodes = np.arange(k) if not part.n_u else np.unique(np.linspace(0, k - 1, min(k, MAX_BAND_NODES)).astype(int))

@@ -90,6 +90,9 @@ class BlockLu:
     matrix : sparse matrix, (n, n)
     permc_spec : str
         SuperLU's column ordering for each block.
+    diag_pivot_thresh : float
+        SuperLU's threshold for keeping the diagonal pivot: 1 is partial pivoting; below it the
+        diagonal entry is kept while it is at least this fraction of its column's largest.
 
     Raises
     ------
@@ -97,7 +100,7 @@ class BlockLu:
         A block is not square (the matrix is structurally singular) or SuperLU finds it singular.
     """
 
-    def __init__(self, matrix: sps.spmatrix, permc_spec: str = "COLAMD") -> None:
+    def __init__(self, matrix: sps.spmatrix, permc_spec: str = "COLAMD", diag_pivot_thresh: float = 1.0) -> None:
         m = sorted_csc(matrix)
         self.n = n = m.shape[0]
         self.blocks: list[tuple[np.ndarray | slice, np.ndarray | slice, object]] = []
@@ -105,11 +108,11 @@ class BlockLu:
         layout = block_layout(m, pattern)
         if layout is None:  # one block: no copy of the matrix
             every = slice(0, n)
-            self.blocks.append((every, every, splu(m, permc_spec=permc_spec)))
+            self.blocks.append((every, every, splu(m, permc_spec=permc_spec, diag_pivot_thresh=diag_pivot_thresh)))
             return
         # each block cut by a remembered gather of the nonzeros, the LUs made side by side
-        lus = in_threads(lambda block: splu(submatrix(m, *block, pattern=pattern), permc_spec=permc_spec), layout,
-                         BLOCK_THREADS)
+        lus = in_threads(lambda block: splu(submatrix(m, *block, pattern=pattern), permc_spec=permc_spec,
+                                            diag_pivot_thresh=diag_pivot_thresh), layout, BLOCK_THREADS)
         self.blocks.extend((rows, cols, lu) for (rows, cols), lu in zip(layout, lus))
 
     @property
@@ -132,7 +135,8 @@ class BlockLu:
                      trans: str = "N") -> Iterator[tuple[np.ndarray | slice, np.ndarray | None, np.ndarray]]:
         """The solution of :meth:`solve` block by block, without the whole array: (rows of x,
         columns of x or None for all, values) for each block and each of its nonzero columns of
-        ``rhs`` (2-D), so that a caller can place them where it wants them (the null-space basis
+        ``rhs`` (2-D; a block solved for many columns gives one piece per chunk of them, its
+        columns a slice), so that a caller can place them where it wants them (the null-space basis
         of a joint fit: 60 MB of zeros and a copy per iterate fewer). ``rhs`` may be a sparse CSR
         matrix (each block's nonzero columns are then made dense on their own: a joint fit's
         A_I N, whose columns each reach one drop)."""
@@ -142,12 +146,12 @@ class BlockLu:
         else:
             rhs = np.asarray(rhs, float)
 
-        def solved(block: tuple) -> tuple | None:
+        def solved(block: tuple) -> list[tuple]:
             rows, cols, lu = block
             into, source = (cols, rows) if trans == "N" else (rows, cols)
             part = rhs[source]
             if part.ndim == 1:
-                return into, None, lu.solve(part, trans=trans)
+                return [(into, None, lu.solve(part, trans=trans))]
             every = part.shape[1]
             if sps.issparse(part):
                 used = np.flatnonzero(part.getnnz(axis=0))
@@ -156,17 +160,21 @@ class BlockLu:
                 used = np.flatnonzero(np.any(part != 0.0, axis=0))
                 dense = part if used.size == every else part[:, used]
             if not used.size:
-                return None
-            return into, None if used.size == every else used, self._solve_dense(lu, dense, trans)
+                return []
+            pieces = self._solve_dense(lu, dense, trans)
+            if used.size == every:
+                return [(into, None if len(pieces) == 1 else chunk, x) for chunk, x in pieces]
+            return [(into, used[chunk], x) for chunk, x in pieces]
 
-        yield from (out for out in in_threads(solved, self.blocks, BLOCK_THREADS) if out is not None)
+        yield from (piece for pieces in in_threads(solved, self.blocks, BLOCK_THREADS) for piece in pieces)
 
-    def _solve_dense(self, lu, rhs: np.ndarray, trans: str) -> np.ndarray:
-        """``lu``'s solution for the dense right-hand sides ``rhs`` (n, k); with one block and more
-        than SOLVE_CHUNK_COLUMNS of them, by chunks of columns on threads (several blocks are
-        already solved side by side)."""
+    def _solve_dense(self, lu, rhs: np.ndarray, trans: str) -> list[tuple[slice, np.ndarray]]:
+        """``lu``'s solution for the dense right-hand sides ``rhs`` (n, k) as (columns, values) pieces:
+        with one block and more than SOLVE_CHUNK_COLUMNS of them, by chunks of columns solved on
+        threads (several blocks are already solved side by side) and left apart, so that the caller
+        writes each where it belongs (no copy into one array: 0.2 s on an atmosphere-profile fit)."""
         if self.n_blocks > 1 or rhs.shape[1] <= SOLVE_CHUNK_COLUMNS:
-            return lu.solve(np.ascontiguousarray(rhs), trans=trans)
-        parts = in_threads(lambda c: lu.solve(np.ascontiguousarray(rhs[:, c]), trans=trans),
-                           column_chunks(rhs.shape[1], SOLVE_CHUNK_COLUMNS), BLOCK_THREADS)
-        return np.hstack(list(parts))
+            return [(slice(0, rhs.shape[1]), lu.solve(np.ascontiguousarray(rhs), trans=trans))]
+        chunks = column_chunks(rhs.shape[1], SOLVE_CHUNK_COLUMNS)
+        parts = in_threads(lambda c: lu.solve(np.ascontiguousarray(rhs[:, c]), trans=trans), chunks, BLOCK_THREADS)
+        return list(zip(chunks, parts))

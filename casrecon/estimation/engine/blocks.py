@@ -35,7 +35,16 @@ class SparseTarget:
 
     def __init__(self, shape: tuple[int, int], rows: np.ndarray, cols: np.ndarray) -> None:
         lin = np.asarray(cols, np.int64) * shape[0] + np.asarray(rows, np.int64)
-        unique, self.target = np.unique(lin, return_inverse=True)
+        # a stable sort (timsort: the blocks' entries come in long increasing runs) and the first of
+        # each run of equal entries; np.unique's quicksort takes 3 to 5 times as long (0.25 s
+        # against 0.08 s for the 2.9M entries of an atmosphere-profile fit's J^T J)
+        order = np.argsort(lin, kind="stable")
+        ordered = lin[order]
+        first = np.ones(ordered.size, bool)
+        np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
+        unique = ordered[first]
+        self.target = np.empty(lin.size, np.int64)
+        self.target[order] = np.cumsum(first) - 1
         self.nnz, self.shape = unique.size, shape
         # column-major order of the unique entries is CSC order
         self.row_index = np.asarray(unique % shape[0], np.int64)

@@ -61,7 +61,11 @@ class BorderedKkt:
             self._schur_lu = scipy.linalg.lu_factor(self.schur, check_finite=True)
             if np.any(np.diag(self._schur_lu[0]) == 0.0):
                 raise RuntimeError("the parameters' Schur complement is singular")
-        self.fill = int(self._lu.L.nnz + self._lu.U.nnz)
+
+    @property
+    def fill(self) -> int:
+        """Nonzeros of the sparse block's LU factors (read when asked: SuperLU copies them out)."""
+        return int(self._lu.L.nnz + self._lu.U.nnz)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """K^-1 rhs for a vector or the columns of a matrix ``rhs`` (n rows)."""

@@ -45,7 +45,7 @@ from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 from casrecon.estimation.engine.constraint_split import ConstraintSplit, constraint_split
 from casrecon.estimation.engine.information import INFORMATION
 from casrecon.estimation.engine.nlp import Nlp
-from casrecon.estimation.engine.projected_gram import projected_gram, wide_gram, wide_product
+from casrecon.estimation.engine.projected_gram import projected_gram, wide_congruence, wide_gram
 from casrecon.parallel import in_threads, single_threaded_blas
 
 LOG = logging.getLogger(__name__)
@@ -155,22 +155,21 @@ class Covariance:
         """Variances (len(index_sets), n_out) of outputs y_i = J_i z[index_sets[i]], J_i =
         ``jacobians[i]`` (n_out, len(set)), scaled units: diag(J_i C_i J_i^T), batched into one
         product with cov_w per BATCH sets (with eliminated columns the H_EE^-1 term is added).
-        Only the directions w that reach the sets' rows of Z enter (exactly: the others contribute
+        Only the directions w that reach a batch's rows of Z enter (exactly: the others contribute
         zero), so one drop of a joint fit costs what its own fit's bands cost, not the number of
-        drops squared times it."""
+        drops squared times it; and in a profile fit, whose directions reach the nodes from the
+        time the capsule passes their level on, a batch of early nodes costs a fraction of a late
+        one's (the sets come in node order: a third of the work overall)."""
         out = np.zeros((len(index_sets), jacobians.shape[1]))
         if not index_sets:
             return out
-        every = np.unique(np.concatenate([np.asarray(s, np.int64).ravel() for s in index_sets]))
-        reached = np.flatnonzero(np.any(self.basis[every] != 0.0, axis=0))
-        basis, cov_w = self.basis[np.ix_(every, reached)], self.cov_w[np.ix_(reached, reached)]
 
         def batch(start: int) -> np.ndarray:
-            sets = index_sets[start:start + self.BATCH]
-            rows = np.stack([basis[np.searchsorted(every, s)] for s in sets])  # (b, n_v, n_w)
-            m = np.einsum("byv,bvw->byw", jacobians[start:start + len(sets)], rows)
-            b, n_y, n_w = m.shape
-            v = (m.reshape(b * n_y, n_w) @ cov_w).reshape(b, n_y, n_w)
+            sets = np.stack([np.asarray(s, np.int64) for s in index_sets[start:start + self.BATCH]])  # (b, n_v)
+            reached = np.flatnonzero(np.any(self.basis[np.unique(sets)] != 0.0, axis=0))
+            rows = self.basis[np.ix_(sets.ravel(), reached)].reshape(*sets.shape, reached.size)
+            m = np.matmul(jacobians[start:start + sets.shape[0]], rows)  # (b, n_y, n_w)
+            v = (m.reshape(-1, reached.size) @ self.cov_w[np.ix_(reached, reached)]).reshape(m.shape)
             return np.einsum("byw,byw->by", v, m)
 
         # the batches on two threads (numpy's products release the GIL; each batch is computed alone)
@@ -347,8 +346,8 @@ def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix,
         basis = split.basis.copy()
         basis[elim] = 0.0
         split = dataclasses.replace(split, basis=basis)
-    hz = np.hstack(wide_product(h, split.basis))
-    return _reduced(split, split.basis.T @ hz, hz[elim], lambda: h[elim][:, elim].tocsc(), elim, a)
+    hr, b = wide_congruence(h, split.basis, elim)
+    return _reduced(split, hr, b, lambda: h[elim][:, elim].tocsc(), elim, a)
 
 
 @single_threaded_blas()

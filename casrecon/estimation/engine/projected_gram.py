@@ -87,24 +87,70 @@ def wide_product(m: sps.spmatrix, dense: np.ndarray) -> list[np.ndarray]:
     return list(in_threads(lambda c: m @ np.ascontiguousarray(dense[:, c]), chunks, block_lu.BLOCK_THREADS))
 
 
+#: A chunk whose nonzero rows are more than this fraction of its rows is multiplied whole.
+DENSE_SUPPORT = 0.9
+
+
+def symmetric_from_chunks(lefts: list[np.ndarray], rights: list[np.ndarray]) -> np.ndarray:
+    """The symmetric matrix X^T Y from the column chunks of X (``lefts``) and Y (``rights``), X^T Y
+    symmetric (J Z twice for a Gram matrix, Z and H Z for a congruence): the blocks (i, j), i <= j,
+    each as X_i^T Y_j or (X_j^T Y_i)^T, whichever of X_i, X_j has fewer nonzero rows, on those rows
+    only, the blocks below the diagonal their transposes. An atmosphere-profile direction is zero
+    before the capsule reaches its level, so that is a third of the whole product; the blocks are
+    computed on :data:`~.block_lu.BLOCK_THREADS` threads (BLAS releases the GIL). Neither the chunks
+    nor the rows depend on the number of threads, so neither do the numbers."""
+    edges = np.cumsum([0] + [part.shape[1] for part in rights])
+    chunks = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+    support = [np.flatnonzero(np.any(x != 0.0, axis=1)) for x in lefts]
+
+    def block(ij: tuple[int, int]) -> np.ndarray:
+        i, j = ij
+        k, other = (i, j) if support[i].size <= support[j].size else (j, i)
+        rows = support[k]
+        if rows.size > DENSE_SUPPORT * lefts[k].shape[0]:
+            product = lefts[k].T @ rights[other]
+        else:
+            product = lefts[k][rows].T @ rights[other][rows]
+        return product if k == i else product.T
+
+    pairs = [(i, j) for i in range(len(chunks)) for j in range(i, len(chunks))]
+    out = np.zeros((edges[-1], edges[-1]))
+    for (i, j), values in zip(pairs, in_threads(block, pairs, block_lu.BLOCK_THREADS)):
+        out[chunks[i], chunks[j]] = values
+        out[chunks[j], chunks[i]] = values.T
+    return out
+
+
 def wide_gram(jr: sps.spmatrix, basis: np.ndarray, je: sps.spmatrix) -> tuple[np.ndarray, np.ndarray]:
     """((J Z)^T (J Z), J_E^T (J Z)) for a dense basis Z: J Z by :func:`wide_product` (at once when
     Z has at most GRAM_CHUNK_COLUMNS columns, else by chunks of that many computed on
     :data:`~.block_lu.BLOCK_THREADS` threads), and the Gram matrix block by block of those chunks
-    on the threads too (BLAS releases the GIL). The chunks do not depend on the number of threads,
-    so neither do the numbers."""
+    (:func:`symmetric_from_chunks`)."""
     jr, je = sps.csr_matrix(jr), sps.csr_matrix(je)
-    n_w = basis.shape[1]
     parts = wide_product(jr, basis)
-    edges = np.cumsum([0] + [part.shape[1] for part in parts])
-    chunks = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
-    pairs = [(i, j) for i in range(len(chunks)) for j in range(i, len(chunks))]
-    hr, b = np.zeros((n_w, n_w)), np.zeros((je.shape[1], n_w))
-    gram_blocks = in_threads(lambda ij: parts[ij[0]].T @ parts[ij[1]], pairs, block_lu.BLOCK_THREADS)
-    for (i, j), block in zip(pairs, gram_blocks):
-        hr[chunks[i], chunks[j]] = block
-        hr[chunks[j], chunks[i]] = block.T
+    hr = symmetric_from_chunks(parts, parts)
+    b = np.zeros((je.shape[1], basis.shape[1]))
     if je.shape[1]:
-        for c, part in zip(chunks, parts):
-            b[:, c] = je.T @ part
+        start = 0
+        for part in parts:
+            b[:, start:start + part.shape[1]] = je.T @ part
+            start += part.shape[1]
     return hr, b
+
+
+def wide_congruence(h: sps.spmatrix, basis: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(Z^T H Z, (H Z)[rows]) for a symmetric sparse H and a dense basis Z: H Z by column chunks of
+    GRAM_CHUNK_COLUMNS on threads, each from the columns of H on the chunk's nonzero rows, and
+    Z^T H Z block by block of them
+    (:func:`symmetric_from_chunks`: the upper blocks only, on their nonzero rows, on threads, and
+    no copy of H Z into one array)."""
+    h = sps.csc_matrix(h)
+    lefts = [np.ascontiguousarray(basis[:, c]) for c in block_lu.column_chunks(basis.shape[1], GRAM_CHUNK_COLUMNS)]
+
+    def product(x: np.ndarray) -> np.ndarray:  # H x on x's nonzero rows only
+        support = np.flatnonzero(np.any(x != 0.0, axis=1))
+        return h @ x if support.size > DENSE_SUPPORT * x.shape[0] else h[:, support] @ x[support]
+
+    parts = list(in_threads(product, lefts, block_lu.BLOCK_THREADS))
+    rows = np.asarray(rows, np.int64)
+    return symmetric_from_chunks(lefts, parts), np.hstack([part[rows] for part in parts])

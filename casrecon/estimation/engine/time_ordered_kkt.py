@@ -127,7 +127,6 @@ class TimeOrderedKkt:
                                  shape=pattern.shape)
         self._lu = splu(shifted, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         self.refined = True  # False once the pivoting factorisation had to be used
-        self.fill = int(self._lu.L.nnz + self._lu.U.nnz)
 
     def _solve_ordered(self, f: np.ndarray) -> np.ndarray:
         """The solution in time order for a right-hand side ``f`` in time order."""
@@ -145,8 +144,15 @@ class TimeOrderedKkt:
         n = self._matrix.shape[0]
         self._lu = BorderedKkt(self._matrix, np.arange(n - self._n_last, n))
         self.refined = False
-        self.fill = self._lu.fill
         return self._lu.solve(f)
+
+    @property
+    def fill(self) -> int:
+        """Nonzeros of the factors in use (read when asked: SuperLU copies them out, 0.05 s on an
+        atmosphere-profile fit's matrix, too much to pay at every iterate)."""
+        if isinstance(self._lu, BorderedKkt):
+            return self._lu.fill
+        return int(self._lu.L.nnz + self._lu.U.nnz)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """K^-1 rhs for a vector or the columns of a matrix ``rhs``."""
