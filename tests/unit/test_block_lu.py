@@ -136,3 +136,61 @@ def test_wide_products_and_solves_by_column_chunks(monkeypatch, threads):
     assert np.array_equal(BlockLu(m).solve(b), x)
     hr1, c1 = wide_gram(jr, b, je)
     assert np.array_equal(hr1, hr) and np.array_equal(c1, c)
+
+
+def staircase(rng, n: int, n_w: int) -> np.ndarray:
+    """A dense basis whose column k is zero above a row that grows with k (an atmosphere-profile
+    direction is zero before the capsule passes its level)."""
+    z = rng.normal(size=(n, n_w))
+    starts = np.linspace(0, 0.8 * n, n_w).astype(int)
+    z[np.arange(n)[:, None] < starts[None, :]] = 0.0
+    return z
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_wide_congruence_of_a_staircase_basis_equals_the_dense_products(monkeypatch, threads):
+    """Z^T H Z and (H Z)[rows] by chunks on their nonzero rows: the dense products' numbers (to
+    round-off), whatever the number of threads; the chunks of few nonzero rows take the row-restricted
+    path and those of many the whole one (both are exercised)."""
+    from casrecon.estimation.engine import projected_gram
+
+    rng = np.random.default_rng(9)
+    monkeypatch.setattr("casrecon.estimation.engine.block_lu.BLOCK_THREADS", threads)
+    monkeypatch.setattr("casrecon.estimation.engine.projected_gram.GRAM_CHUNK_COLUMNS", 8)
+    n = 200
+    a = sps.random(n, n, density=0.03, random_state=rng)
+    h = (a + a.T + sps.eye(n) * 4).tocsc()
+    z = staircase(rng, n, 37)
+    rows = np.array([5, 77, 150])
+    supports = [np.any(z[:, c] != 0.0, axis=1).mean() for c in projected_gram.block_lu.column_chunks(37, 8)]
+    assert min(supports) < projected_gram.DENSE_SUPPORT < max(supports)
+    hr, b = projected_gram.wide_congruence(h, z, rows)
+    hz = h.toarray() @ z
+    assert hr == pytest.approx(z.T @ hz, abs=1e-10) and np.array_equal(hr, hr.T)
+    assert b == pytest.approx(hz[rows], abs=1e-12)
+    monkeypatch.setattr("casrecon.estimation.engine.block_lu.BLOCK_THREADS", 1)
+    hr1, b1 = projected_gram.wide_congruence(h, z, rows)
+    assert np.array_equal(hr1, hr) and np.array_equal(b1, b)
+
+
+def test_the_defect_factor_is_causal_so_a_late_direction_is_exactly_zero_before_it_starts():
+    """A block lower-bidiagonal A_D whose later block has larger entries than the diagonal one
+    (partial pivoting then takes the later row): with the defects' threshold the diagonal is
+    kept, and a right-hand side that starts at a block gives exact zeros in the blocks before it."""
+    from casrecon.estimation.engine.constraint_split import A_D_ORDERING, A_D_PIVOT_THRESHOLD
+
+    rng = np.random.default_rng(10)
+    k, m = 12, 3  # 12 intervals of 3 states: defect j reaches nodes j (sub-diagonal) and j + 1 (diagonal)
+    diag = sps.block_diag([np.eye(m) + 0.05 * rng.normal(size=(m, m)) for _ in range(k)])
+    sub = sps.block_diag([-3.0 * np.eye(m) + 0.5 * rng.normal(size=(m, m)) for _ in range(k - 1)])
+    below = sps.vstack([sps.csr_matrix((m, k * m)), sps.hstack([sub, sps.csr_matrix(((k - 1) * m, m))])])
+    a_d = (diag + below).tocsc()
+    rhs = np.zeros((k * m, 2))
+    rhs[6 * m:7 * m, 0] = rng.normal(size=m)  # a direction entering at interval 6
+    rhs[:, 1] = rng.normal(size=k * m)
+    x = BlockLu(a_d, permc_spec=A_D_ORDERING, diag_pivot_thresh=A_D_PIVOT_THRESHOLD).solve(rhs)
+    assert x == pytest.approx(np.linalg.solve(a_d.toarray(), rhs), rel=1e-12)
+    assert np.all(x[:6 * m, 0] == 0.0) and np.all(x[6 * m:, 0] != 0.0)
+    pivoting = BlockLu(a_d, permc_spec=A_D_ORDERING).solve(rhs)  # partial pivoting: not causal
+    assert pivoting == pytest.approx(x, rel=1e-12)
+    assert np.any(pivoting[:6 * m, 0] != 0.0)

@@ -95,7 +95,7 @@ def symmetric_from_chunks(lefts: list[np.ndarray], rights: list[np.ndarray]) -> 
     """The symmetric matrix X^T Y from the column chunks of X (``lefts``) and Y (``rights``), X^T Y
     symmetric (J Z twice for a Gram matrix, Z and H Z for a congruence): the blocks (i, j), i <= j,
     each as X_i^T Y_j or (X_j^T Y_i)^T, whichever of X_i, X_j has fewer nonzero rows, on those rows
-    only, the blocks below the diagonal their transposes. An atmosphere-profile direction is zero
+    only, the blocks below the diagonal their transposes (exactly symmetric). An atmosphere-profile direction is zero
     before the capsule reaches its level, so that is a third of the whole product; the blocks are
     computed on :data:`~.block_lu.BLOCK_THREADS` threads (BLAS releases the GIL). Neither the chunks
     nor the rows depend on the number of threads, so neither do the numbers."""
@@ -111,6 +111,8 @@ def symmetric_from_chunks(lefts: list[np.ndarray], rights: list[np.ndarray]) -> 
             product = lefts[k].T @ rights[other]
         else:
             product = lefts[k][rows].T @ rights[other][rows]
+        if i == j:  # X_i^T Y_i is symmetric only to round-off unless X = Y
+            return 0.5 * (product + product.T)
         return product if k == i else product.T
 
     pairs = [(i, j) for i in range(len(chunks)) for j in range(i, len(chunks))]
