@@ -92,13 +92,14 @@ DENSE_SUPPORT = 0.9
 
 
 def symmetric_from_chunks(lefts: list[np.ndarray], rights: list[np.ndarray]) -> np.ndarray:
-    """The symmetric matrix X^T Y from the column chunks of X (``lefts``) and Y (``rights``), X^T Y
-    symmetric (J Z twice for a Gram matrix, Z and H Z for a congruence): the blocks (i, j), i <= j,
-    each as X_i^T Y_j or (X_j^T Y_i)^T, whichever of X_i, X_j has fewer nonzero rows, on those rows
-    only, the blocks below the diagonal their transposes (exactly symmetric). An atmosphere-profile direction is zero
-    before the capsule reaches its level, so that is a third of the whole product; the blocks are
-    computed on :data:`~.block_lu.BLOCK_THREADS` threads (BLAS releases the GIL). Neither the chunks
-    nor the rows depend on the number of threads, so neither do the numbers."""
+    """The symmetric matrix X^T Y from the column chunks of X (``lefts``) and Y (``rights``, chunked
+    alike), X^T Y symmetric (J Z twice for a Gram matrix, Z and H Z for a congruence): the blocks
+    (i, j), i <= j, each as X_i^T Y_j or (X_j^T Y_i)^T, whichever of X_i, X_j has fewer nonzero
+    rows, on those rows only; the blocks below the diagonal their transposes (exactly symmetric).
+    An atmosphere-profile direction is zero before the capsule reaches its level, so that is about
+    a third of the whole product. The blocks are computed on :data:`~.block_lu.BLOCK_THREADS`
+    threads (BLAS releases the GIL); neither the chunks nor the rows depend on the number of
+    threads, so neither do the numbers."""
     edges = np.cumsum([0] + [part.shape[1] for part in rights])
     chunks = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
     support = [np.flatnonzero(np.any(x != 0.0, axis=1)) for x in lefts]
@@ -153,6 +154,8 @@ def wide_congruence(h: sps.spmatrix, basis: np.ndarray, rows: np.ndarray) -> tup
         support = np.flatnonzero(np.any(x != 0.0, axis=1))
         return h @ x if support.size > DENSE_SUPPORT * x.shape[0] else h[:, support] @ x[support]
 
-    parts = list(in_threads(product, lefts, block_lu.BLOCK_THREADS))
     rows = np.asarray(rows, np.int64)
+    if not lefts:  # no free direction
+        return np.zeros((0, 0)), np.zeros((rows.size, 0))
+    parts = list(in_threads(product, lefts, block_lu.BLOCK_THREADS))
     return symmetric_from_chunks(lefts, parts), np.hstack([part[rows] for part in parts])
