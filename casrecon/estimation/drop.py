@@ -30,7 +30,6 @@ from casrecon.estimation.parameters import ParameterSet, model_parameters
 from casrecon.estimation.profile import LEAST_TOLERANCE_M, ProfileGrid
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.problem import ProblemConfig
-from casrecon.parallel import in_threads
 from casrecon.physics.dynamics import FlightModel
 
 #: The measurement kinds of a 6-DOF drop fit, in residual order (a kind whose ``load`` returns
@@ -155,7 +154,9 @@ def parameter_names(layouts: list[DropLayout]) -> dict[int, str]:
 def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-newton") -> FitNlp:
     """The NLP of every drop's terms, plus one unit-norm constraint on each drop's first quaternion."""
     layouts = [c.layout for c in contexts]
-    terms = [t for drop in in_threads(drop_terms, contexts) for t in drop]  # CasADi's builds release the GIL
+    # one drop after the other: CasADi's symbolic constructions are not thread-safe (casadi#1355,
+    # #3518; two drops' ca.jacobian on two threads aborted a test run)
+    terms = [t for context in contexts for t in drop_terms(context)]
     terms.append(unit_norm_term(np.array([lay.node_offset + QUATERNION for lay in layouts])))
     nlp = assemble_nlp(terms, n_z, dependent=np.concatenate([lay.dependent_cols for lay in layouts]),
                        parameter_names=parameter_names(layouts), hessian=hessian,

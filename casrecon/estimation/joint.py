@@ -160,13 +160,6 @@ def _layouts(scenarios, meshes, psets, shared, guesses: dict[str, float],
     return out, next_col
 
 
-def _prepared_with_guess(scenario: Scenario) -> tuple[tuple, np.ndarray]:
-    """A drop's data and mesh (:func:`~casrecon.estimation.fit.prepare_drop`) and its initial node states."""
-    data, mesh = prepare_drop(scenario)
-    cfg = scenario.config
-    return (data, mesh), initial_guess(data, mesh, cfg.vehicle, scenario.atmosphere, cfg.site.ground_alt_msl_m)
-
-
 def joint_settings(scenarios: list[Scenario], **overrides) -> tuple[FitSettings, list[str]]:
     """The joint fit's solver settings: the first drop's ``[estimation]`` (keyword overrides
     win), and notes naming drops whose settings differ (their values are not used)."""
@@ -190,8 +183,11 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
                                              max_iter=max_iter, tol=tol, print_level=print_level, solver=solver,
                                              method=method)
     t0 = time.perf_counter()
-    # each drop's data read and checked, and its initial guess made, side by side (0.47 -> 0.36 s for the EES drops)
-    prepared, x0s = zip(*in_threads(_prepared_with_guess, scenarios))
+    # each drop's data read and checked side by side; the initial guesses (CasADi functions, whose
+    # making is not thread-safe: casadi#1355) one after the other
+    prepared = list(in_threads(prepare_drop, scenarios))
+    x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
+           for sc, (data, mesh) in zip(scenarios, prepared)]
     psets, shared = _parameter_sets(scenarios, cfg)
     measurements = [load_measurements(sc.config, data) for sc, (data, _) in zip(scenarios, prepared)]
 

@@ -20,7 +20,8 @@ jumper's changes of body position), and the
 verdict tests the Kalman innovations of the fixes. Measured (2026-11-27, velocity errors 94 %
 correlated as the problems now say), innovation reduced chi-square per channel: Byron 1.06 to 1.62,
 skyderby 0.46 (position east) to 1.98, Chicago 0.58 to 1.49; the innovations stay correlated
-(lag-1 up to 0.93), so the verdict still refuses the bands, and says why. The constant-drag comparison is the strong-constraint fit (reduced chi2 810 to 3188).
+(lag-1 up to 0.93), so the verdict still refuses the bands, and says why. The constant-drag
+comparison is the strong-constraint fit (reduced chi2 810 to 3188).
 """
 
 from __future__ import annotations

@@ -22,7 +22,6 @@ import scipy.sparse as sps
 
 from casrecon.estimation.engine.blocks import BlockSet, SparseTarget, Term
 from casrecon.estimation.engine.buffers import BlockEvaluator
-from casrecon.parallel import in_threads
 from casrecon.physics.numpy_call import numpy_call
 
 
@@ -189,8 +188,9 @@ class BlockDerivatives:
     @cached_property
     def evaluator(self) -> BlockEvaluator:
         """Every set's mapped (compiled) derivative function at one z, into numpy arrays."""
-        # the sets' mapped (compiled) functions made side by side: CasADi releases the GIL
-        return BlockEvaluator(list(in_threads(lambda bs: bs.derivs, self.sets)), [bs.cols for bs in self.sets],
+        # the sets' mapped (compiled) functions made one after the other: making CasADi functions is
+        # not thread-safe (casadi#1355: evaluation is, symbolics are not); they are evaluated on threads
+        return BlockEvaluator([bs.derivs for bs in self.sets], [bs.cols for bs in self.sets],
                               [bs.data for bs in self.sets], self.n_z)
 
     def residuals_only(self, z: np.ndarray) -> np.ndarray:
@@ -201,7 +201,7 @@ class BlockDerivatives:
     @cached_property
     def value_evaluator(self) -> BlockEvaluator:
         """Every set's mapped value function (residuals and constraints, no derivatives) at one z."""
-        return BlockEvaluator(list(in_threads(lambda bs: bs.value_function, self.sets)), [bs.cols for bs in self.sets],
+        return BlockEvaluator([bs.value_function for bs in self.sets], [bs.cols for bs in self.sets],
                               [bs.data for bs in self.sets], self.n_z)
 
     def values_only(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
