@@ -91,7 +91,8 @@ def wide_product(m: sps.spmatrix, dense: np.ndarray) -> list[np.ndarray]:
 DENSE_SUPPORT = 0.9
 
 
-def symmetric_from_chunks(lefts: list[np.ndarray], rights: list[np.ndarray]) -> np.ndarray:
+def symmetric_from_chunks(lefts: list[np.ndarray], rights: list[np.ndarray],
+                          supports: list[np.ndarray] | None = None) -> np.ndarray:
     """The symmetric matrix X^T Y from the column chunks of X (``lefts``) and Y (``rights``, chunked
     alike), X^T Y symmetric (J Z twice for a Gram matrix, Z and H Z for a congruence): the blocks
     (i, j), i <= j, each as X_i^T Y_j or (X_j^T Y_i)^T, whichever of X_i, X_j has fewer nonzero
@@ -99,10 +100,11 @@ def symmetric_from_chunks(lefts: list[np.ndarray], rights: list[np.ndarray]) -> 
     An atmosphere-profile direction is zero before the capsule reaches its level, so that is about
     a third of the whole product. The blocks are computed on :data:`~.block_lu.BLOCK_THREADS`
     threads (BLAS releases the GIL); neither the chunks nor the rows depend on the number of
-    threads, so neither do the numbers."""
+    threads, so neither do the numbers. ``supports``: each left chunk's nonzero rows, when the
+    caller has them (:func:`row_support`)."""
     edges = np.cumsum([0] + [part.shape[1] for part in rights])
     chunks = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
-    support = [np.flatnonzero(np.any(x != 0.0, axis=1)) for x in lefts]
+    support = [row_support(x) for x in lefts] if supports is None else supports
 
     def block(ij: tuple[int, int]) -> np.ndarray:
         i, j = ij
@@ -150,12 +152,19 @@ def wide_congruence(h: sps.spmatrix, basis: np.ndarray, rows: np.ndarray) -> tup
     h = sps.csc_matrix(h)
     lefts = [np.ascontiguousarray(basis[:, c]) for c in block_lu.column_chunks(basis.shape[1], GRAM_CHUNK_COLUMNS)]
 
-    def product(x: np.ndarray) -> np.ndarray:  # H x on x's nonzero rows only
-        support = np.flatnonzero(np.any(x != 0.0, axis=1))
-        return h @ x if support.size > DENSE_SUPPORT * x.shape[0] else h[:, support] @ x[support]
-
     rows = np.asarray(rows, np.int64)
     if not lefts:  # no free direction
         return np.zeros((0, 0)), np.zeros((rows.size, 0))
-    parts = list(in_threads(product, lefts, block_lu.BLOCK_THREADS))
-    return symmetric_from_chunks(lefts, parts), np.hstack([part[rows] for part in parts])
+    supports = [row_support(x) for x in lefts]
+
+    def product(k: int) -> np.ndarray:  # H x on x's nonzero rows only
+        x, support = lefts[k], supports[k]
+        return h @ x if support.size > DENSE_SUPPORT * x.shape[0] else h[:, support] @ x[support]
+
+    parts = list(in_threads(product, range(len(lefts)), block_lu.BLOCK_THREADS))
+    return symmetric_from_chunks(lefts, parts, supports), np.hstack([part[rows] for part in parts])
+
+
+def row_support(x: np.ndarray) -> np.ndarray:
+    """The rows of the 2-D array ``x`` with a nonzero entry."""
+    return np.flatnonzero(np.any(x != 0.0, axis=1))
