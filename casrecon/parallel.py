@@ -149,6 +149,21 @@ def in_threads(fn: Callable, items: Iterable, threads: int = 2) -> Iterator:
         yield from pool.map(fn, items)
 
 
+def alongside(background: Callable[[], Any], foreground: Callable[[], Any]) -> tuple[Any, Any]:
+    """(``background()``, ``foreground()``), the first computed on a worker thread while the second
+    runs in the calling thread (both in the calling thread, one after the other, when this process
+    may use one thread only: :func:`threads_for_one_task`). For two independent pieces of work of
+    which at least the background one releases the GIL (SuperLU, large numpy operations); CasADi
+    symbolics belong in the foreground (their construction is not thread-safe). An exception is
+    raised once both have ended (the foreground's if both raise)."""
+    if threads_for_one_task(2) < 2:
+        return background(), foreground()
+    with ThreadPoolExecutor(1) as pool:  # leaving the block waits for the background work
+        pending = pool.submit(background)
+        front = foreground()
+        return pending.result(), front
+
+
 def report_progress(n: int = 1) -> None:
     """Count ``n`` units of the item being worked on as done before it returns (its ``weight`` is
     what counts in all: what it reported is subtracted when it finishes). Called by the ``fn`` of

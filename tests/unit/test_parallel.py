@@ -167,3 +167,48 @@ def test_casrecon_threads_caps_the_threads(monkeypatch, value, expected):
     monkeypatch.setattr(parallel.os, "sched_getaffinity", lambda pid: {0, 1, 2, 3}, raising=False)
     monkeypatch.setenv("CASRECON_THREADS", value)
     assert parallel.threads_for_one_task(2) == expected
+
+
+def test_alongside_runs_the_background_on_another_thread_and_returns_both(monkeypatch):
+    import threading
+
+    from casrecon import parallel
+
+    monkeypatch.setattr(parallel, "threads_for_one_task", lambda wanted: wanted)
+    (item, ident), front = parallel.alongside(lambda: _thread_of("back"), lambda: ("front", threading.get_ident()))
+    assert item == "back" and ident != threading.get_ident()
+    assert front == ("front", threading.get_ident())
+
+
+def test_alongside_in_one_thread_when_only_one_may_be_used(monkeypatch):
+    import threading
+
+    from casrecon import parallel
+
+    monkeypatch.setattr(parallel, "in_pool_worker", lambda: True)
+    (_, ident), _ = parallel.alongside(lambda: _thread_of("back"), lambda: None)
+    assert ident == threading.get_ident()
+
+
+def test_alongside_raises_after_the_background_has_ended(monkeypatch):
+    from casrecon import parallel
+
+    monkeypatch.setattr(parallel, "threads_for_one_task", lambda wanted: wanted)
+    finished = []
+
+    def slow():
+        time.sleep(0.05)
+        finished.append(True)
+
+    def failing():
+        raise ValueError("foreground")
+
+    with pytest.raises(ValueError, match="foreground"):
+        parallel.alongside(slow, failing)
+    assert finished == [True]
+
+    def failing_background():
+        raise KeyError("background")
+
+    with pytest.raises(KeyError, match="background"):
+        parallel.alongside(failing_background, lambda: None)
