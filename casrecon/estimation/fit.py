@@ -22,7 +22,8 @@ from casrecon.estimation.engine.checks import (
     FitError,
     covariance_or_fail,
 )
-from casrecon.estimation.engine.covariance import Covariance, KktCovariance
+from casrecon.estimation.engine.covariance import Covariance
+from casrecon.estimation.engine.kkt_covariance import KktCovariance
 from casrecon.estimation.engine.laplace import marginal_solution
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult

@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse as sps
 
 from casrecon.estimation.engine.bordered_kkt import BorderedKkt
-from casrecon.estimation.engine.covariance import KktCovariance
+from casrecon.estimation.engine.kkt_covariance import KktCovariance
 
 
 def banded_kkt(n_u: int = 60, n_t: int = 3, n_g: int = 20, seed: int = 0, theta_only_row: bool = False):

@@ -10,7 +10,8 @@ import pytest
 import scipy.sparse as sps
 from conftest import PROBLEMS
 
-from casrecon.estimation.engine.covariance import KktCovariance, compute_covariance
+from casrecon.estimation.engine.covariance import compute_covariance
+from casrecon.estimation.engine.kkt_covariance import KktCovariance
 from casrecon.estimation.fit import fit_drop
 from casrecon.estimation.layout import NS
 from casrecon.estimation.transcription import STATE_SCALE
@@ -181,7 +182,8 @@ def test_output_variances_of_a_block_sparse_basis_equal_the_full_products():
 
 
 def test_scaled_condition_judges_determinacy_not_stiffness():
-    from casrecon.estimation.engine.covariance import MAX_CONDITION, scaled_condition
+    from casrecon.estimation.engine.covariance import scaled_condition
+    from casrecon.estimation.engine.kkt_covariance import MAX_CONDITION
 
     # a stiff unknown next to one held only by its prior: condition 1.01e13 unscaled, 1 scaled
     stiff = np.diag([3.44e11, 0.0341])  # the measured extremes of a model-error drop

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from casrecon.estimation.engine.covariance import Covariance, KktCovariance, SingularCovariance, compute_covariance
+from casrecon.estimation.engine.covariance import Covariance, compute_covariance
+from casrecon.estimation.engine.kkt_covariance import KktCovariance, SingularCovariance
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult
 
