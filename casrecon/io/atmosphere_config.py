@@ -18,10 +18,10 @@ class AtmosphereConfig:
     Profile-error defaults: a GPS-tracked radiosonde measures wind to about 0.15 m/s and
     temperature and pressure to about 0.1 % in density, but the balloon flies tens of minutes
     before or after the drop and drifts kilometres downwind, where boundary-layer wind differs by
-    0.5 to 1 m/s over a few hundred metres of height; neglecting humidity (the sounding's density
-    from p / (R T)) is 0.2 to 1 %. Hence 0.5 m/s per wind component and 0.5 % in density, over a
-    300 m correlation length. A sounding that is the air flown through (synthetic data) sets both
-    sigmas to 0.
+    0.5 to 1 m/s over a few hundred metres of height; a sounding without dewpoints (its density
+    that of dry air, p / (R T)) leaves out humidity's 0.2 to 1 %. Hence 0.5 m/s per wind
+    component and 0.5 % in density, over a 300 m correlation length. A sounding that is the air
+    flown through (synthetic data) sets both sigmas to 0.
 
     ``profile_sigma_from_data``: after the fit, estimate the profile sigmas from the data (type-II
     maximum likelihood, :mod:`casrecon.estimation.profile_sigma`) and, where they differ from the

@@ -39,7 +39,8 @@ from casrecon.io.gps_files import gps_file_kind, read_gps_track
 from casrecon.io.imu import ImuCsvSpec, ImuLog, read_imu_csv
 from casrecon.io.imu_checks import imu_findings, unit_warnings
 from casrecon.io.sensor import SensorLog, is_flysight2_sensor, read_flysight2_sensor
-from casrecon.io.sounding import Sounding, detect_sounding_format, igra2_launches, read_sounding
+from casrecon.io.sounding import detect_sounding_format, igra2_launches, read_sounding
+from casrecon.io.sounding_levels import Sounding
 
 SUPPORTED = ("FlySight 1 CSV, FlySight 2 TRACK.CSV and SENSOR.CSV, NMEA 0183 log, GNSS CSV "
              "(ts,latitude,longitude,satellites), barometer CSV (time_s or ts, pressure_pa or P), "
@@ -216,6 +217,15 @@ def _report_baro(b: BaroLog) -> str:
                       f"pressure: {b.pressure_pa.min():.0f} to {b.pressure_pa.max():.0f} Pa", _gaps(t)])
 
 
+def _humidity_line(s: Sounding) -> str:
+    """What the sounding says of humidity, and what the atmosphere makes of it."""
+    if s.dewpoint_k is None:
+        return "humidity: no dewpoint (dry air assumed)"
+    used = "" if s.density_kgm3 is None else " (not used: the density is given)"
+    n = int(np.isfinite(s.dewpoint_k).sum())
+    return f"humidity: dewpoint at {n} of {s.n} levels{used}"
+
+
 def _report_sounding(s: Sounding, lines: list[str], final_newline: bool = True) -> str:
     speed = np.hypot(s.wind_north_mps, s.wind_east_mps)
     names = {"wyoming-csv": "University of Wyoming TEXT:CSV sounding",
@@ -229,7 +239,8 @@ def _report_sounding(s: Sounding, lines: list[str], final_newline: bool = True) 
            f"pressure: {s.pressure_pa.max() / 100:.1f} to {s.pressure_pa.min() / 100:.1f} hPa",
            f"temperature: {s.temperature_k.min():.1f} to {s.temperature_k.max():.1f} K",
            f"wind speed: {speed.min():.1f} to {speed.max():.1f} m/s",
-           f"density: {'given' if s.density_kgm3 is not None else 'not given'}"]
+           f"density: {'given' if s.density_kgm3 is not None else 'not given'}",
+           _humidity_line(s)]
     if s.format == "igra2":
         for k, info in enumerate(igra2_launches(s.path, lines)):
             note = "" if info.present_levels == info.declared_levels else (

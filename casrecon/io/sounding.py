@@ -5,36 +5,23 @@ Formats read by :func:`read_sounding` (detected from the content, not the file n
 ``wyoming-csv``
     University of Wyoming TEXT:CSV, columns ``quantity_unit`` found by name
     (``pressure_hPa``, ``geopotential height_m``, ``temperature_C``,
-    ``wind direction_degree``, ``wind speed_m/s``).
+    ``wind direction_degree``, ``wind speed_m/s``; ``dew point temperature_C`` when present).
 ``wyoming-list``
-    University of Wyoming TEXT:LIST, fixed-width columns ``PRES HGHT TEMP ... DRCT SKNT``
-    under a units line (hPa, m, C, deg, knot) between dashed lines, with or without the
-    station line above.
+    University of Wyoming TEXT:LIST, fixed-width columns ``PRES HGHT TEMP DWPT ... DRCT SKNT``
+    under a units line (hPa, m, C, C, deg, knot) between dashed lines, with or without the
+    station line above (DWPT optional).
 ``igra2``
     IGRA2 v2 data file: ``#`` header line per launch, then fixed-width levels (PRESS Pa,
-    GPH m, TEMP 0.1 C, WDIR deg, WSPD 0.1 m/s; -9999 and -8888 missing).
+    GPH m, TEMP 0.1 C, DPDP (dewpoint depression) 0.1 C, WDIR deg, WSPD 0.1 m/s; -9999 and
+    -8888 missing).
 ``plain-csv``
     ``altitude_msl_m,pressure_pa,temperature_k`` and either ``wind_dir_deg,wind_speed_mps``
     (meteorological "from" direction) or ``wind_north_mps,wind_east_mps``, optionally
-    ``density_kgm3``; columns by name in any order, leading ``#`` lines are a description.
+    ``density_kgm3`` and ``dewpoint_k``; columns by name in any order, leading ``#`` lines are
+    a description.
 
-Rules (the same for every format):
-
-- Geopotential height is taken as geometric altitude above mean sea level; the difference is
-  under 1 m below 3 km (and about 0.15 % higher up), far inside the other errors here.
-- A *level* needs altitude, pressure, temperature, wind direction and speed (or the two wind
-  components) and, if the file has a density column, density. A level missing any of them
-  (blank field, or -9999/-8888 in IGRA2) is dropped and counted in ``dropped_levels``.
-- Text that is present but not a number, and numbers written as NaN or inf, are errors
-  (a missing value must be blank or the format's missing code).
-- After dropping, altitude must not decrease: a level at the same altitude as the previous
-  kept level is dropped (the first is kept) and counted in ``dropped_levels``; a level lower
-  than the previous one is an error naming its line.
-- Pressure, temperature (K) and density must be positive, wind speed non-negative.
-- A present value outside its plausible range (altitude -1 to 100 km, pressure up to
-  120 kPa, temperature 100 to 400 K, wind speed up to 200 m/s, density up to 2.5 kg/m^3),
-  or one that overflows in its unit conversion, is an error naming its line.
-- Fewer than 2 usable levels is an error.
+The rules every format's levels follow (which are dropped, which are errors; the optional
+dewpoint) are those of :mod:`casrecon.io.sounding_levels`, which also holds :class:`Sounding`.
 """
 
 from __future__ import annotations
@@ -47,62 +34,12 @@ import numpy as np
 
 from casrecon.io._csvtools import find_columns, parse_floats, read_lines, split_rows
 from casrecon.io.errors import InputError
+from casrecon.io.sounding_levels import Sounding, checked_wind, sounding_from_levels
 
 KNOT_MPS = 1852.0 / 3600.0
 ZERO_C_K = 273.15
 _IGRA_HEADER = re.compile(r"^#[A-Z0-9]{11} \d{4} \d\d \d\d \d\d")
 _PLAIN_REQUIRED = ("altitude_msl_m", "pressure_pa", "temperature_k")
-# Plausible range of each quantity in SI (inclusive): altitude from below the Dead Sea to the
-# top of any balloon or rocket sounding, surface pressure records, the coldest mesopause and
-# hottest surface, the fastest jet stream with margin, and density from vacuum to twice sea level.
-_PLAUSIBLE = {"z": ("altitude", "m", -1000.0, 100_000.0), "p": ("pressure", "Pa", 0.0, 120_000.0),
-              "t": ("temperature", "K", 100.0, 400.0), "wind": ("wind speed", "m/s", 0.0, 200.0),
-              "rho": ("density", "kg/m^3", 0.0, 2.5)}
-
-
-@dataclass(frozen=True)
-class Sounding:
-    """An atmospheric profile from a balloon sounding, SI units, altitude increasing.
-
-    Attributes
-    ----------
-    path : str
-        File read.
-    format : str
-        ``"wyoming-csv"``, ``"wyoming-list"``, ``"igra2"`` or ``"plain-csv"``.
-    altitude_msl_m : numpy.ndarray
-        Altitude above mean sea level, m, strictly increasing (geopotential taken as
-        geometric).
-    pressure_pa : numpy.ndarray
-        Static pressure, Pa.
-    temperature_k : numpy.ndarray
-        Air temperature, K.
-    wind_north_mps, wind_east_mps : numpy.ndarray
-        Wind velocity (the vector the air moves towards), north and east components, m/s.
-    density_kgm3 : numpy.ndarray or None
-        Air density, kg/m^3, only when the file gives it.
-    description : str
-        Station and time, when known.
-    dropped_levels : int
-        Levels of the file not used: missing a required value, or repeating the altitude of
-        the previous kept level.
-    """
-
-    path: str
-    format: str
-    altitude_msl_m: np.ndarray
-    pressure_pa: np.ndarray
-    temperature_k: np.ndarray
-    wind_north_mps: np.ndarray
-    wind_east_mps: np.ndarray
-    density_kgm3: np.ndarray | None
-    description: str
-    dropped_levels: int
-
-    @property
-    def n(self) -> int:
-        """Number of levels."""
-        return int(self.altitude_msl_m.size)
 
 
 @dataclass(frozen=True)
@@ -125,28 +62,6 @@ class Igra2Launch:
     description: str
     declared_levels: int
     present_levels: int
-
-
-def wind_from_direction(direction_from_deg: np.ndarray | float, speed_mps: np.ndarray | float,
-                        ) -> tuple[np.ndarray, np.ndarray]:
-    """North and east wind components from meteorological direction and speed.
-
-    Parameters
-    ----------
-    direction_from_deg : array_like
-        Direction the wind blows FROM, degrees clockwise from true north.
-    speed_mps : array_like
-        Wind speed, m/s.
-
-    Returns
-    -------
-    (north, east) : tuple of numpy.ndarray
-        Components of the velocity of the air (where it blows TOWARDS), m/s. A wind from
-        270 deg (west) gives north = 0, east = +speed.
-    """
-    d = np.radians(np.asarray(direction_from_deg, dtype=np.float64))
-    s = np.asarray(speed_mps, dtype=np.float64)
-    return -s * np.cos(d), -s * np.sin(d)
 
 
 def detect_sounding_format(lines: list[str]) -> str | None:
@@ -203,66 +118,6 @@ def read_sounding(path: str | Path, launch: int = 0) -> Sounding:
                      "'altitude_msl_m,pressure_pa,temperature_k,...'")
 
 
-def _finish(path: str | Path, fmt: str, cols: dict[str, np.ndarray], lines: np.ndarray,
-            description: str) -> Sounding:
-    """Drop incomplete levels, check order and signs, and build the Sounding.
-
-    ``cols`` holds ``z, p, t, wn, we`` and optionally ``rho`` (SI, NaN = missing).
-    """
-    _check_plausible(path, cols, lines)
-    have = np.ones(lines.size, dtype=bool)
-    for v in cols.values():
-        have &= np.isfinite(v)
-    dropped = int(np.count_nonzero(~have))
-    cols = {k: v[have] for k, v in cols.items()}
-    lines = np.asarray(lines)[have]
-    if lines.size < 2:
-        raise InputError(path, f"fewer than 2 usable levels ({lines.size} usable, {dropped} "
-                         "dropped for missing values)")
-    step = np.diff(cols["z"])
-    if np.any(step < 0):
-        k = int(np.argmax(step < 0)) + 1
-        raise InputError(path, f"altitude decreases ({cols['z'][k - 1]:g} m then "
-                         f"{cols['z'][k]:g} m); levels must go upwards", line=int(lines[k]))
-    keep = np.concatenate([[True], step > 0])
-    dropped += int(np.count_nonzero(~keep))
-    cols = {k: v[keep] for k, v in cols.items()}
-    lines = lines[keep]
-    for key, name in (("p", "pressure"), ("t", "temperature"), ("rho", "density")):
-        if key in cols and np.any(cols[key] <= 0):
-            k = int(np.argmax(cols[key] <= 0))
-            raise InputError(path, f"{name} must be positive, got {cols[key][k]:g} (SI)",
-                             line=int(lines[k]), field=name)
-    if cols["z"].size < 2:
-        raise InputError(path, f"fewer than 2 usable levels ({cols['z'].size} usable, "
-                         f"{dropped} dropped for missing values)")
-    return Sounding(str(path), fmt, cols["z"], cols["p"], cols["t"], cols["wn"], cols["we"],
-                    cols.get("rho"), description, dropped)
-
-
-def _check_plausible(path: str | Path, cols: dict[str, np.ndarray], lines: np.ndarray) -> None:
-    """Reject a present value outside what the atmosphere holds (a unit slip, a corrupt digit);
-    NaN is missing (dropped later), inf a number that overflowed in its unit conversion."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        values = dict(cols, wind=np.hypot(cols["wn"], cols["we"]))
-    for key, (name, unit, low, high) in _PLAUSIBLE.items():
-        v = values.get(key, np.full(lines.size, np.nan))
-        bad = ~np.isnan(v) & ~((v >= low) & (v <= high))
-        if np.any(bad):
-            k = int(np.argmax(bad))
-            raise InputError(path, f"{name} {v[k]:g} {unit} (SI) is outside the plausible range "
-                             f"[{low:g}, {high:g}] {unit}", line=int(lines[k]), field=name)
-
-
-def _wind(path: str | Path, direction: np.ndarray, speed: np.ndarray, lines: np.ndarray,
-          ) -> tuple[np.ndarray, np.ndarray]:
-    if np.any(speed < 0):
-        k = int(np.argmax(speed < 0))
-        raise InputError(path, f"negative wind speed {speed[k]:g}", line=int(lines[k]),
-                         field="wind speed")
-    return wind_from_direction(direction, speed)
-
-
 # ----------------------------------------------------------------------------- Wyoming CSV
 _WYO_CSV = {  # quantity -> {unit: (scale, offset)} converting to SI
     "pressure": {"hPa": (100.0, 0.0), "Pa": (1.0, 0.0)},
@@ -271,6 +126,9 @@ _WYO_CSV = {  # quantity -> {unit: (scale, offset)} converting to SI
     "wind direction": {"degree": (1.0, 0.0), "deg": (1.0, 0.0)},
     "wind speed": {"m/s": (1.0, 0.0), "knot": (KNOT_MPS, 0.0)},
 }
+
+
+_WYO_DEWPOINT = "dew point temperature"
 
 
 def _read_wyoming_csv(path: str | Path, lines: list[str]) -> Sounding:
@@ -293,23 +151,33 @@ def _read_wyoming_csv(path: str | Path, lines: list[str]) -> Sounding:
         raw = parse_floats(path, [r[k] for r in rows], numbers, header[k], allow_empty=True)
         with np.errstate(over="ignore"):  # an overflow becomes inf, rejected in _finish
             vals[name] = raw * scale + offset
-    wn, we = _wind(path, vals["wind direction"], np.nan_to_num(vals["wind speed"], nan=0.0),
+    wn, we = checked_wind(path, vals["wind direction"], np.nan_to_num(vals["wind speed"], nan=0.0),
                    numbers)
     missing_wind = np.isnan(vals["wind direction"]) | np.isnan(vals["wind speed"])
     wn[missing_wind] = np.nan
     cols = {"z": vals["geopotential height"], "p": vals["pressure"],
             "t": vals["temperature"], "wn": wn, "we": we}
+    if _WYO_DEWPOINT in quantity:  # optional: humidity
+        k, unit = quantity[_WYO_DEWPOINT]
+        units = _WYO_CSV["temperature"]
+        if unit not in units:
+            raise InputError(path, f"unknown unit '{unit}' for {_WYO_DEWPOINT}; expected one of "
+                             f"{', '.join(units)}", line=1, field=header[k])
+        scale, offset = units[unit]
+        raw = parse_floats(path, [r[k] for r in rows], numbers, header[k], allow_empty=True)
+        with np.errstate(over="ignore"):
+            cols["dew"] = raw * scale + offset
     desc = ""
     if rows and "time" in header:
         desc = rows[0][header.index("time")].strip()
         if "latitude" in header and "longitude" in header:
             desc += (f" at lat {rows[0][header.index('latitude')].strip()} lon "
                      f"{rows[0][header.index('longitude')].strip()}")
-    return _finish(path, "wyoming-csv", cols, numbers, desc)
+    return sounding_from_levels(path, "wyoming-csv", cols, numbers, desc)
 
 
 # ---------------------------------------------------------------------------- Wyoming LIST
-_WYO_LIST_UNITS = {"PRES": {"hPa": 100.0}, "HGHT": {"m": 1.0}, "TEMP": {"C": 1.0},
+_WYO_LIST_UNITS = {"PRES": {"hPa": 100.0}, "HGHT": {"m": 1.0}, "TEMP": {"C": 1.0}, "DWPT": {"C": 1.0},
                    "DRCT": {"deg": 1.0}, "SKNT": {"knot": KNOT_MPS}, "SPED": {"m/s": 1.0}}
 
 
@@ -330,7 +198,8 @@ def _read_wyoming_list(path: str | Path, lines: list[str]) -> Sounding:
         raise InputError(path, "no units line under the column names", line=hk + 1)
     units_line = lines[hk + 1]
     speed = "SKNT" if "SKNT" in spans else "SPED"
-    for name in ("PRES", "HGHT", "TEMP", "DRCT", speed):
+    read = ("PRES", "HGHT", "TEMP", "DRCT", speed) + (("DWPT",) if "DWPT" in spans else ())  # DWPT optional
+    for name in read:
         if name not in spans:
             raise InputError(path, f"required column '{name}' is missing", line=hk + 1,
                              field=name)
@@ -351,18 +220,20 @@ def _read_wyoming_list(path: str | Path, lines: list[str]) -> Sounding:
         numbers.append(k + 1)
     numbers_a = np.array(numbers, dtype=np.int64)
     vals = {}
-    for name in ("PRES", "HGHT", "TEMP", "DRCT", speed):
+    for name in read:
         a, b = spans[name]
         unit = units_line[a:b].strip()
         raw = parse_floats(path, [ln[a:b] for ln in body], numbers_a, name, allow_empty=True)
         with np.errstate(over="ignore"):  # an overflow becomes inf, rejected in _finish
             vals[name] = raw * _WYO_LIST_UNITS[name][unit]
-    wn, we = _wind(path, vals["DRCT"], np.nan_to_num(vals[speed], nan=0.0), numbers_a)
+    wn, we = checked_wind(path, vals["DRCT"], np.nan_to_num(vals[speed], nan=0.0), numbers_a)
     wn[np.isnan(vals["DRCT"]) | np.isnan(vals[speed])] = np.nan
     cols = {"z": vals["HGHT"], "p": vals["PRES"], "t": vals["TEMP"] + ZERO_C_K,
             "wn": wn, "we": we}
+    if "DWPT" in vals:
+        cols["dew"] = vals["DWPT"] + ZERO_C_K
     desc = next((ln.strip() for ln in lines[:hk] if ln.strip() and "---" not in ln), "")
-    return _finish(path, "wyoming-list", cols, numbers_a, desc)
+    return sounding_from_levels(path, "wyoming-list", cols, numbers_a, desc)
 
 
 # ----------------------------------------------------------------------------------- IGRA2
@@ -424,18 +295,18 @@ def _read_igra2(path: str | Path, lines: list[str], launch: int) -> Sounding:
         if len(ln.rstrip()) < 51:
             raise InputError(path, f"truncated IGRA2 level ({len(ln.rstrip())} characters, "
                              "expected 51)", line=int(n))
-    fields = {"PRESS": (9, 15), "GPH": (16, 21), "TEMP": (22, 27), "WDIR": (40, 45),
+    fields = {"PRESS": (9, 15), "GPH": (16, 21), "TEMP": (22, 27), "DPDP": (34, 39), "WDIR": (40, 45),
               "WSPD": (46, 51)}
     v = {}
     for name, (a, b) in fields.items():
         raw = parse_floats(path, [ln[a:b] for ln in body], numbers, name)
         v[name] = np.where((raw == -9999) | (raw == -8888), np.nan, raw)
-    wn, we = _wind(path, v["WDIR"], np.nan_to_num(v["WSPD"], nan=0.0) / 10.0, numbers)
+    wn, we = checked_wind(path, v["WDIR"], np.nan_to_num(v["WSPD"], nan=0.0) / 10.0, numbers)
     wn[np.isnan(v["WDIR"]) | np.isnan(v["WSPD"])] = np.nan
     cols = {"z": v["GPH"], "p": v["PRESS"], "t": v["TEMP"] / 10.0 + ZERO_C_K, "wn": wn,
-            "we": we}
+            "we": we, "dew": (v["TEMP"] - v["DPDP"]) / 10.0 + ZERO_C_K}
     desc = f"{info.description} (launch {launch} of {len(launches)})"
-    return _finish(path, "igra2", cols, numbers, desc)
+    return sounding_from_levels(path, "igra2", cols, numbers, desc)
 
 
 # ------------------------------------------------------------------------------- plain CSV
@@ -450,7 +321,7 @@ def _read_plain_csv(path: str | Path, lines: list[str]) -> Sounding:
     header = [h.strip() for h in lines[hk].split(",")]
     by_dir = "wind_dir_deg" in header or "wind_north_mps" not in header
     wind = ("wind_dir_deg", "wind_speed_mps") if by_dir else ("wind_north_mps", "wind_east_mps")
-    wanted = [*_PLAIN_REQUIRED, *wind] + (["density_kgm3"] if "density_kgm3" in header else [])
+    wanted = [*_PLAIN_REQUIRED, *wind] + [c for c in ("density_kgm3", "dewpoint_k") if c in header]
     col = find_columns(path, header, wanted, line=hk + 1, kind="a plain CSV sounding")
     body = [(k + 1, ln) for k, ln in enumerate(lines) if k > hk and ln.strip()]
     numbers = np.array([n for n, _ in body], dtype=np.int64)
@@ -458,7 +329,7 @@ def _read_plain_csv(path: str | Path, lines: list[str]) -> Sounding:
     v = {name: parse_floats(path, [r[col[name]] for r in rows], numbers, name, allow_empty=True)
          for name in wanted}
     if by_dir:
-        wn, we = _wind(path, v["wind_dir_deg"], np.nan_to_num(v["wind_speed_mps"], nan=0.0),
+        wn, we = checked_wind(path, v["wind_dir_deg"], np.nan_to_num(v["wind_speed_mps"], nan=0.0),
                        numbers)
         wn[np.isnan(v["wind_dir_deg"]) | np.isnan(v["wind_speed_mps"])] = np.nan
     else:
@@ -467,7 +338,9 @@ def _read_plain_csv(path: str | Path, lines: list[str]) -> Sounding:
             "wn": wn, "we": we}
     if "density_kgm3" in v:
         cols["rho"] = v["density_kgm3"]
-    return _finish(path, "plain-csv", cols, numbers, " ".join(c for c in comments if c))
+    if "dewpoint_k" in v:
+        cols["dew"] = v["dewpoint_k"]
+    return sounding_from_levels(path, "plain-csv", cols, numbers, " ".join(c for c in comments if c))
 
 
 def write_sounding_csv(path: str | Path, s: Sounding) -> None:
@@ -475,7 +348,8 @@ def write_sounding_csv(path: str | Path, s: Sounding) -> None:
 
     The description, if any, goes on a leading ``# `` comment line, which
     :func:`read_sounding` reads back. Columns: ``altitude_msl_m,pressure_pa,temperature_k,
-    wind_north_mps,wind_east_mps`` and ``density_kgm3`` when the sounding has density.
+    wind_north_mps,wind_east_mps``, ``density_kgm3`` when the sounding has density and
+    ``dewpoint_k`` when it has dewpoints (blank at levels without one).
 
     Parameters
     ----------
@@ -491,8 +365,11 @@ def write_sounding_csv(path: str | Path, s: Sounding) -> None:
     if s.density_kgm3 is not None:
         names.append("density_kgm3")
         cols.append(s.density_kgm3)
+    if s.dewpoint_k is not None:
+        names.append("dewpoint_k")
+        cols.append(s.dewpoint_k)
     out = [f"# {' '.join(s.description.split())}"] if s.description.strip() else []
     out.append(",".join(names))
     table = np.column_stack([np.asarray(c, dtype=np.float64) for c in cols])
-    out.extend(",".join(f"{x:.10g}" for x in row) for row in table)
+    out.extend(",".join("" if np.isnan(x) else f"{x:.10g}" for x in row) for row in table)
     Path(path).write_text("\n".join(out) + "\n", encoding="utf-8")

@@ -14,6 +14,13 @@ Two estimable corrections act on the balloon's profile:
 - ``wind_bias`` (north, east), m/s, added at every altitude, and an optional linear change of that
   bias with altitude (``wind_gradient``, 1/s, per metre above ``gradient_ref_alt_msl_m``);
 - ``density_factor`` (dimensionless): rho = rho_balloon (1 + density_factor).
+
+Humidity: where the sounding gives a dewpoint, the density is that of moist air,
+rho = p / (R_d T) (1 - (1 - eps) e / p) with e the vapour pressure at the dewpoint (Bolton's
+formula) and eps = R_d / R_v, which is 0.3 to 1 % below the dry p / (R_d T) in warm humid
+air; levels without a dewpoint take the mixing ratio interpolated in altitude from the levels
+that have one (held beyond them). The speed of sound stays the dry sqrt(gamma R_d T): humidity
+raises it by under 0.3 % (at a vapour pressure of 3 % of p).
 """
 
 from __future__ import annotations
@@ -23,8 +30,12 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-#: Specific gas constant of dry air, J/(kg K). Humidity is neglected (under 1 % in density).
+#: Specific gas constant of dry air, J/(kg K).
 R_AIR = 287.05287
+#: Specific gas constant of water vapour, J/(kg K).
+R_VAPOUR = 461.5
+#: R_AIR / R_VAPOUR: the molar mass of water over that of dry air.
+EPSILON = R_AIR / R_VAPOUR
 #: Ratio of specific heats of air.
 GAMMA_AIR = 1.4
 #: How far (m) beyond each end level of the sounding its Taylor continuation reaches (see the
@@ -63,34 +74,39 @@ class Atmosphere:
     altitude_msl_m, pressure_pa, temperature_k, wind_north_mps, wind_east_mps : array_like
         The sounding's levels, altitude strictly increasing.
     density_kgm3 : array_like, optional
-        Measured density; computed from p / (R T) when absent.
+        Measured density; computed from p, T and the humidity when absent.
     gradient_ref_alt_msl_m : float
         Altitude at which the wind-gradient correction is zero, m MSL.
+    dewpoint_k : array_like, optional
+        Dewpoint of each level, K, NaN where the level has none (see the module docstring); no
+        dewpoint at all: dry air. Not used when the density is given.
     """
 
     def __init__(self, altitude_msl_m, pressure_pa, temperature_k, wind_north_mps, wind_east_mps,
-                 density_kgm3=None, gradient_ref_alt_msl_m: float = 0.0) -> None:
+                 density_kgm3=None, gradient_ref_alt_msl_m: float = 0.0, dewpoint_k=None) -> None:
         h = np.asarray(altitude_msl_m, dtype=float)
         if h.ndim != 1 or h.size < 2 or np.any(np.diff(h) <= 0):
             raise ValueError("atmosphere altitudes must be a strictly increasing list of >= 2 levels")
         p = np.asarray(pressure_pa, dtype=float)
         t = np.asarray(temperature_k, dtype=float)
-        rho = p / (R_AIR * t) if density_kgm3 is None else np.asarray(density_kgm3, dtype=float)
+        e = level_vapour_pressure(h, p, dewpoint_k)
+        rho = moist_density(p, t, e) if density_kgm3 is None else np.asarray(density_kgm3, dtype=float)
         self.altitude_range_m = (float(h[0]), float(h[-1]))
         self.gradient_ref_alt_msl_m = float(gradient_ref_alt_msl_m)
         self._levels = {"altitude_msl_m": h, "pressure_pa": p, "temperature_k": t,
                         "wind_north_mps": np.asarray(wind_north_mps, float),
-                        "wind_east_mps": np.asarray(wind_east_mps, float), "density_kgm3": rho}
+                        "wind_east_mps": np.asarray(wind_east_mps, float), "density_kgm3": rho,
+                        "vapour_pressure_pa": e}
         grid, data = _resample(h, np.vstack([np.log(p), t, np.log(rho), wind_north_mps, wind_east_mps]))
         self._table = ca.interpolant("atmosphere", "bspline", [grid], data.T.ravel().tolist())
         self._ends = tuple(_taylor_coefficients(self._table, end) for end in self.altitude_range_m)
 
     @classmethod
     def from_sounding(cls, sounding, gradient_ref_alt_msl_m: float = 0.0) -> Atmosphere:
-        """Build from a :class:`casrecon.io.sounding.Sounding` (or anything with its fields)."""
+        """Build from a :class:`casrecon.io.sounding_levels.Sounding` (or anything with its fields)."""
         return cls(sounding.altitude_msl_m, sounding.pressure_pa, sounding.temperature_k,
                    sounding.wind_north_mps, sounding.wind_east_mps, sounding.density_kgm3,
-                   gradient_ref_alt_msl_m)
+                   gradient_ref_alt_msl_m, getattr(sounding, "dewpoint_k", None))
 
     @classmethod
     def standard(cls, bottom_msl_m: float = -500.0, top_msl_m: float = 11000.0) -> Atmosphere:
@@ -121,6 +137,38 @@ class Atmosphere:
         wind = ca.vertcat(values[3] + corr.wind_bias_n + corr.wind_gradient_n * dh,
                           values[4] + corr.wind_bias_e + corr.wind_gradient_e * dh, 0)
         return AtmosphereState(rho, t, p, ca.sqrt(GAMMA_AIR * R_AIR * t), wind)
+
+
+def vapour_pressure(dewpoint_k):
+    """Water-vapour pressure, Pa, of air whose dewpoint is ``dewpoint_k`` (K): the saturation
+    vapour pressure over water at the dewpoint, by Bolton's (1980) formula
+    e = 611.2 exp(17.67 t / (t + 243.5)), t the dewpoint in deg C (within 0.1 % from -30 to 35 C)."""
+    t_c = np.asarray(dewpoint_k, dtype=float) - 273.15
+    return 611.2 * np.exp(17.67 * t_c / (t_c + 243.5))
+
+
+def moist_density(pressure_pa, temperature_k, vapour_pressure_pa=0.0):
+    """Density of moist air, kg/m^3: dry air at p - e plus water vapour at e, both at T,
+    rho = p / (R_d T) (1 - (1 - EPSILON) e / p) (e = 0: the dry p / (R_d T))."""
+    p = np.asarray(pressure_pa, dtype=float)
+    return p / (R_AIR * np.asarray(temperature_k, dtype=float)) * (1.0 - (1.0 - EPSILON) * vapour_pressure_pa / p)
+
+
+def level_vapour_pressure(altitude_msl_m: np.ndarray, pressure_pa: np.ndarray, dewpoint_k=None) -> np.ndarray:
+    """Vapour pressure (Pa) at every level: from the level's dewpoint where it has one, else from
+    the mixing ratio eps e / (p - e) interpolated linearly in altitude between the levels that
+    have one and held beyond them; zero at every level when no level has a dewpoint."""
+    p = np.asarray(pressure_pa, dtype=float)
+    if dewpoint_k is None:
+        return np.zeros_like(p)
+    dew = np.asarray(dewpoint_k, dtype=float)
+    known = np.isfinite(dew)
+    if not known.any():
+        return np.zeros_like(p)
+    e_known = vapour_pressure(dew[known])
+    ratio = np.interp(altitude_msl_m, np.asarray(altitude_msl_m, float)[known],
+                      EPSILON * e_known / (p[known] - e_known))
+    return p * ratio / (EPSILON + ratio)
 
 
 def _taylor_coefficients(table: ca.Function, alt_msl_m: float) -> tuple[ca.DM, ca.DM, ca.DM]:

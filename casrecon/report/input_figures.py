@@ -23,13 +23,13 @@ from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc, read_flysight
 from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, ImuCsvSpec, ImuLog, read_imu_csv
 from casrecon.io.input_kind import input_kind
-from casrecon.io.sounding import Sounding, read_sounding
+from casrecon.io.sounding import read_sounding
+from casrecon.io.sounding_levels import Sounding
+from casrecon.physics.atmosphere import level_vapour_pressure, moist_density
 from casrecon.report import figure_style as style
 from casrecon.report.figure_layout import log_axis
 from casrecon.report.results_folder import DropFolder, MissingInput
 
-#: Gas constant of dry air, J/(kg K), for the density of a sounding that gives none.
-R_AIR = 287.05
 #: Where a results folder records its data files.
 RESOLVED = "config/resolved.json"
 AXES = "xyz"
@@ -147,20 +147,22 @@ def gps_figure(track: GpsTrack, title: str, timeline: Timeline, origin: tuple[fl
 
 
 def sounding_figure(s: Sounding, title: str, drop_range_msl_m: tuple[float, float] | None = None) -> Figure:
-    """Wind speed, the direction it blows from, temperature and density (given, or p / (R T))
-    against altitude MSL; ``drop_range_msl_m`` (ground, release) shaded and used to zoom the
-    altitude axis."""
+    """Wind speed, the direction it blows from, temperature and density (given, or from p, T and
+    the dewpoint as the fit's atmosphere makes it) against altitude MSL; ``drop_range_msl_m``
+    (ground, release) shaded and used to zoom the altitude axis."""
     h = s.altitude_msl_m
     speed = np.hypot(s.wind_north_mps, s.wind_east_mps)
     direction = np.degrees(np.arctan2(-s.wind_east_mps, -s.wind_north_mps)) % 360.0
     given = s.density_kgm3 is not None
-    rho = s.density_kgm3 if given else s.pressure_pa / (R_AIR * s.temperature_k)
+    rho = s.density_kgm3 if given else moist_density(
+        s.pressure_pa, s.temperature_k, level_vapour_pressure(h, s.pressure_pa, s.dewpoint_k))
     fig, axes = style.new_figure(1, 4, (15, 6), sharex=False, fixed=True)
     for ax in axes[0, 1:]:
         ax.sharey(axes[0, 0])
     panels = ((speed, "wind speed, m/s", ".-"), (direction, "wind direction (from), deg", "."),
               (s.temperature_k, "temperature, K", ".-"),
-              (rho, "density" + ("" if given else r" $p / (R T)$") + r", kg/m$^3$", ".-"))
+              (rho, "density" + ("" if given else (r" $p / (R T)$" if s.dewpoint_k is None else ", moist air"))
+               + r", kg/m$^3$", ".-"))
     for ax, (x, label, fmt) in zip(axes[0], panels):
         if drop_range_msl_m is not None:
             ax.axhspan(*drop_range_msl_m, color=SHADE, zorder=0, label="drop (ground to release)")

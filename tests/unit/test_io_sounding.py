@@ -15,9 +15,9 @@ from casrecon.io.sounding import (
     KNOT_MPS,
     igra2_launches,
     read_sounding,
-    wind_from_direction,
     write_sounding_csv,
 )
+from casrecon.io.sounding_levels import wind_from_direction
 
 SND = (REALDATA_DIR / "soundings")
 LIST = SND / "20110522_OUN_12Z.txt"
