@@ -5,6 +5,7 @@ off or fails."""
 from __future__ import annotations
 
 import logging
+import os
 import shutil
 import threading
 
@@ -124,3 +125,49 @@ def test_an_unwritable_cache_falls_back(tmp_path, monkeypatch):
     f = block_function("blk_unwritable")
     assert cg.compiled(f) is f
     shutil.rmtree(tmp_path / "cache", ignore_errors=True)
+
+
+def test_a_background_build_returns_the_interpreted_function_and_leaves_the_library(cache):
+    f = block_function("blk_background")
+    cg.reset()
+    assert cg.compiled(f, in_background=True) is f  # nothing built yet: the interpreter meanwhile
+    library = cache / f"blk_background-{cg.library_key(f, cg.compiler())}.so"
+    assert library.with_suffix(".building").exists() or library.exists()
+    assert cg.compiled(block_function("blk_background"), in_background=True).name() == "blk_background"
+    cg.wait_for_background_builds(120.0)
+    assert library.exists() and not library.with_suffix(".building").exists()
+    assert [p.name for p in cache.iterdir()] == [library.name]  # its temporary folder removed
+    twin = cg.compiled(block_function("blk_background"), in_background=True)
+    assert twin.class_name() == "External"
+    for a, b in zip(evaluate(f), evaluate(twin)):
+        np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-15)
+
+
+def test_a_build_under_way_is_not_started_again_and_a_stale_mark_is(cache, monkeypatch):
+    f = block_function("blk_marked")
+    cg.reset()
+    library = cache / f"blk_marked-{cg.library_key(f, cg.compiler())}.so"
+    cache.mkdir()
+    mark = library.with_suffix(".building")
+    mark.touch()  # another process is building it
+    assert cg.compiled(f, in_background=True) is f
+    cg.wait_for_background_builds(5.0)
+    assert mark.exists() and not library.exists()  # no second build was started
+    old = mark.stat().st_mtime - cg.STALE_BUILD_S - 1.0
+    os.utime(mark, (old, old))  # that build died long ago
+    assert cg.compiled(f, in_background=True) is f
+    cg.wait_for_background_builds(120.0)
+    assert library.exists() and not mark.exists()
+
+
+def test_a_failing_background_build_leaves_no_library_and_no_mark(cache, monkeypatch, tmp_path):
+    broken = tmp_path / "bin" / "broken-cc"
+    broken.parent.mkdir()
+    broken.write_text("#!/bin/sh\nexit 1\n")
+    broken.chmod(0o755)
+    monkeypatch.setenv("CC", str(broken))
+    cg.reset()
+    f = block_function("blk_background_broken")
+    assert cg.compiled(f, in_background=True) is f
+    cg.wait_for_background_builds(60.0)
+    assert not list(cache.iterdir())

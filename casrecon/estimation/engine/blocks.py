@@ -176,13 +176,15 @@ class BlockSet:
         self._derivs: ca.Function | None = None
         self._values: ca.Function | None = None
 
-    def mapped(self, function: ca.Function) -> ca.Function:
+    def mapped(self, function: ca.Function, in_background: bool = False) -> ca.Function:
         """``function`` mapped over every block, compiled first (see :mod:`.compiled`) when one
         evaluation over all blocks is at least COMPILE_MIN_WORK instructions (compiled functions
-        have no derivatives: for symbolic work use :meth:`symbolic_values`)."""
+        have no derivatives: for symbolic work use :meth:`symbolic_values`); ``in_background``:
+        a library not built yet is built in the background and the interpreted function mapped
+        meanwhile (for functions evaluated once or twice per fit)."""
         n = self.n_blocks
         if function.n_instructions() * n >= COMPILE_MIN_WORK:
-            function = compiled(function)
+            function = compiled(function, in_background)
         return function.map(n, "thread", MAP_THREADS) if n > 1 else function
 
     @property
@@ -204,8 +206,19 @@ class BlockSet:
 
     @cached_property
     def hess(self) -> ca.Function:
-        """The kind's exact-Hessian function over all blocks (built at first use)."""
+        """The kind's exact-Hessian function over all blocks, for a solver that evaluates it at
+        every iterate (built at first use; its library compiled before it is used)."""
         return self.mapped(self.kind.exact_hessian)
+
+    @cached_property
+    def hess_once(self) -> ca.Function:
+        """The kind's exact-Hessian function over all blocks, for one or two evaluations (the
+        covariance's): :attr:`hess` when it is made, else the compiled one if its library is
+        built, else the interpreted one while the library is built in the background (its build
+        takes longer than a fit; see :mod:`casrecon.physics.compiled`)."""
+        if "hess" in self.__dict__:
+            return self.hess
+        return self.mapped(self.kind.exact_hessian, in_background=True)
 
     def symbolic_values(self, z: ca.MX) -> list:
         """The blocks' (residuals[, constraints]) as MX of the global ``z``, with the interpreted
