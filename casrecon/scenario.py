@@ -7,6 +7,7 @@ writer and (later) the estimator all start from the same place.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,6 +39,19 @@ class Scenario:
         sounding = read_sounding(config.atmosphere.sounding, launch=config.atmosphere.launch)
         atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m)
         return cls(config, atmosphere, _flight_model(config, atmosphere))
+
+    def with_fresh_functions(self) -> Scenario:
+        """The same drop with its CasADi interpolants (the sounding's, the aero tables') made anew,
+        and the model with them; the numbers are the same to the bit. CasADi keeps the derivative
+        functions made from an interpolant with it, and they are part of the serialised expression
+        that names a compiled library (:mod:`casrecon.physics.compiled`): a fit that reused another
+        fit's interpolants named its libraries differently from a first fit and compiled them again
+        (7 s once per vehicle and mesh rate). Each fit starts from fresh ones."""
+        aero = self.config.aero  # a coefficient table's interpolant is made in its __post_init__
+        config = dataclasses.replace(self.config, aero=dataclasses.replace(
+            aero, coefficients=dataclasses.replace(aero.coefficients)))
+        atmosphere = self.atmosphere.copy()
+        return Scenario(config, atmosphere, _flight_model(config, atmosphere))
 
     def flying(self, atmosphere: Atmosphere) -> Scenario:
         """The same drop through another atmosphere (a new Scenario whose model flies ``atmosphere``;

@@ -271,6 +271,8 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
 
     def fitted(sc: Scenario, start, guess_clock_s: float, prior_sigma: np.ndarray | None = None,
                notes: tuple[str, ...] = ()) -> FitResult:
+        sc = sc.with_fresh_functions()  # its compiled functions named as in any other fit of the drop
+
         def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
             return build_nlp(sc.model, data, mesh, params, sc.config, settings.hessian, guesses[cfg.name],
                              measurements, altitudes.get(cfg.name), profile_prior_sigma=prior_sigma)

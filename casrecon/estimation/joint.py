@@ -182,6 +182,7 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     settings, setting_notes = joint_settings(scenarios, hessian=hessian, linear_solver=linear_solver,
                                              max_iter=max_iter, tol=tol, print_level=print_level, solver=solver,
                                              method=method)
+    scenarios = [sc.with_fresh_functions() for sc in scenarios]  # see Scenario.with_fresh_functions
     t0 = time.perf_counter()
     # each drop's data read and checked side by side; the initial guesses (CasADi functions, whose
     # making is not thread-safe: casadi#1355) one after the other

@@ -118,6 +118,15 @@ class Atmosphere:
         zero = np.zeros_like(h)
         return cls(h, p, t, zero, zero)
 
+    def copy(self) -> Atmosphere:
+        """The same atmosphere (the same levels, values to the bit) with a new CasADi interpolant,
+        which holds none of the derivative functions made from this one's."""
+        lv = self._levels
+        out = Atmosphere(lv["altitude_msl_m"], lv["pressure_pa"], lv["temperature_k"], lv["wind_north_mps"],
+                         lv["wind_east_mps"], lv["density_kgm3"], self.gradient_ref_alt_msl_m)
+        out._levels["vapour_pressure_pa"] = lv["vapour_pressure_pa"]
+        return out
+
     @property
     def levels(self) -> dict[str, np.ndarray]:
         """The sounding levels this atmosphere was built from (SI units)."""
