@@ -48,8 +48,8 @@ LOG = logging.getLogger(__name__)
 #: several times longer (see benchmarks/fit_speed.py).
 OPT_FLAG = "-O1"
 
-#: A background build's mark older than this (s) is taken as that of a build that died, and another
-#: build may start.
+#: A background build is stopped after this long (s), and a mark older than this is taken as that
+#: of a build that died: another build may start.
 STALE_BUILD_S = 1800.0
 #: What the detached process of a background build runs: compile (the command in argv), move the
 #: library into place, remove its temporary folder and the mark, whatever happens.
@@ -187,9 +187,9 @@ def start_background_build(function: ca.Function, cc: str, library: Path) -> Non
     try:
         command, out = _generated(function, cc, folder, library.name)
         _background.append(subprocess.Popen(
-            [sys.executable, "-c", _BACKGROUND_SCRIPT, str(out), str(library), str(mark), str(folder), "1800",
-             *command], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            start_new_session=True))
+            [sys.executable, "-c", _BACKGROUND_SCRIPT, str(out), str(library), str(mark), str(folder),
+             str(STALE_BUILD_S), *command],
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
     except BaseException:
         shutil.rmtree(folder, ignore_errors=True)
         mark.unlink(missing_ok=True)

@@ -82,13 +82,19 @@ def test_codegen_off_keeps_the_interpreted_function(cache, monkeypatch):
     assert cg.compiled(f) is f and not cache.exists()
 
 
-def test_a_failing_compiler_falls_back_with_one_warning(cache, monkeypatch, caplog, tmp_path):
+@pytest.fixture
+def broken_compiler(tmp_path, monkeypatch):
+    """``CC`` set to a compiler that always fails, saying so on stderr."""
     broken = tmp_path / "bin" / "broken-cc"
     broken.parent.mkdir()
     broken.write_text("#!/bin/sh\necho 'broken-cc: cannot compile' >&2\nexit 1\n")
     broken.chmod(0o755)
     monkeypatch.setenv("CC", str(broken))
     cg.reset()
+    return broken
+
+
+def test_a_failing_compiler_falls_back_with_one_warning(cache, broken_compiler, caplog):
     with caplog.at_level(logging.WARNING, logger=cg.LOG.name):
         f = block_function("blk_broken")
         assert cg.compiled(f) is f
@@ -160,13 +166,7 @@ def test_a_build_under_way_is_not_started_again_and_a_stale_mark_is(cache, monke
     assert library.exists() and not mark.exists()
 
 
-def test_a_failing_background_build_leaves_no_library_and_no_mark(cache, monkeypatch, tmp_path):
-    broken = tmp_path / "bin" / "broken-cc"
-    broken.parent.mkdir()
-    broken.write_text("#!/bin/sh\nexit 1\n")
-    broken.chmod(0o755)
-    monkeypatch.setenv("CC", str(broken))
-    cg.reset()
+def test_a_failing_background_build_leaves_no_library_and_no_mark(cache, broken_compiler):
     f = block_function("blk_background_broken")
     assert cg.compiled(f, in_background=True) is f
     cg.wait_for_background_builds(60.0)
