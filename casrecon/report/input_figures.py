@@ -25,7 +25,7 @@ from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, ImuCsvSpec, ImuLog, read_im
 from casrecon.io.input_kind import input_kind
 from casrecon.io.sounding import read_sounding
 from casrecon.io.sounding_levels import Sounding
-from casrecon.physics.atmosphere import level_vapour_pressure, moist_density
+from casrecon.physics.atmosphere import Atmosphere
 from casrecon.report import figure_style as style
 from casrecon.report.figure_layout import log_axis
 from casrecon.report.results_folder import DropFolder, MissingInput
@@ -154,8 +154,7 @@ def sounding_figure(s: Sounding, title: str, drop_range_msl_m: tuple[float, floa
     speed = np.hypot(s.wind_north_mps, s.wind_east_mps)
     direction = np.degrees(np.arctan2(-s.wind_east_mps, -s.wind_north_mps)) % 360.0
     given = s.density_kgm3 is not None
-    rho = s.density_kgm3 if given else moist_density(
-        s.pressure_pa, s.temperature_k, level_vapour_pressure(h, s.pressure_pa, s.dewpoint_k))
+    rho = Atmosphere.from_sounding(s).levels["density_kgm3"]  # the fit's: given, else from p, T and dewpoints
     fig, axes = style.new_figure(1, 4, (15, 6), sharex=False, fixed=True)
     for ax in axes[0, 1:]:
         ax.sharey(axes[0, 0])

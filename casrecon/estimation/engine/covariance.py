@@ -210,7 +210,7 @@ def reduced_hessian(nlp: Nlp, h: sps.csc_matrix, a: sps.csc_matrix,
     must give the same bits."""
     elim = np.asarray(nlp.eliminated, np.int64)
     if split is None:
-        split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
+        split = _split_of(nlp, a)
     hr, b = wide_congruence(h, split.basis, elim)
     return _reduced(split, hr, b, lambda: h[elim][:, elim].tocsc(), elim, a)
 
@@ -220,12 +220,17 @@ def reduced_hessian_from_jacobian(nlp: Nlp, jr: sps.csc_matrix, a: sps.csc_matri
     """:func:`reduced_hessian` of H = J_r^T J_r from the residual Jacobian ``jr`` itself, without
     forming H: (J_r Z)^T (J_r Z), and J_E^T J_E for the eliminated columns."""
     elim = np.asarray(nlp.eliminated, np.int64)
-    split = constraint_split(a, nlp.dependent, nlp.n_determining, elim)
+    split = _split_of(nlp, a)
     if split.lu.n_blocks > 1:  # a joint fit: Z is block-sparse
         hr, b = projected_gram(jr, split.basis, jr[:, elim])
     else:  # dense products (by column chunks when Z is wide) are faster than row chunks when every row
         hr, b = wide_gram(jr, split.basis, jr[:, elim])  # reaches every column
     return _reduced(split, hr, b, lambda: (jr[:, elim].T @ jr[:, elim]).tocsc(), elim, a)
+
+
+def _split_of(nlp: Nlp, a: sps.csc_matrix) -> ConstraintSplit:
+    """The split of ``nlp``'s constraint Jacobian ``a`` (its eliminated columns get zero rows in Z)."""
+    return constraint_split(a, nlp.dependent, nlp.n_determining, np.asarray(nlp.eliminated, np.int64))
 
 
 def reusable_split(split: ConstraintSplit, eliminated: np.ndarray) -> ConstraintSplit:
@@ -319,11 +324,9 @@ def _observed_system(nlp: Nlp, z: np.ndarray, lam_g: np.ndarray, reduced: Reduce
     functions, made at first use, and its blocks): 0.3 s less on an atmosphere-profile fit."""
     d = nlp.derivatives
     a = d.jacobian_g(z)
-    elim = np.asarray(nlp.eliminated, np.int64)
     if reduced is not None and reduced.split is not None:
-        return reduced_hessian(nlp, d.observed_information(z, lam_g), a, reusable_split(reduced.split, elim))
-    split, h = alongside(lambda: constraint_split(a, nlp.dependent, nlp.n_determining, elim),
-                         lambda: d.observed_information(z, lam_g))
+        return reduced_hessian(nlp, d.observed_information(z, lam_g), a, reusable_split(reduced.split, nlp.eliminated))
+    split, h = alongside(lambda: _split_of(nlp, a), lambda: d.observed_information(z, lam_g))
     return reduced_hessian(nlp, h, a, split)
 
 
