@@ -97,3 +97,25 @@ def test_a_factor_whose_refinement_does_not_converge_pivots(monkeypatch):
     want = np.linalg.solve(kkt.toarray(), rhs)
     np.testing.assert_allclose(f.solve(rhs), want, rtol=1e-8, atol=1e-8 * np.abs(want).max())
     assert not f.refined
+
+
+def test_a_chord_solve_with_the_factor_before_equals_the_dense_solve():
+    """A matrix near the one factorised is solved with that factor (refined against the new one);
+    one far from it is factorised for itself. Both give the dense solution."""
+    kkt, n_z, stages, params = fit_like_kkt()
+    marker = kkt.copy()
+    marker.data = np.arange(1.0, kkt.nnz + 1)
+    pattern = OrderedPattern(marker, n_z, stages, params)
+    first = TimeOrderedKkt(pattern, kkt.data)
+    rhs = np.random.default_rng(4).standard_normal(kkt.shape[0])
+    rng = np.random.default_rng(5)
+    for size, stays_stale in ((1e-4, True), (0.5, False)):
+        changed = kkt.copy()
+        changed.data = kkt.data * (1.0 + size * rng.standard_normal(kkt.nnz))
+        changed = (sps.triu(changed) + sps.triu(changed, 1).T).tocsc()  # symmetric, same pattern
+        values = np.asarray(changed[kkt.nonzero()]).ravel()
+        chord = TimeOrderedKkt(pattern, values, earlier=first)
+        assert chord.stale
+        want = np.linalg.solve(sps.csc_matrix((values, kkt.nonzero()), shape=kkt.shape).toarray(), rhs)
+        np.testing.assert_allclose(chord.solve(rhs), want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
+        assert chord.stale == stays_stale and chord.refined
