@@ -24,7 +24,9 @@ the background* (``compiled(f, in_background=True)``): its -O1 build takes longe
 (ees-drop-1's interval exact Hessian, 165,000 instructions: 52 s, and 33 s for its GPS blocks'),
 so a fit that does not find its library evaluates the interpreted function (1.1 s instead of 0.3 s
 for that Hessian) while a detached process builds the library, which later fits, in this process
-or another, then load. A mark file beside the library keeps processes from building it twice.
+or another, then load. A mark file beside the library keeps processes from building it twice; a
+build that fails leaves a note (``.failed``) that stops retries for FAILED_RETRY_S and is repeated
+in one warning per process.
 """
 
 from __future__ import annotations
@@ -51,16 +53,27 @@ OPT_FLAG = "-O1"
 #: A background build is stopped after this long (s), and a mark older than this is taken as that
 #: of a build that died: another build may start.
 STALE_BUILD_S = 1800.0
+#: A background build that failed leaves a note (``library.failed``, the compiler's last words);
+#: for this long (s) after it no build of that library is started again (each would take minutes
+#: of CPU to fail the same way), and the fits that want it say so once per process.
+FAILED_RETRY_S = 86400.0
 #: What the detached process of a background build runs: compile (the command in argv), move the
-#: library into place, remove its temporary folder and the mark, whatever happens.
+#: library into place or, if that fails, write the failure note; remove its temporary folder and
+#: the mark, whatever happens.
 _BACKGROUND_SCRIPT = """
 import os, shutil, subprocess, sys
-out, library, mark, folder, timeout = sys.argv[1:6]
+out, library, mark, folder, timeout, failed = sys.argv[1:7]
 try:
-    subprocess.run(sys.argv[6:], check=True, capture_output=True, timeout=float(timeout))
+    subprocess.run(sys.argv[7:], check=True, capture_output=True, text=True, timeout=float(timeout))
     os.replace(out, library)
-except Exception:
-    pass
+except Exception as err:
+    words = (getattr(err, "stderr", None) or str(err) or type(err).__name__).strip().splitlines()
+    try:
+        with open(failed + ".tmp", "w") as f:
+            f.write((words[-1] if words else type(err).__name__) + "\\n")
+        os.replace(failed + ".tmp", failed)
+    except OSError:
+        pass
 finally:
     shutil.rmtree(folder, ignore_errors=True)
     try:
@@ -173,6 +186,8 @@ def start_background_build(function: ca.Function, cc: str, library: Path) -> Non
     atomically, as with :func:`build_library`."""
     library.parent.mkdir(parents=True, exist_ok=True)
     mark = library.with_suffix(".building")
+    if earlier_failure(function, library):
+        return
     try:
         if time.time() - mark.stat().st_mtime < STALE_BUILD_S:
             return
@@ -188,13 +203,33 @@ def start_background_build(function: ca.Function, cc: str, library: Path) -> Non
         command, out = _generated(function, cc, folder, library.name)
         _background.append(subprocess.Popen(
             [sys.executable, "-c", _BACKGROUND_SCRIPT, str(out), str(library), str(mark), str(folder),
-             str(STALE_BUILD_S), *command],
+             str(STALE_BUILD_S), str(library.with_suffix(".failed")), *command],
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
     except BaseException:
         shutil.rmtree(folder, ignore_errors=True)
         mark.unlink(missing_ok=True)
         raise
     LOG.info("building %s in the background -> %s", function.name(), library)
+
+
+def earlier_failure(function: ca.Function, library: Path) -> bool:
+    """Whether a background build of ``library`` failed less than FAILED_RETRY_S ago (its note
+    ``library.failed`` says why; the first time in this process a warning repeats it). An older
+    note is removed: the build may be tried again."""
+    note = library.with_suffix(".failed")
+    try:
+        age_s = time.time() - note.stat().st_mtime
+        reason = note.read_text(errors="replace").strip() or "no reason given"
+    except OSError:
+        return False
+    if age_s >= FAILED_RETRY_S:
+        note.unlink(missing_ok=True)
+        return False
+    if str(note) not in _warned:
+        _warned.add(str(note))
+        LOG.warning("casrecon: the background build of %s failed %.0f min ago (%s); its interpreted function is "
+                    "used (slower, same numbers); remove %s to try again", function.name(), age_s / 60.0, reason, note)
+    return True
 
 
 def _generated(function: ca.Function, cc: str, folder: Path, library_name: str) -> tuple[list[str], Path]:

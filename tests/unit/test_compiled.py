@@ -166,8 +166,37 @@ def test_a_build_under_way_is_not_started_again_and_a_stale_mark_is(cache, monke
     assert library.exists() and not mark.exists()
 
 
-def test_a_failing_background_build_leaves_no_library_and_no_mark(cache, broken_compiler):
+def test_a_failing_background_build_leaves_a_note_and_is_not_retried_at_once(cache, broken_compiler, caplog,
+                                                                             monkeypatch):
+    """A background build that fails leaves no library and no mark but a note with the compiler's
+    words; the next fits use the interpreted function, say why once, and start no build until the
+    note is FAILED_RETRY_S old."""
     f = block_function("blk_background_broken")
     assert cg.compiled(f, in_background=True) is f
     cg.wait_for_background_builds(60.0)
-    assert not list(cache.iterdir())
+    notes = list(cache.iterdir())
+    assert [p.suffix for p in notes] == [".failed"]
+    assert "broken-cc: cannot compile" in notes[0].read_text()
+    started = []
+
+    class Started:
+        def __init__(self, *args, **kwargs):
+            started.append(args)
+
+        def wait(self, timeout=None):
+            return 0
+
+    monkeypatch.setattr(cg.subprocess, "Popen", Started)
+    with caplog.at_level(logging.WARNING, logger=cg.LOG.name):
+        cg.reset()
+        for _ in range(2):
+            assert cg.compiled(block_function("blk_background_broken"), in_background=True).name() == \
+                "blk_background_broken"
+    warnings = [r.getMessage() for r in caplog.records if "background build" in r.getMessage()]
+    assert len(warnings) == 1 and "broken-cc: cannot compile" in warnings[0] and str(notes[0]) in warnings[0]
+    assert not started
+    old = notes[0].stat().st_mtime - cg.FAILED_RETRY_S - 1.0
+    os.utime(notes[0], (old, old))  # a day later: tried again
+    cg.compiled(block_function("blk_background_broken"), in_background=True)
+    assert len(started) == 1 and not notes[0].exists()
+    cg.wait_for_background_builds(1.0)  # forget the stand-in build
