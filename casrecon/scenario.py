@@ -37,7 +37,8 @@ class Scenario:
     @classmethod
     def from_config(cls, config: ProblemConfig) -> Scenario:
         sounding = read_sounding(config.atmosphere.sounding, launch=config.atmosphere.launch)
-        atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m)
+        atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m,
+                                              humidity=config.atmosphere.humidity)
         return cls(config, atmosphere, _flight_model(config, atmosphere))
 
     def with_fresh_functions(self) -> Scenario:

@@ -114,7 +114,7 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
         bk = (tb >= start) & (tb <= end)
         baro_t, baro_p = tb[bk] - start, blog.pressure_pa[bk]
     atmosphere = (Atmosphere.standard() if cfg.sounding is None else
-                  Atmosphere.from_sounding(read_sounding(cfg.sounding), cfg.site.ground_alt_msl_m))
+                  Atmosphere.from_sounding(read_sounding(cfg.sounding), cfg.site.ground_alt_msl_m, cfg.humidity))
     data = KinematicData(t_imu[sel] - start, gyro[sel], accel[sel], gyro_ok[sel], accel_ok[sel], t_fix[keep] - start,
                          np.column_stack([pos, vel]), sigma, (0.0, end - start), baro_t, baro_p, cfg.baro_noise_pa,
                          atmosphere, tuple(notes), time_ref_s=float(start))

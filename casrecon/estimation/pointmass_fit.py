@@ -118,7 +118,8 @@ def atmosphere_of(cfg: PointMassConfig) -> Atmosphere:
     """The configured sounding, or the ICAO standard atmosphere (no wind) for ``"standard"``."""
     if cfg.sounding is None:
         return Atmosphere.standard()
-    return Atmosphere.from_sounding(read_sounding(cfg.sounding), gradient_ref_alt_msl_m=cfg.site.ground_alt_msl_m)
+    return Atmosphere.from_sounding(read_sounding(cfg.sounding), gradient_ref_alt_msl_m=cfg.site.ground_alt_msl_m,
+                                    humidity=cfg.humidity)
 
 
 def prepare_data(cfg: PointMassConfig) -> PointMassData:

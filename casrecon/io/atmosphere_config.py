@@ -28,7 +28,12 @@ class AtmosphereConfig:
     configured ones by more than 25 %, fit again with them (without the profile model when the
     data show none), so that neither the bands nor the aero sigmas rest on a guessed size. Per-drop
     fits without disturbance states and with the MAP method only; each refit costs a fit, and the
-    estimate is made again on it (at most three refits)."""
+    estimate is made again on it (at most three refits).
+
+    ``humidity``: the density of moist air from the sounding's dewpoints where it has them (the
+    default); false: dry air, p / (R_d T), as if the sounding had no dewpoints (to compare with a
+    tool or an earlier result that ignores humidity, or when the sounding's hygrometer is not
+    trusted). A sounding with a density column is used as given either way."""
 
     sounding: Path
     launch: int = 0
@@ -39,6 +44,7 @@ class AtmosphereConfig:
     profile_length_m: float = 300.0
     profile_step_m: float = 10.0
     profile_sigma_from_data: bool = True
+    humidity: bool = True
 
 
 
@@ -51,7 +57,8 @@ def parse_atmosphere(t: Fields) -> AtmosphereConfig:
                            profile_density_sigma=t.number("profile_density_sigma", 0.005, minimum=0.0),
                            profile_length_m=t.number("profile_length_m", 300.0, positive=True),
                            profile_step_m=t.number("profile_step_m", 10.0, positive=True),
-                           profile_sigma_from_data=t.boolean("profile_sigma_from_data", True))
+                           profile_sigma_from_data=t.boolean("profile_sigma_from_data", True),
+                           humidity=t.boolean("humidity", True))
     if cfg.profile_step_m > cfg.profile_length_m:
         raise t.error("profile_step_m", f"expected a grid step at most the correlation length profile_length_m = "
                                         f"{cfg.profile_length_m:g} m, got {cfg.profile_step_m:g} m")

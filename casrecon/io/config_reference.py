@@ -114,6 +114,9 @@ SIX_DOF = FileKind(
                "(type-II maximum likelihood) and fit again with them where they differ from the configured ones by "
                "more than 25 % (without the profile model when the data show none); per-drop MAP fits without "
                "disturbance states", source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
+            key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them (levels "
+               "without one take the mixing ratio interpolated in altitude); false: dry air, p / (R_d T), as a "
+               "sounding without dewpoints", source=AtmosphereConfig, attr="atmosphere.humidity"),
         ), required=True),
         DYNAMICS_TABLE,
         Table("release", (

@@ -37,6 +37,8 @@ POINT_MASS = FileKind(
                "file", REQUIRED),
             key("wind_3sigma_mps", "float", "m/s", "3-sigma prior of the estimated constant wind bias", 3.0,
                attr="wind_3sigma_mps"),
+            key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them; false: dry "
+               "air, p / (R_d T)", True, attr="humidity"),
         ), required=True),
         Table("vehicle", (key("mass_kg", "float", "kg", "Mass of the body", REQUIRED),), required=True),
         Table("drag", (
@@ -109,6 +111,8 @@ KINEMATIC = FileKind(
         Table("atmosphere", (
             key("sounding", "string or path", "", '"standard" (ICAO standard atmosphere) or a sounding file: the '
                 "barometer's pressure-altitude relation", "standard"),
+            key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them; false: dry "
+               "air, p / (R_d T)", True, attr="humidity"),
         )),
         DYNAMICS_TABLE,
         Table("imu", (

@@ -105,6 +105,7 @@ class KinematicConfig:
     linear_solver: str
     max_iter: int
     tol: float
+    humidity: bool = True  # the sounding's dewpoints in its density (false: dry air)
 
 
 def _imu_spec(t: Fields) -> ImuCsvSpec | None:
@@ -160,7 +161,7 @@ def load_kinematic(path: str | Path) -> KinematicConfig:
     cfg = KinematicConfig(
         path=path.resolve(), name=head.string("name", required=True), description=head.string("description", ""),
         site=parse_site(f.table("site", required=True)),
-        sounding=None if sounding == "standard" else atm.path_of("sounding"),
+        sounding=None if sounding == "standard" else atm.path_of("sounding"), humidity=atm.boolean("humidity", True),
         dynamics=parse_dynamics(f.table("dynamics") or empty["dynamics"]), imu=_imu(imu),
         gps_file=gps.path_of("file", required=True), gps_lever_m=tuple(float(x) for x in lever),
         quality=GpsQuality(gps.number("max_h_acc_m", 10.0, positive=True),

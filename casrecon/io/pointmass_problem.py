@@ -128,6 +128,7 @@ class PointMassConfig:
     tol: float = 1e-8
     gps_date: dt.date | None = None                               # UTC date of an NMEA log without RMC
     velocity_sigma_mps: tuple[float, float, float] | None = None  # per-axis NED velocity 1-sigma (None: sAcc)
+    humidity: bool = True                                         # moist-air density from the sounding's dewpoints
 
 
 def problem_kind(path: str | Path) -> str:
@@ -182,6 +183,7 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
         site=parse_site(f.table("site", required=True)),
         sounding=None if sounding == "standard" else atm.path_of("sounding"),
         wind_3sigma_mps=atm.number("wind_3sigma_mps", 3.0, positive=True),
+        humidity=atm.boolean("humidity", True),
         mass_kg=veh.number("mass_kg", required=True, positive=True),
         drag=DragConfig(drag.string("model", "spline", choices=("constant", "spline")),
                         drag.number("knot_spacing_s", 2.0, positive=True),

@@ -103,11 +103,12 @@ class Atmosphere:
         self._ends = tuple(_taylor_coefficients(self._table, end) for end in self.altitude_range_m)
 
     @classmethod
-    def from_sounding(cls, sounding, gradient_ref_alt_msl_m: float = 0.0) -> Atmosphere:
-        """Build from a :class:`casrecon.io.sounding_levels.Sounding` (or anything with its fields)."""
+    def from_sounding(cls, sounding, gradient_ref_alt_msl_m: float = 0.0, humidity: bool = True) -> Atmosphere:
+        """Build from a :class:`casrecon.io.sounding_levels.Sounding` (or anything with its fields);
+        ``humidity``: False ignores the sounding's dewpoints (dry air, p / (R_d T))."""
         return cls(sounding.altitude_msl_m, sounding.pressure_pa, sounding.temperature_k,
                    sounding.wind_north_mps, sounding.wind_east_mps, sounding.density_kgm3,
-                   gradient_ref_alt_msl_m, getattr(sounding, "dewpoint_k", None))
+                   gradient_ref_alt_msl_m, getattr(sounding, "dewpoint_k", None) if humidity else None)
 
     @classmethod
     def standard(cls, bottom_msl_m: float = -500.0, top_msl_m: float = 11000.0) -> Atmosphere:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REALDATA_DIR
+from conftest import PROBLEMS, REALDATA_DIR
 
 from casrecon.io.errors import InputError
 from casrecon.io.inspect import inspect_file
@@ -145,3 +145,40 @@ def test_inspect_says_what_humidity_the_sounding_gives():
     assert "humidity: dewpoint at 70 of 70 levels" in inspect_file(LIST)
     plain = Path(__file__).resolve().parents[2] / "problems" / "ees-drop-1" / "sounding.csv"
     assert "humidity: no dewpoint (dry air assumed)" in inspect_file(plain)
+
+
+def test_humidity_false_makes_the_fit_s_air_dry_for_every_problem_kind(problem_copy):
+    """``[atmosphere] humidity = false`` ignores the sounding's dewpoints (6-DOF, point-mass and
+    kinematic problems alike); a value that is not a boolean is a located error."""
+    import dataclasses
+    import shutil
+
+    from casrecon.estimation.pointmass_fit import atmosphere_of
+    from casrecon.io.kinematic_problem import load_kinematic
+    from casrecon.io.pointmass_problem import load_point_mass
+    from casrecon.io.problem import load_problem
+    from casrecon.scenario import Scenario
+
+    s = read_sounding(LIST)
+    dry = s.pressure_pa / (R_AIR * s.temperature_k)
+    shutil.copy(LIST, problem_copy.parent / "humid.txt")
+    text = problem_copy.read_text().replace('sounding = "sounding.csv"', 'sounding = "humid.txt"')
+    for setting, humid in (("", True), ("humidity = true\n", True), ("humidity = false\n", False)):
+        problem_copy.write_text(text.replace("[atmosphere]\n", "[atmosphere]\n" + setting))
+        cfg = load_problem(problem_copy)
+        assert cfg.atmosphere.humidity is humid
+        rho = Scenario.from_config(cfg).atmosphere.levels["density_kgm3"]
+        assert (rho[0] < 0.995 * dry[0]) if humid else np.array_equal(rho, dry)
+    problem_copy.write_text(text.replace("[atmosphere]\n", '[atmosphere]\nhumidity = "no"\n'))
+    with pytest.raises(InputError, match="humidity"):
+        load_problem(problem_copy)
+    pm = load_point_mass(PROBLEMS / "realdata-skyderby-411")
+    for humid in (True, False):
+        rho = atmosphere_of(dataclasses.replace(pm, sounding=LIST, humidity=humid)).levels["density_kgm3"]
+        assert (rho[0] < 0.995 * dry[0]) if humid else np.array_equal(rho, dry)
+    kinematic = (PROBLEMS / "realdata-fs2-chicago-kinematic" / "problem.toml").read_text()
+    assert "[atmosphere]" not in kinematic
+    copy = problem_copy.parent / "kinematic.toml"
+    copy.write_text(kinematic.replace('"../realdata-fs2-chicago/', f'"{PROBLEMS}/realdata-fs2-chicago/')
+                    + '\n[atmosphere]\nsounding = "humid.txt"\nhumidity = false\n')
+    assert load_kinematic(copy).humidity is False
