@@ -63,17 +63,23 @@ FAILED_RETRY_S = 86400.0
 _BACKGROUND_SCRIPT = """
 import os, shutil, subprocess, sys
 out, library, mark, folder, timeout, failed = sys.argv[1:7]
-try:
-    subprocess.run(sys.argv[7:], check=True, capture_output=True, text=True, timeout=float(timeout))
-    os.replace(out, library)
-except Exception as err:
-    words = (getattr(err, "stderr", None) or str(err) or type(err).__name__).strip().splitlines()
+
+def note(text):
+    lines = str(text).strip().splitlines()
     try:
         with open(failed + ".tmp", "w") as f:
-            f.write((words[-1] if words else type(err).__name__) + "\\n")
+            f.write((lines[-1] if lines else "no reason given") + "\\n")
         os.replace(failed + ".tmp", failed)
     except OSError:
         pass
+
+try:
+    subprocess.run(sys.argv[7:], check=True, capture_output=True, text=True, timeout=float(timeout))
+    os.replace(out, library)
+except subprocess.CalledProcessError as err:
+    note(err.stderr or err)
+except Exception as err:  # a timeout, a compiler that cannot start, a library that cannot be moved
+    note(err if str(err) else type(err).__name__)
 finally:
     shutil.rmtree(folder, ignore_errors=True)
     try:

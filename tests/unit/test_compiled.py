@@ -200,3 +200,18 @@ def test_a_failing_background_build_leaves_a_note_and_is_not_retried_at_once(cac
     cg.compiled(block_function("blk_background_broken"), in_background=True)
     assert len(started) == 1 and not notes[0].exists()
     cg.wait_for_background_builds(1.0)  # forget the stand-in build
+
+
+def test_a_background_build_past_its_time_leaves_a_note_saying_so(cache, tmp_path, monkeypatch):
+    slow = tmp_path / "bin" / "slow-cc"
+    slow.parent.mkdir()
+    slow.write_text("#!/bin/sh\nsleep 20\n")
+    slow.chmod(0o755)
+    monkeypatch.setenv("CC", str(slow))
+    monkeypatch.setattr(cg, "STALE_BUILD_S", 0.5)
+    cg.reset()
+    f = block_function("blk_background_slow")
+    assert cg.compiled(f, in_background=True) is f
+    cg.wait_for_background_builds(60.0)
+    notes = list(cache.iterdir())
+    assert [p.suffix for p in notes] == [".failed"] and "timed out" in notes[0].read_text()
