@@ -309,7 +309,7 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
     earlier_s, intended, history = 0.0, None, ()
     for _ in range(MAX_REFITS):
         try:
-            estimate = estimate_profile_sigma(result)
+            estimate = estimate_profile_sigma(result, cfg.atmosphere.profile_length_m)
         except (np.linalg.LinAlgError, ValueError) as err:
             return dataclasses.replace(result, notes=result.notes + (
                 f"atmosphere-profile sigmas not estimated from the data ({err}): fitted with the "

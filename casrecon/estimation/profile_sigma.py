@@ -24,7 +24,10 @@ L-BFGS-B; a group whose estimate explains the data better than none of its error
 :data:`ZERO_EVIDENCE_NATS` (log evidence) has no profile error the data can see, and is taken as
 zero. The quadratic model is the fit's own (Gauss-Newton or observed information),
 exact for the prior, which is linear; where the data's part of an observed information is
-indefinite, the Gauss-Newton one (:func:`quadratic_model`). A refit at the new sigmas
+indefinite, the Gauss-Newton one (:func:`quadratic_model`). The correlation length is chosen by
+the same evidence among the fit's and :data:`LENGTH_FACTORS` times the configured one: only the
+prior's rows and its normalisation, -(K - 1)/2 log(1 - phi^2) per process, depend on it
+(:func:`prior_rows_at`). A refit at the new sigmas and length
 (:func:`casrecon.estimation.fit.fit_drop`) gives the nonlinear optimum, and the estimate is made
 again on it.
 """
@@ -55,6 +58,13 @@ REFIT_FACTOR = 1.25
 #: 0.5 m/s said a 1.8 mm/s wind profile (log evidence +70.8 over none) and the refit at 1.8 mm/s
 #: said none, which the refit without the profile model then gives.
 MAX_REFITS = 3
+#: Correlation lengths the estimate compares, as multiples of the configured one (and the fit's). The
+#: Gauss-Markov model at the configured 300 m takes a smooth error (a sounding whose temperature is
+#: off by a share growing with height) for a small rough process: on davinci-ztu with a density
+#: ramp to 0.3 % over the drop the sigma at 300 m came out 0.09 % and the refit was over-confident
+#: (parameter NEES 85 on 19; benchmarks/profile_structure.py). The evidence at longer lengths
+#: weighs a larger, smoother process against it.
+LENGTH_FACTORS = (1.0, 1.0 / 3.0, 3.0, 10.0)
 #: The configured sigma each component group shares: wind north and east one, density its own.
 GROUPS = {"wind": ("wind_n", "wind_e"), "density": ("density",)}
 
@@ -79,6 +89,10 @@ class ProfileSigmaEstimate:
     gauss_newton_fallback : bool
         The fit's curvature was the observed information, and the estimate was made on the
         Gauss-Newton one because the observed one's data part is indefinite (:func:`quadratic_model`).
+    fitted_length_m, length_m : float
+        The correlation length in altitude the fit used and the one of the estimate (m; the most
+        evident of the fit's and :data:`LENGTH_FACTORS` times the configured one, shared by every
+        component); 0: not estimated (the fit's is kept).
     """
 
     fitted: dict[str, float]
@@ -87,6 +101,8 @@ class ProfileSigmaEstimate:
     components: tuple[str, ...]
     against_zero: dict[str, float]
     gauss_newton_fallback: bool = False
+    fitted_length_m: float = 0.0
+    length_m: float = 0.0
 
     @property
     def refit(self) -> bool:
@@ -102,6 +118,8 @@ class ProfileSigmaEstimate:
                 return estimate == 0.0
             return target / REFIT_FACTOR <= estimate <= target * REFIT_FACTOR
 
+        if any(self.estimated.values()) and self.length_m > 0 and not agrees(self.length_m, self.fitted_length_m):
+            return True
         return not all(agrees(self.estimated[g], intended.get(g, self.fitted[g])) for g in self.fitted)
 
     def text(self) -> str:
@@ -112,8 +130,11 @@ class ProfileSigmaEstimate:
                  for g in self.fitted]
         fallback = (", on the Gauss-Newton curvature: the observed information's data part is indefinite"
                     if self.gauss_newton_fallback else "")
-        return (f"atmosphere-profile sigmas the data say (type-II maximum likelihood{fallback}): {', '.join(parts)}; "
-                f"log evidence +{self.log_evidence_gain:.1f}")
+        length = ("" if not self.length_m else
+                  f", correlation length {self.length_m:.0f} m (fitted with {self.fitted_length_m:.0f} m)"
+                  if self.length_m != self.fitted_length_m else f", correlation length {self.length_m:.0f} m")
+        return (f"atmosphere-profile sigmas the data say (type-II maximum likelihood{fallback}): {', '.join(parts)}"
+                f"{length}; log evidence +{self.log_evidence_gain:.1f}")
 
 
 @dataclass(frozen=True)
@@ -126,6 +147,7 @@ class QuadraticModel:
     rows: tuple[np.ndarray, ...]       # A_k, (n_k, n_w)
     residuals: tuple[np.ndarray, ...]  # u_k, (n_k,)
     gauss_newton: bool = False         # the data's curvature is J^T J (else the observed information)
+    log_normaliser: float = 0.0        # log det of the prior's whitening beyond the fit's (other lengths)
 
     def log_evidence(self, log_ratio: np.ndarray) -> tuple[float, np.ndarray]:
         """(log Z up to a constant, its gradient in ``log_ratio``) at ratios exp(``log_ratio``).
@@ -143,7 +165,8 @@ class QuadraticModel:
         prior = [float(np.sum((u + a @ dw) ** 2)) * s for a, u, s in zip(self.rows, self.residuals, inv2)]
         chi2 = 2.0 * float(self.g_data @ dw) + float(dw @ self.h_data @ dw) + sum(prior)
         n = np.array([a.shape[0] for a in self.rows], float)
-        value = -0.5 * chi2 - float(np.sum(np.log(np.diag(chol)))) - float(n @ np.asarray(log_ratio, float))
+        value = (-0.5 * chi2 - float(np.sum(np.log(np.diag(chol)))) - float(n @ np.asarray(log_ratio, float))
+                 + self.log_normaliser)
         # tr(A H^-1 A^T) = |L^-1 A^T|_F^2
         gamma = np.array([a.shape[0] - float(np.sum(scipy.linalg.solve_triangular(chol, a.T, lower=True) ** 2)) * s
                           for a, s in zip(self.rows, inv2)])
@@ -186,29 +209,69 @@ def profile_prior_rows(result) -> ProfilePriorRows:
                             component_of_col[np.argmax(w != 0, axis=1)])
 
 
-def quadratic_model(result) -> tuple[QuadraticModel, list[str]]:
+def prior_rows_at(result, prior: ProfilePriorRows, length_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The fit's profile prior rebuilt with the correlation length ``length_m`` (m): (W, u = W z,
+    component of each row, log det of its whitening less the fit's). One process per component,
+    rows v_0 then (v_k - phi v_k-1) / sqrt(1 - phi^2) on the level values v (as
+    :func:`casrecon.estimation.kinds.disturbance.spline_level_prior_terms`), times the component's
+    scale over its prior sigma. ValueError if at the fit's own length they are not the fit's rows."""
+    grid = result.part.profile
+    k, n_c = grid.n_levels, grid.n_components
+    weights = grid.sigma / grid.prior
+
+    def whitening(length: float) -> tuple[np.ndarray, float]:
+        phi = float(np.exp(-grid.step_m / length))
+        d = np.eye(k) / np.r_[1.0, np.full(k - 1, np.sqrt(1.0 - phi * phi))][:, None]
+        d[np.arange(1, k), np.arange(k - 1)] = -phi / np.sqrt(1.0 - phi * phi)
+        return d @ grid.level_matrix(), -0.5 * (k - 1) * np.log(1.0 - phi * phi)
+
+    own, own_log_det = whitening(grid.length_m)
+    new, log_det = whitening(length_m)
+    w = np.zeros((n_c * k, n_c * k))
+    for c in range(n_c):
+        cols = np.arange(k) * n_c + c
+        fit_rows = prior.jacobian[prior.component_of_row == c][:, cols]
+        mine = weights[c] * own
+        if not np.allclose(fit_rows.T @ fit_rows, mine.T @ mine, rtol=1e-8, atol=1e-10 * np.abs(mine).max() ** 2):
+            raise ValueError("the fit's profile prior rows are not the Gauss-Markov level prior")
+        w[c * k:(c + 1) * k, cols] = weights[c] * new
+    z = result.z[prior.cols]
+    return w, w @ z, np.repeat(np.arange(n_c), k), n_c * (log_det - own_log_det)
+
+
+def quadratic_model(result, lengths_m: tuple[float, ...] = ()) -> tuple[list[QuadraticModel], list[str]]:
     """The :class:`QuadraticModel` of a converged profile fit (a
-    :class:`~casrecon.estimation.fit.FitResult` with a null-space covariance), and its groups: the
-    fit's own curvature, or the Gauss-Newton one (``QuadraticModel.gauss_newton``) where the data's
-    part of an observed information is indefinite (its Laplace evidence then exists only for
-    sigmas near the fit's: on a drop flying 1 m/s off its sounding, fitted at 0.5 m/s, it ended
-    at 1.1 times the fitted sigma and the estimate could not say more)."""
+    :class:`~casrecon.estimation.fit.FitResult` with a null-space covariance) with its prior at its
+    own correlation length, then at each of ``lengths_m`` (m), and its groups: the fit's own
+    curvature, or the Gauss-Newton one (``QuadraticModel.gauss_newton``) where the data's part of
+    an observed information is indefinite (its Laplace evidence then exists only for sigmas near
+    the fit's: on a drop flying 1 m/s off its sounding, fitted at 0.5 m/s, it ended at 1.1 times
+    the fitted sigma and the estimate could not say more). The data's part is the fit's whatever
+    the length: only the prior's rows change (:func:`prior_rows_at`)."""
     grid, cov = result.part.profile, result.covariance
     prior = profile_prior_rows(result)
-    component_of_row = np.array([PROFILE_COMPONENTS[c] for c in grid.components])[prior.component_of_row]
-    groups = [g for g, comps in GROUPS.items() if np.isin(component_of_row, comps).any()]
-    masks = [np.isin(component_of_row, GROUPS[g]) for g in groups]
+    names = np.array([PROFILE_COMPONENTS[c] for c in grid.components])
+    groups = [g for g, comps in GROUPS.items() if np.isin(names[prior.component_of_row], comps).any()]
 
-    def model(basis: np.ndarray, h: np.ndarray, gauss_newton: bool) -> QuadraticModel:
+    def model(basis: np.ndarray, h: np.ndarray, gauss_newton: bool) -> list[QuadraticModel]:
         a = prior.jacobian @ basis[prior.cols]
-        a_k = tuple(a[m] for m in masks)
-        u_k = tuple(prior.residuals[m] for m in masks)
-        h_data = 0.5 * (h + h.T) - sum(x.T @ x for x in a_k)
-        g_data = -sum(x.T @ r for x, r in zip(a_k, u_k))
-        return QuadraticModel(h_data, g_data, a_k, u_k, gauss_newton)
+        masks = [np.isin(names[prior.component_of_row], GROUPS[g]) for g in groups]
+        h_data = 0.5 * (h + h.T) - sum(a[m].T @ a[m] for m in masks)
+        g_data = -sum(a[m].T @ prior.residuals[m] for m in masks)
+        out = []
+        for length in (grid.length_m, *lengths_m):
+            if length == grid.length_m:
+                rows, residuals, component_of_row, log_det = a, prior.residuals, prior.component_of_row, 0.0
+            else:
+                w, residuals, component_of_row, log_det = prior_rows_at(result, prior, length)
+                rows = w @ basis[prior.cols]
+            at = [np.isin(names[component_of_row], GROUPS[g]) for g in groups]
+            out.append(QuadraticModel(h_data, g_data, tuple(rows[m] for m in at), tuple(residuals[m] for m in at),
+                                      gauss_newton, log_det))
+        return out
 
     own = model(cov.basis, np.linalg.inv(cov.cov_w), not cov.information.startswith("observed"))
-    if own.gauss_newton or np.linalg.eigvalsh(own.h_data)[0] >= 0:
+    if own[0].gauss_newton or np.linalg.eigvalsh(own[0].h_data)[0] >= 0:
         return own, groups
     # the solver's Gauss-Newton system when it was formed at the solution itself, else one on the
     # covariance's null space
@@ -216,22 +279,30 @@ def quadratic_model(result) -> tuple[QuadraticModel, list[str]]:
     return model(system.basis, system.hessian, True), groups
 
 
-def estimate_profile_sigma(result) -> ProfileSigmaEstimate:
-    """Type-II maximum-likelihood profile sigmas of a converged profile fit (see the module
-    docstring). Raises ValueError for a fit without a profile or with disturbance states (whose
-    covariance is not a reduced system)."""
+def estimate_profile_sigma(result, configured_length_m: float | None = None) -> ProfileSigmaEstimate:
+    """Type-II maximum-likelihood profile sigmas of a converged profile fit, and the most evident
+    correlation length of the fit's and :data:`LENGTH_FACTORS` times ``configured_length_m`` (m;
+    default the fit's; see the module docstring). Raises ValueError for a fit without a profile or
+    with disturbance states (whose covariance is not a reduced system)."""
     from scipy.optimize import minimize
 
     grid = result.part.profile
     if grid is None or not hasattr(result.covariance, "cov_w"):
         raise ValueError("the profile sigmas are estimated only for a profile fit without disturbance states")
-    model, groups = quadratic_model(result)
+    base = grid.length_m if configured_length_m is None else float(configured_length_m)
+    lengths = tuple(sorted({f * base for f in LENGTH_FACTORS} - {grid.length_m}))
+    try:
+        models, groups = quadratic_model(result, lengths)
+    except ValueError:  # a prior this module cannot rebuild at other lengths: the fit's alone
+        models, groups, lengths = *quadratic_model(result), ()
     prior = dict(zip([PROFILE_COMPONENTS[c] for c in grid.components], grid.prior))
     fitted = {g: float(prior[GROUPS[g][0]]) for g in groups}
-    base, _ = model.log_evidence(np.zeros(len(groups)))
+    base, _ = models[0].log_evidence(np.zeros(len(groups)))
     bounds = [(np.log(MIN_RATIO), np.log(MAX_RATIO))] * len(groups)
-    best = minimize(lambda x: tuple(-v for v in model.log_evidence(x)), np.zeros(len(groups)), jac=True,
-                    method="L-BFGS-B", bounds=bounds)
+    fits = [minimize(lambda x, m=m: tuple(-v for v in m.log_evidence(x)), np.zeros(len(groups)), jac=True,
+                     method="L-BFGS-B", bounds=bounds) for m in models]
+    pick = int(np.argmin([f.fun for f in fits]))
+    model, best = models[pick], fits[pick]
     ratio = np.exp(best.x)
     against_zero = {}
     for k, g in enumerate(groups):  # how much better than none of this group's error the estimate explains the data
@@ -243,7 +314,7 @@ def estimate_profile_sigma(result) -> ProfileSigmaEstimate:
     estimated = {g: fitted[g] * float(r) for g, r in zip(groups, ratio)}
     fallback = model.gauss_newton and result.covariance.information.startswith("observed")
     return ProfileSigmaEstimate(fitted, estimated, max(0.0, float(-best.fun - base)), tuple(prior), against_zero,
-                                fallback)
+                                fallback, grid.length_m, (grid.length_m, *lengths)[pick])
 
 
 def group_of(component: str) -> str:
@@ -261,6 +332,8 @@ def profile_refit(cfg: ProblemConfig, estimate: ProfileSigmaEstimate) -> tuple[P
         return replace(cfg, atmosphere=atm), None
     prior = [max(estimate.estimated[group_of(c)], MIN_RATIO * estimate.fitted[group_of(c)])
              for c in estimate.components]
+    if estimate.length_m and estimate.length_m != cfg.atmosphere.profile_length_m:
+        cfg = replace(cfg, atmosphere=replace(cfg.atmosphere, profile_length_m=estimate.length_m))
     return cfg, np.array(prior)
 
 
@@ -269,4 +342,6 @@ def refit_text(estimate: ProfileSigmaEstimate, prior: np.ndarray | None) -> str:
     if prior is None:
         return "without the atmosphere-profile model"
     parts = [f"{c} {PROFILE_UNITS[c][1] * p:.3g} {PROFILE_UNITS[c][0]}" for c, p in zip(estimate.components, prior)]
-    return f"with the profile prior sigmas {', '.join(parts)} (the unknowns scaled as configured)"
+    length = (f" and the correlation length {estimate.length_m:.0f} m"
+              if estimate.length_m and estimate.length_m != estimate.fitted_length_m else "")
+    return f"with the profile prior sigmas {', '.join(parts)}{length} (the unknowns scaled as configured)"

@@ -23,8 +23,9 @@ class AtmosphereConfig:
     component and 0.5 % in density, over a 300 m correlation length. A sounding that is the air
     flown through (synthetic data) sets both sigmas to 0.
 
-    ``profile_sigma_from_data``: after the fit, estimate the profile sigmas from the data (type-II
-    maximum likelihood, :mod:`casrecon.estimation.profile_sigma`) and, where they differ from the
+    ``profile_sigma_from_data``: after the fit, estimate the profile sigmas and their correlation
+    length (1/3 to 10 times ``profile_length_m``) from the data (type-II maximum likelihood,
+    :mod:`casrecon.estimation.profile_sigma`) and, where they differ from the
     configured ones by more than 25 %, fit again with them (without the profile model when the
     data show none), so that neither the bands nor the aero sigmas rest on a guessed size. Per-drop
     fits without disturbance states and with the MAP method only; each refit costs a fit, and the

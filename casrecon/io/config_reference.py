@@ -110,10 +110,11 @@ SIX_DOF = FileKind(
             key("profile_step_m", "float", "m", "Altitude step of the grid the profile errors are estimated on "
                "(the knots of the cubic B-spline the corrections are), at most profile_length_m",
                source=AtmosphereConfig, attr="atmosphere.profile_step_m"),
-            key("profile_sigma_from_data", "bool", "", "Estimate the two profile sigmas from the data after the fit "
-               "(type-II maximum likelihood) and fit again with them where they differ from the configured ones by "
-               "more than 25 % (without the profile model when the data show none); per-drop MAP fits without "
-               "disturbance states", source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
+            key("profile_sigma_from_data", "bool", "", "Estimate the two profile sigmas and their correlation length "
+               "(1/3 to 10 times profile_length_m) from the data after the fit (type-II maximum likelihood) and fit "
+               "again with them where they differ from the configured ones by more than 25 % (without the profile "
+               "model when the data show none); per-drop MAP fits without disturbance states",
+               source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
             key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them (levels "
                "without one take the mixing ratio interpolated in altitude); false: dry air, p / (R_d T), as a "
                "sounding without dewpoints", source=AtmosphereConfig, attr="atmosphere.humidity"),
