@@ -289,8 +289,8 @@ def estimate_profile_sigma(result, configured_length_m: float | None = None) -> 
     grid = result.part.profile
     if grid is None or not hasattr(result.covariance, "cov_w"):
         raise ValueError("the profile sigmas are estimated only for a profile fit without disturbance states")
-    base = grid.length_m if configured_length_m is None else float(configured_length_m)
-    lengths = tuple(sorted({f * base for f in LENGTH_FACTORS} - {grid.length_m}))
+    configured = grid.length_m if configured_length_m is None else float(configured_length_m)
+    lengths = tuple(sorted({f * configured for f in LENGTH_FACTORS} - {grid.length_m}))
     try:
         models, groups = quadratic_model(result, lengths)
     except ValueError:  # a prior this module cannot rebuild at other lengths: the fit's alone
