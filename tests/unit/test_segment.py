@@ -161,16 +161,31 @@ def test_longest_fast_run_wins():
     assert seg.end_unix_s - seg.start_unix_s > 40.0
 
 
-def test_fast_run_split_by_a_bad_fix_keeps_the_longer_part():
+def test_bad_fixes_inside_the_fast_run_do_not_split_it():
+    # a 2 s outage (10 fixes failing the rules) 10 s into the fast run: the run bridges it
     vd = jump_profile(fast_s=40.0)
     i_fast = np.flatnonzero(vd >= 55.0)
     h_acc = np.full(vd.size, 1.5)
     cut = i_fast[0] + 50                                        # 10 s into the fast run
-    h_acc[cut] = 50.0
+    h_acc[cut:cut + 10] = 50.0
+    tr = track_from(vd, h_acc=h_acc)
+    whole = find_segment(track_from(vd), Q, CFG)
+    seg = find_segment(tr, Q, CFG)
+    assert (seg.start_unix_s, seg.end_unix_s) == (whole.start_unix_s, whole.end_unix_s)
+    assert seg.end_unix_s - seg.start_unix_s > 40.0
+
+
+def test_fast_run_split_by_a_gap_the_fit_refuses_keeps_the_longer_part():
+    # 4 s without a good fix (over GPS_MAX_GAP_S = 3 s) 10 s into the fast run: the run splits
+    vd = jump_profile(fast_s=40.0)
+    i_fast = np.flatnonzero(vd >= 55.0)
+    h_acc = np.full(vd.size, 1.5)
+    cut = i_fast[0] + 50
+    h_acc[cut:cut + 20] = 50.0
     tr = track_from(vd, h_acc=h_acc)
     seg = find_segment(tr, Q, CFG)
-    # the part after the bad fix is longer; the back extension stops at the bad fix
-    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[cut + 1], abs=1e-6)
+    # the part after the gap is longer; the back extension stops at the bad fix
+    assert seg.start_unix_s == pytest.approx(tr.time_unix_s[cut + 20], abs=1e-6)
 
 
 def test_no_fast_run_raises():
