@@ -12,7 +12,8 @@ per fit (median and max).
 
 Run: python benchmarks/model_error_mc.py [--problem DIR] [--cases 30] [--workers 2] [--seed 0]
      [--json out.json] [--variants with_models without_models] [--method map|marginal]
-     [--information auto|observed|expected] [--exact-air] [--white-gps | --matched-gps]
+     [--information auto|observed|expected] [--exact-air]
+     [--white-gps | --matched-gps | --default-gps-model]
 """
 
 from __future__ import annotations
@@ -67,8 +68,10 @@ def main() -> None:
     ap.add_argument("--white-gps", action="store_true", help="white GPS errors in the data, and the fit told so")
     ap.add_argument("--matched-gps", action="store_true",
                     help="GPS errors drawn from the fit's own GPS error model (correlation times and white share)")
+    ap.add_argument("--default-gps-model", action="store_true",
+                    help="the data's GPS errors as the problem says, the fit's GPS error model casrecon's default")
     a = ap.parse_args()
-    world = World(a.exact_air, a.white_gps, a.matched_gps)
+    world = World(a.exact_air, a.white_gps, a.matched_gps, a.default_gps_model)
     t0 = time.perf_counter()
     study = model_error_montecarlo(a.problem, a.cases, seed=a.seed, workers=a.workers, variants=tuple(a.variants),
                                    method=a.method, information=a.information, world=world)

@@ -172,23 +172,30 @@ class World:
         The GPS errors are drawn from the fit's own GPS error model (its correlation times and its
         white share of each variance, ``1 - *_correlated_fraction``), so that the adequacy verdict's
         GPS tests are made under a true model.
+    default_gps_model : bool
+        The data's GPS errors as the problem's ``[truth]`` says, but the fit's GPS error model is
+        casrecon's default (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`), whatever the
+        problem says: what a user who does not characterise the receiver gets.
     """
 
     exact_air: bool = False
     white_gps: bool = False
     matched_gps: bool = False
+    default_gps_model: bool = False
 
     def describe(self) -> str:
         """The study line's clause for this world ("" for the problem's own)."""
         return "".join(text for on, text in ((self.exact_air, ", air flown = sounding"),
                                              (self.white_gps, ", white GPS errors"),
-                                             (self.matched_gps, ", GPS errors drawn from the fit's model")) if on)
+                                             (self.matched_gps, ", GPS errors drawn from the fit's model"),
+                                             (self.default_gps_model, ", the fit's GPS error model the default"))
+                       if on)
 
 
 def in_world(scenario: Scenario, world: World = World()) -> Scenario:
     """The scenario with its ``[truth]`` error processes as ``world`` says."""
-    if world.white_gps and world.matched_gps:
-        raise ValueError("white_gps and matched_gps are two different GPS worlds: choose one")
+    if world.white_gps + world.matched_gps + world.default_gps_model > 1:
+        raise ValueError("white_gps, matched_gps and default_gps_model are different GPS worlds: choose one")
     cfg = scenario.config
     errors = cfg.truth.errors
     if world.exact_air:
@@ -205,6 +212,8 @@ def in_world(scenario: Scenario, world: World = World()) -> Scenario:
         errors = dataclasses.replace(errors, gps_position_time_s=model.position_time_s,
                                      gps_velocity_time_s=model.velocity_time_s,
                                      gps_white_fraction=1.0 - model.position_fraction)
+    if world.default_gps_model:
+        gps = dataclasses.replace(gps, error_model=GpsErrorModel())
     return Scenario.from_config(dataclasses.replace(cfg, truth=dataclasses.replace(cfg.truth, errors=errors), gps=gps))
 
 

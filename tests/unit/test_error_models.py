@@ -159,8 +159,13 @@ def test_model_error_study_worlds_switch_the_truth_errors_off():
     assert matched.truth.errors.gps_position_time_s == model.position_time_s
     assert matched.truth.errors.gps_velocity_time_s == model.velocity_time_s
     assert matched.truth.errors.gps_white_fraction == pytest.approx(1.0 - model.position_fraction)
-    with pytest.raises(ValueError, match="two different GPS worlds"):
+    default = in_world(sc, World(default_gps_model=True)).config
+    assert default.gps.error_model == GpsErrorModel() != model
+    assert default.truth.errors == sc.config.truth.errors
+    with pytest.raises(ValueError, match="different GPS worlds"):
         in_world(sc, World(white_gps=True, matched_gps=True))
+    with pytest.raises(ValueError, match="different GPS worlds"):
+        in_world(sc, World(matched_gps=True, default_gps_model=True))
 
 
 @pytest.mark.parametrize("n_levels", [3, 4, 9])
