@@ -61,8 +61,9 @@ def data_from_problem(cfg: ProblemConfig, fit_data: FitData | None = None,
         keep = (t >= data.window[0]) & (t <= data.window[1])
         baro_t, baro_p, noise = t[keep], log.pressure_pa[keep], cfg.baro.noise_pa
     y = np.column_stack([data.gps_pos_ned, data.gps_vel_ned])
+    sigma = data.gps_sigma * cfg.gps.error_model.scale  # the error's size the fit assumes
     return KinematicData(data.imu_time_s, data.gyro_imu, data.accel_imu, data.gyro_valid, data.accel_valid,
-                         data.gps_time_s - guess, y, data.gps_sigma, data.window, baro_t, baro_p, noise, atmosphere,
+                         data.gps_time_s - guess, y, sigma, data.window, baro_t, baro_p, noise, atmosphere,
                          data.notes)
 
 

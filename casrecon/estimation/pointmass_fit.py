@@ -143,6 +143,7 @@ def prepare_data(cfg: PointMassConfig) -> PointMassData:
     idx = np.clip(np.searchsorted(t, nodes - period / 2), 0, t.size - 1)
     on_node = (np.abs(t[idx] - nodes) < period / 4) & seg.good[idx]
     pos, vel, sig = fixes_ned(track, cfg.site, idx, cfg.velocity_sigma_mps)
+    sig = sig * cfg.gps_errors.scale  # the error's size the fit assumes
     y = np.nan_to_num(np.column_stack([pos, vel]))  # a missing component (NaN) has sigma inf: weight 0
     inv = np.where(on_node[:, None], 1.0 / sig, 0.0)
     if on_node.sum() < 3:

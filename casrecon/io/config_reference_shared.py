@@ -29,6 +29,11 @@ def gps_error_keys(prefix: str) -> tuple[Key, ...]:
         key("velocity_correlated_fraction", "float", "", "Fraction of the reported velocity variance (sAcc^2) that "
            "is correlated, at most 0.999", source=GpsErrorModel, field="velocity_fraction",
            attr=f"{m}.velocity_fraction"),
+        key("position_accuracy_scale", "float", "", "The position error's 1-sigma (white and correlated parts "
+           "together) over the reported hAcc, vAcc (> 0; below 1 for a receiver whose accuracies are pessimistic)",
+           source=GpsErrorModel, field="position_scale", attr=f"{m}.position_scale"),
+        key("velocity_accuracy_scale", "float", "", "The velocity error's 1-sigma over the reported sAcc (or "
+           "velocity_sigma_mps), > 0", source=GpsErrorModel, field="velocity_scale", attr=f"{m}.velocity_scale"),
     )
 
 

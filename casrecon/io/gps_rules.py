@@ -171,7 +171,8 @@ def gps_error_model(t: Fields) -> GpsErrorModel:
             raise t.error(key, f"expected a fraction of the variance in [0, {MAX_CORRELATED_FRACTION}] (some white "
                                f"noise must remain), got {f}")
         fractions.append(f)
-    return GpsErrorModel(times[0], times[1], fractions[0], fractions[1])
+    scales = [t.number(f"{g}_accuracy_scale", 1.0, positive=True) for g in ("position", "velocity")]
+    return GpsErrorModel(times[0], times[1], fractions[0], fractions[1], scales[0], scales[1])
 
 
 def gps_date(t: Fields) -> dt.date | None:

@@ -43,13 +43,19 @@ class GpsErrorModel:
     position_time_s, velocity_time_s : float
         Correlation time of the correlated part (s); 0: that group's errors are white.
     position_fraction, velocity_fraction : float
-        Fraction of the reported variance that is correlated, in [0, MAX_CORRELATED_FRACTION].
+        Fraction of the variance that is correlated, in [0, MAX_CORRELATED_FRACTION].
+    position_scale, velocity_scale : float
+        The error's 1-sigma (white and correlated parts together) over the receiver's reported
+        accuracy (hAcc, vAcc; sAcc or ``velocity_sigma_mps``), > 0: below 1 for a receiver whose
+        accuracies are pessimistic. 1: the reported accuracies are the error's size.
     """
 
     position_time_s: float = 100.0
     velocity_time_s: float = 0.6
     position_fraction: float = 0.99
     velocity_fraction: float = 0.7
+    position_scale: float = 1.0
+    velocity_scale: float = 1.0
 
     @classmethod
     def white(cls) -> GpsErrorModel:
@@ -62,6 +68,15 @@ class GpsErrorModel:
         for f in (self.position_fraction, self.velocity_fraction):
             if not 0.0 <= f <= MAX_CORRELATED_FRACTION:
                 raise ValueError(f"a correlated fraction must lie in [0, {MAX_CORRELATED_FRACTION}], not {f}")
+        if not (self.position_scale > 0 and self.velocity_scale > 0 and np.isfinite(self.position_scale)
+                and np.isfinite(self.velocity_scale)):
+            raise ValueError(f"GPS accuracy scales must be finite and > 0, not {self.position_scale}, "
+                             f"{self.velocity_scale}")
+
+    @property
+    def scale(self) -> np.ndarray:
+        """The error's 1-sigma over the reported accuracy, for each of the six components."""
+        return np.array([self.position_scale] * 3 + [self.velocity_scale] * 3)
 
     @property
     def time_s(self) -> np.ndarray:
@@ -101,15 +116,17 @@ class GpsErrorModel:
 
     def describe(self) -> str:
         """One line for reports."""
+        scaled = "".join(f", {g} accuracies x {v:.3g}" for g, v in (("position", self.position_scale),
+                                                                    ("velocity", self.velocity_scale)) if v != 1.0)
         if not self.enabled:
-            return "GPS errors white"
+            return "GPS errors white" + scaled
         parts = []
         if self.position_time_s > 0 and self.position_fraction > 0:
             parts.append(f"position {100 * self.position_fraction:.0f} % of the variance over "
                          f"{self.position_time_s:g} s")
         if self.velocity_time_s > 0 and self.velocity_fraction > 0:
             parts.append(f"velocity {100 * self.velocity_fraction:.0f} % over {self.velocity_time_s:g} s")
-        return "GPS errors Gauss-Markov: " + ", ".join(parts)
+        return "GPS errors Gauss-Markov: " + ", ".join(parts) + scaled
 
 
 def innovations(normalised: np.ndarray, time_s: np.ndarray, time_constant_s: float, fraction: float) -> np.ndarray:

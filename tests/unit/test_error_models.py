@@ -56,6 +56,34 @@ def test_white_model_and_defaults():
     assert default.transition(np.array([0.2]))[0, 0] == pytest.approx(np.exp(-0.2 / 100.0))
     with pytest.raises(ValueError, match="fraction"):
         GpsErrorModel(10.0, 1.0, 1.0, 0.5)
+    np.testing.assert_array_equal(default.scale, np.ones(6))
+    scaled = GpsErrorModel(position_scale=0.5, velocity_scale=2.0)
+    np.testing.assert_array_equal(scaled.scale, [0.5] * 3 + [2.0] * 3)
+    assert "position accuracies x 0.5, velocity accuracies x 2" in scaled.describe()
+    assert "accuracies" not in default.describe()
+    for bad in (0.0, -1.0, np.inf):
+        with pytest.raises(ValueError, match="scales"):
+            GpsErrorModel(position_scale=bad)
+
+
+def test_gps_accuracy_scale_sizes_the_fix_errors(problem_copy):
+    """``position_accuracy_scale`` and ``velocity_accuracy_scale`` multiply the file's accuracies in
+    the fit's GPS rows (a fit's reported GPS sigma) and in the kinematic fit's inputs."""
+    from test_problem_config import edit
+
+    from casrecon.estimation.fitdata import load_fit_data
+    from casrecon.estimation.kinds.gps import fix_sigma
+    from casrecon.io.problem import load_problem
+
+    edit(problem_copy, "position_error_time_s = 0.0", "position_error_time_s = 0.0\n"
+         "position_accuracy_scale = 0.5\nvelocity_accuracy_scale = 3.0")
+    cfg = load_problem(problem_copy)
+    model = cfg.gps.error_model
+    assert (model.position_scale, model.velocity_scale) == (0.5, 3.0)
+    data = load_fit_data(cfg)
+    sigma = fix_sigma(data, model)
+    np.testing.assert_allclose(sigma[:, :3], 0.5 * data.gps_sigma[:, :3])
+    np.testing.assert_allclose(sigma[:, 3:], 3.0 * data.gps_sigma[:, 3:])
 
 
 def test_profile_grid_covers_the_altitudes_with_a_margin():

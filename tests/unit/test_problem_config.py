@@ -71,6 +71,8 @@ CASES = {
     "GPS error fully correlated": ("velocity_error_time_s = 0.0", "velocity_error_time_s = 2.0\n"
                                    "velocity_correlated_fraction = 1.0", "sensors.gps.velocity_correlated_fraction",
                                    "some white"),
+    "zero GPS accuracy scale": ("position_error_time_s = 0.0", "position_error_time_s = 0.0\n"
+                                "position_accuracy_scale = 0.0", "sensors.gps.position_accuracy_scale", "positive"),
     "negative GPS correlation time": ("position_error_time_s = 0.0", "position_error_time_s = -1.0",
                                       "sensors.gps.position_error_time_s", ">="),
     "profile grid coarser than its correlation": ("profile_density_sigma = 0.0", "profile_density_sigma = 0.0\n"

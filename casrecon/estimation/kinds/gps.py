@@ -1,7 +1,8 @@
 """The GPS kind: each fix compared with the antenna position and velocity on the collocation
 polynomial at its own time, t_fix - clock_offset on the IMU clock (so the clock offset, which this
 kind adds as a parameter, is estimable). Fixes are whitened by the receiver's reported accuracies
-(north and east by hAcc, down by vAcc, each velocity component by sAcc). A component the GPS file
+(north and east by hAcc, down by vAcc, each velocity component by sAcc) times the error model's
+accuracy scales (:func:`fix_sigma`). A component the GPS file
 does not give (NaN value, infinite sigma: :func:`casrecon.io.gps_rules.fixes_ned`) has zero weight and
 no correlated error; its residual is NaN.
 
@@ -25,6 +26,7 @@ from casrecon.estimation.layout import BlockLocals
 from casrecon.estimation.parameters import ParameterSpec
 from casrecon.estimation.transcription import gps_function, selection_matrix
 from casrecon.io.problem import ProblemConfig
+from casrecon.physics.sensor_errors import GpsErrorModel
 
 #: Name of the IMU-to-GPS clock-offset parameter (s): a fix stamped t happened at IMU time t - offset.
 CLOCK = "clock_offset_s"
@@ -64,10 +66,10 @@ class GpsKind:
         r = gps_function(model, layout.mesh.h, layout.active)(
             xk, xk1, loc.point_params(theta, xk), loc.point_params(theta, xk1), tau, y_white, w, uk, uk1)
         k, tau_fix = layout.interval_of(data.gps_time_s)
-        fraction = errors.fraction
+        fraction, sigma = errors.fraction, fix_sigma(data, errors)
         y_fix = np.nan_to_num(np.column_stack([data.gps_pos_ned, data.gps_vel_ned]))  # missing: weight 1/inf = 0
         block_data = [ca.DM(tau_fix).T, ca.DM(y_fix.T),
-                      ca.DM(1.0 / (data.gps_sigma * np.sqrt(1.0 - fraction)).T), *layout.profile_block_data(k)]
+                      ca.DM(1.0 / (sigma * np.sqrt(1.0 - fraction)).T), *layout.profile_block_data(k)]
         cols = layout.two_node_columns(k)
         n_meas = int(np.isfinite(data.gps_sigma).sum())  # components the file gives
         if not active.size:
@@ -75,7 +77,7 @@ class GpsKind:
             return [Term(context.group(self.name), (BlockSet(kind, cols, block_data),), n_measurements=n_meas)]
         e_cols = layout.extra(self.name).cols.reshape(-1, active.size)
         kind = BlockKind("gps", ca.vertcat(loc.symbol, e), [tau0, y, w, *loc.data, amp], r, None)
-        amp_fix = np.where(np.isfinite(data.gps_sigma), data.gps_sigma, 0.0) * np.sqrt(fraction)
+        amp_fix = np.where(np.isfinite(sigma), sigma, 0.0) * np.sqrt(fraction)
         block_data.append(ca.DM(amp_fix[:, active].T))
         phi = errors.transition(np.diff(data.gps_time_s))
         return [Term(context.group(self.name), (BlockSet(kind, np.column_stack([cols, e_cols]), block_data),),
@@ -89,21 +91,28 @@ class GpsKind:
         GpsErrorModel.whiten)."""
         data = result.data
         errors = result.scenario.config.gps.error_model
-        white_sigma = data.gps_sigma * np.sqrt(1.0 - errors.fraction)
+        sigma = fix_sigma(data, errors)
+        white_sigma = sigma * np.sqrt(1.0 - errors.fraction)
         whitened = result.residuals[result.nlp.groups[result.group(self.name)]].reshape(-1, 6)
         correlated = np.zeros_like(whitened)
-        missing = ~np.isfinite(data.gps_sigma)
+        missing = ~np.isfinite(sigma)
         extra = result.part.extra(self.name)
         if extra is not None:
             e = result.z[extra.cols].reshape(-1, errors.active.size)
             act = errors.active
-            correlated[:, act] = e * np.where(missing, 0.0, data.gps_sigma)[:, act] * np.sqrt(errors.fraction[act])
+            correlated[:, act] = e * np.where(missing, 0.0, sigma)[:, act] * np.sqrt(errors.fraction[act])
         correlated[missing] = np.nan
         residual = np.where(missing, np.nan, whitened * np.where(missing, 0.0, white_sigma) + correlated)
         time = data.gps_time_s - clock_offset(result)
-        normalised = errors.whiten(residual / data.gps_sigma, time)
-        return {"time_imu_s": time, "residual": residual, "sigma": data.gps_sigma, "correlated": correlated,
+        normalised = errors.whiten(residual / sigma, time)
+        return {"time_imu_s": time, "residual": residual, "sigma": sigma, "correlated": correlated,
                 "normalised": normalised}
+
+
+def fix_sigma(data: FitData, errors: GpsErrorModel) -> np.ndarray:
+    """(M, 6) 1-sigma of each fix's error the fit assumes: the reported accuracies times the error
+    model's accuracy scales (inf where the file gives no such component)."""
+    return data.gps_sigma * errors.scale[None, :]
 
 
 def clock_offset(result) -> float:
