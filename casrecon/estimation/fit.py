@@ -27,11 +27,12 @@ from casrecon.estimation.engine.kkt_covariance import KktCovariance
 from casrecon.estimation.engine.laplace import marginal_solution
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult
+from casrecon.estimation.error_model_sigma import estimate_error_sizes, gps_estimated
 from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet
-from casrecon.estimation.profile_sigma import MAX_REFITS, estimate_profile_sigma, profile_refit, refit_text
+from casrecon.estimation.profile_sigma import MAX_REFITS, profile_refit, refit_text
 from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import Mesh, make_mesh
 from casrecon.io.errors import InputError
@@ -292,10 +293,17 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
         return dataclasses.replace(result, notes=result.notes + notes) if notes else result
 
     result = fitted(scenario, lambda fit_nlp: fit_nlp.pack(x0, np.zeros(params.n)), cfg.estimation.clock_offset_guess_s)
-    if not (cfg.atmosphere.profile_sigma_from_data and result.part.profile is not None and not result.part.n_u
-            and settings.method != "marginal"):
+    if not sizes_estimated(result) or result.part.n_u or settings.method == "marginal":
         return with_bands(result)
     return with_bands(with_profile_sigma_from_data(result, cfg, t0, fitted))
+
+
+def sizes_estimated(result: FitResult) -> bool:
+    """Whether the fit has error-model sizes to estimate from the data: the profile model with
+    ``[atmosphere] profile_sigma_from_data``, or a GPS error model with ``[sensors.gps]
+    error_model_from_data``."""
+    profile = result.scenario.config.atmosphere.profile_sigma_from_data and result.part.profile is not None
+    return bool(profile or gps_estimated(result))
 
 
 def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: float,
@@ -309,10 +317,14 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
     earlier_s, intended, history = 0.0, None, ()
     for _ in range(MAX_REFITS):
         try:
-            estimate = estimate_profile_sigma(result, cfg.atmosphere.profile_length_m)
+            errors = cfg.gps.error_model
+            estimate = estimate_error_sizes(result, cfg.atmosphere.profile_length_m,
+                                            profile=cfg.atmosphere.profile_sigma_from_data,
+                                            configured_times_s=(errors.position_time_s, errors.velocity_time_s),
+                                            search=intended is None)
         except (np.linalg.LinAlgError, ValueError) as err:
             return dataclasses.replace(result, notes=result.notes + (
-                f"atmosphere-profile sigmas not estimated from the data ({err}): fitted with the "
+                f"error-model sizes not estimated from the data ({err}): fitted with the "
                 f"{'configured' if intended is None else 'last estimated'} ones",))
         if not estimate.differs_from(estimate.fitted if intended is None else intended):
             return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
@@ -329,8 +341,8 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
             return dataclasses.replace(result, notes=result.notes + (f"{estimate.text()}; the refit "
                                                                      f"{refit_text(estimate, prior)} failed: {err}",))
         again.timings.update(first_fit_s=earlier_s, total_s=time.perf_counter() - t0)
-        if prior is None:  # without the profile model: nothing left to estimate
+        if not sizes_estimated(again):  # without the profile model or GPS errors: nothing left to estimate
             return again
         result, intended = again, estimate.estimated
     return dataclasses.replace(result, notes=result.notes + (
-        f"atmosphere-profile sigmas: still changing after {MAX_REFITS} refits; the last fit stands",))
+        f"error-model sizes: still changing after {MAX_REFITS} refits; the last fit stands",))

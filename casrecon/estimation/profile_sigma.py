@@ -40,6 +40,7 @@ import numpy as np
 import scipy.linalg
 
 from casrecon.estimation.engine.covariance import gauss_newton_system
+from casrecon.estimation.gps_error_sigma import GpsErrorEstimate
 from casrecon.estimation.profile import PROFILE_COMPONENTS, PROFILE_UNITS
 from casrecon.io.problem import ProblemConfig
 
@@ -93,6 +94,9 @@ class ProfileSigmaEstimate:
         The correlation length in altitude the fit used and the one of the estimate (m; the most
         evident of the fit's and :data:`LENGTH_FACTORS` times the configured one, shared by every
         component); 0: not estimated (the fit's is kept).
+    gps : GpsErrorEstimate or None
+        The GPS error model estimated with them (:mod:`casrecon.estimation.error_model_sigma`);
+        None: not estimated. Without the profile model the groups above are empty.
     """
 
     fitted: dict[str, float]
@@ -103,6 +107,7 @@ class ProfileSigmaEstimate:
     gauss_newton_fallback: bool = False
     fitted_length_m: float = 0.0
     length_m: float = 0.0
+    gps: GpsErrorEstimate | None = None
 
     @property
     def refit(self) -> bool:
@@ -120,10 +125,19 @@ class ProfileSigmaEstimate:
 
         if any(self.estimated.values()) and self.length_m > 0 and not agrees(self.length_m, self.fitted_length_m):
             return True
+        if self.gps is not None and self.gps.refit:
+            return True
         return not all(agrees(self.estimated[g], intended.get(g, self.fitted[g])) for g in self.fitted)
 
     def text(self) -> str:
-        """One line: each group's estimate against the fit's sigma."""
+        """One line: each group's estimate against the fit's sigma (and the GPS error model's)."""
+        gps = "" if self.gps is None else self.gps.text()
+        if not self.fitted:
+            return gps
+        return self.profile_text() + ("; " + gps if gps else "")
+
+    def profile_text(self) -> str:
+        """One line: each profile group's estimate against the fit's sigma."""
         unit = {g: PROFILE_UNITS[GROUPS[g][0]] for g in self.fitted}
         parts = [f"{g} {unit[g][1] * self.estimated[g]:.3g} {unit[g][0]} (fitted with "
                  f"{unit[g][1] * self.fitted[g]:.3g}; log evidence over none {self.against_zero[g]:+.1f})"
@@ -326,7 +340,13 @@ def profile_refit(cfg: ProblemConfig, estimate: ProfileSigmaEstimate) -> tuple[P
     """The configuration and profile prior sigmas (one per corrected component, or None) of the
     refit with the sigmas the data say: without the profile model when every group is estimated
     at zero (the plain fit); else the same profile unknowns, and so the same compiled code, with
-    each group's prior at its estimate, a group at zero held at MIN_RATIO of the fitted sigma."""
+    each group's prior at its estimate, a group at zero held at MIN_RATIO of the fitted sigma. With
+    a GPS estimate the configuration's GPS error model is the estimated one (prior None too when
+    the fit had no profile model)."""
+    if estimate.gps is not None:
+        cfg = replace(cfg, gps=replace(cfg.gps, error_model=estimate.gps.estimated))
+        if not estimate.fitted:  # the profile sigmas were not estimated: the configured ones stand
+            return cfg, None
     if not any(estimate.estimated.values()):
         atm = replace(cfg.atmosphere, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0)
         return replace(cfg, atmosphere=atm), None
@@ -339,9 +359,12 @@ def profile_refit(cfg: ProblemConfig, estimate: ProfileSigmaEstimate) -> tuple[P
 
 def refit_text(estimate: ProfileSigmaEstimate, prior: np.ndarray | None) -> str:
     """How the refit of :func:`profile_refit` was made, for the fit's notes."""
+    gps = "" if estimate.gps is None else f" and {estimate.gps.estimated.describe()}"
+    if not estimate.fitted:
+        return "with" + gps[4:]
     if prior is None:
-        return "without the atmosphere-profile model"
+        return "without the atmosphere-profile model" + gps
     parts = [f"{c} {PROFILE_UNITS[c][1] * p:.3g} {PROFILE_UNITS[c][0]}" for c, p in zip(estimate.components, prior)]
     length = (f" and the correlation length {estimate.length_m:.0f} m"
               if estimate.length_m and estimate.length_m != estimate.fitted_length_m else "")
-    return f"with the profile prior sigmas {', '.join(parts)}{length} (the unknowns scaled as configured)"
+    return f"with the profile prior sigmas {', '.join(parts)}{length} (the unknowns scaled as configured){gps}"

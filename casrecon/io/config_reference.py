@@ -177,6 +177,10 @@ SIX_DOF = FileKind(
             key("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
                "replacing the file's sAcc on every axis", None, attr="gps.velocity_sigma_mps"),
             *gps_error_keys("gps.error_model"),
+            key("error_model_from_data", "bool", "", "After a MAP fit with a GPS error model, estimate its white "
+               "and correlated sizes (position and velocity) and correlation times from the data (type-II maximum "
+               "likelihood, with the atmosphere-profile sigmas) and refit with them while they change by more "
+               "than 25 %; false: the model as configured", source=GpsConfig, attr="gps.error_model_from_data"),
         ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc); the "
                 "error-model keys split that variance into a white and a time-correlated part.",
             required=True),

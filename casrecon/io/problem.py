@@ -83,7 +83,9 @@ class ImuConfig:
 class GpsConfig:
     """GPS (FlySight) file, the synthetic receiver's accuracy levels (1-sigma) and the fit's model of
     time-correlated GPS errors (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`).
-    ``velocity_sigma_mps``: [north, east, down] velocity 1-sigma (m/s) replacing the file's sAcc (None: sAcc)."""
+    ``velocity_sigma_mps``: [north, east, down] velocity 1-sigma (m/s) replacing the file's sAcc (None: sAcc).
+    ``error_model_from_data``: after the fit, estimate the error model's white and correlated sizes
+    and correlation times from the data and refit with them (:mod:`casrecon.estimation.error_model_sigma`)."""
 
     file: Path | None
     rate_hz: float = 5.0
@@ -92,6 +94,7 @@ class GpsConfig:
     s_acc_mps: float = 0.25
     error_model: GpsErrorModel = GpsErrorModel()
     velocity_sigma_mps: tuple[float, float, float] | None = None
+    error_model_from_data: bool = True
 
 
 @dataclass(frozen=True)
@@ -281,7 +284,8 @@ def _gps(t: Fields) -> GpsConfig:
     cfg = GpsConfig(file=t.path_of("file", must_exist=False), rate_hz=t.number("rate_hz", 5.0, positive=True),
                     h_acc_m=t.number("h_acc_m", 1.5, positive=True), v_acc_m=t.number("v_acc_m", 2.5, positive=True),
                     s_acc_mps=t.number("s_acc_mps", 0.25, positive=True), error_model=gps_error_model(t),
-                    velocity_sigma_mps=velocity_sigma(t))
+                    velocity_sigma_mps=velocity_sigma(t),
+                    error_model_from_data=t.boolean("error_model_from_data", True))
     t.reject_unknown()
     return cfg
 
