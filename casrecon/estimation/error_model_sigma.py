@@ -23,6 +23,7 @@ from casrecon.estimation.engine.covariance import gauss_newton_system
 from casrecon.estimation.gps_error_sigma import (
     MAX_RATIO,
     MIN_RATIO,
+    MIN_SHARE,
     TIME_FACTORS,
     GpsErrorEstimate,
     chain_order,
@@ -72,7 +73,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
             best = challenger
     base_times = own_times if configured_times_s is None else configured_times_s
     for g in (0, 1):  # then each group's correlation time, at the length and times chosen so far
-        if search and own_times[g] > 0:
+        if search and own_times[g] > 0 and correlated_share(errors, best[5], best[4].x, g) >= MIN_SHARE:
             times = {tuple(f * base_times[g] if i == g else best[1][i] for i in (0, 1)) for f in (1.0, *TIME_FACTORS)}
             times.discard(best[1])
             challenger = _best(build, [(best[2], t) for t in sorted(times)], best[4].x)
@@ -99,6 +100,16 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     estimated = {g: fitted[g] * float(r) for g, r in zip(names[:n_profile], ratio[:n_profile])}
     return ps.ProfileSigmaEstimate(fitted, estimated, max(0.0, value - base), tuple(prior), against_zero,
                                    fallback, grid.length_m, length, gps)
+
+
+def correlated_share(errors, names: list[str], log_ratio: np.ndarray, group: int) -> float:
+    """The correlated share of the position (``group`` 0) or velocity (1) error variance at the
+    log ratios ``log_ratio`` of the groups ``names`` to the fitted model ``errors``."""
+    g = ("position", "velocity")[group]
+    ratio = dict(zip(names, np.exp(log_ratio)))
+    f = float(errors.fraction[3 * group])
+    correlated = ratio.get(f"gps {g} correlated", 1.0) ** 2 * f
+    return correlated / (correlated + ratio.get(f"gps {g} white", 1.0) ** 2 * (1.0 - f))
 
 
 def _best(build, candidates, start: np.ndarray | None = None):

@@ -328,7 +328,8 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
                 f"{'configured' if intended is None else 'last estimated'} ones",))
         if not estimate.differs_from(estimate.fitted if intended is None else intended):
             return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
-        refit_cfg, prior = profile_refit(cfg, estimate)
+        # from this fit's configuration: the problem's with the error models the refits before set
+        refit_cfg, prior = profile_refit(result.scenario.config, estimate)
         before = result.fit_nlp
         earlier_s += result.timings["fit_s"]
         history += (f"{estimate.text()}; refitted {refit_text(estimate, prior)} (the fit before took "

@@ -226,3 +226,27 @@ def test_profile_prior_whitens_the_level_values(n_levels):
     k = np.arange(n_levels)
     want = np.kron(phi ** np.abs(k[:, None] - k[None, :]), np.eye(n))
     np.testing.assert_allclose(cov_v, want, atol=1e-10)
+
+
+def test_gps_model_from_estimated_ratios():
+    """The refit's GPS error model keeps the estimated white and correlated variances (fraction
+    capped at 0.999); a correlated share below 1 % makes a group white; models differing only by a
+    white part below the cap do not ask for a refit."""
+    from casrecon.estimation.gps_error_sigma import model_from, models_differ
+
+    fitted = GpsErrorModel(20.0, 2.0, 0.99, 0.99)
+    m = model_from(fitted, {"gps position white": 2.0, "gps position correlated": 0.5,
+                            "gps velocity white": 1.0, "gps velocity correlated": 1.0})
+    total = 4.0 * 0.01 + 0.25 * 0.99
+    assert m.position_scale == pytest.approx(np.sqrt(total))
+    assert m.position_fraction == pytest.approx(0.25 * 0.99 / total)
+    assert (m.velocity_scale, m.velocity_fraction) == pytest.approx((1.0, 0.99))
+    assert models_differ(fitted, m) and not models_differ(fitted, fitted)
+    capped = model_from(fitted, {"gps position white": 0.02, "gps velocity white": 0.02})
+    assert capped.position_fraction == capped.velocity_fraction == 0.999
+    again = model_from(capped, {"gps position white": 0.02, "gps velocity white": 0.3})
+    assert again.position_fraction == 0.999 and not models_differ(capped, again)
+    white = model_from(GpsErrorModel(), {"gps position correlated": 0.005, "gps velocity correlated": 0.05})
+    assert (white.position_time_s, white.position_fraction, white.velocity_time_s) == (0.0, 0.0, 0.0)
+    assert not white.enabled and models_differ(GpsErrorModel(), white)
+    assert model_from(fitted, {}, (4.0, 10.0)).velocity_time_s == 10.0
