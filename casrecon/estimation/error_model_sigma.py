@@ -29,6 +29,7 @@ from casrecon.estimation.gps_error_sigma import (
     chain_order,
     gps_row_groups,
     model_from,
+    variance_parts,
 )
 from casrecon.estimation.profile import PROFILE_COMPONENTS
 from casrecon.estimation.split_evidence import RowGroup, SplitQuadraticModel
@@ -61,7 +62,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
         raise ValueError("the error models' sizes are estimated only for a fit without disturbance states")
     grid = result.part.profile if profile else None
     configured = None if grid is None else (grid.length_m if configured_length_m is None else configured_length_m)
-    build, fallback = _builder(result, grid)
+    build, own_model, fallback = _builder(result, grid)
     errors = result.scenario.config.gps.error_model
     own_times = (errors.position_time_s, errors.velocity_time_s)
     length = None if grid is None else grid.length_m
@@ -73,7 +74,8 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
             best = challenger
     base_times = own_times if configured_times_s is None else configured_times_s
     for g in (0, 1):  # then each group's correlation time, at the length and times chosen so far
-        if search and own_times[g] > 0 and correlated_share(errors, best[5], best[4].x, g) >= MIN_SHARE:
+        ratios = dict(zip(best[5], np.exp(best[4].x)))
+        if search and own_times[g] > 0 and variance_parts(errors, ratios, g)[1] >= MIN_SHARE:
             times = {tuple(f * base_times[g] if i == g else best[1][i] for i in (0, 1)) for f in (1.0, *TIME_FACTORS)}
             times.discard(best[1])
             challenger = _best(build, [(best[2], t) for t in sorted(times)], best[4].x)
@@ -90,7 +92,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
         against_zero[names[k]] = float(value - model.log_evidence(none)[0])
         if against_zero[names[k]] < ps.ZERO_EVIDENCE_NATS:
             ratio[k] = 0.0
-    base, _ = build((None if grid is None else grid.length_m, own_times))[0].log_evidence(np.zeros(len(names)))
+    base, _ = own_model.log_evidence(np.zeros(len(names)))
     gps_ratios = {n: float(r) for n, r in zip(names[n_profile:], ratio[n_profile:])}
     gps = GpsErrorEstimate(errors, model_from(errors, gps_ratios, times), gps_ratios)
     if grid is None:
@@ -100,16 +102,6 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     estimated = {g: fitted[g] * float(r) for g, r in zip(names[:n_profile], ratio[:n_profile])}
     return ps.ProfileSigmaEstimate(fitted, estimated, max(0.0, value - base), tuple(prior), against_zero,
                                    fallback, grid.length_m, length, gps)
-
-
-def correlated_share(errors, names: list[str], log_ratio: np.ndarray, group: int) -> float:
-    """The correlated share of the position (``group`` 0) or velocity (1) error variance at the
-    log ratios ``log_ratio`` of the groups ``names`` to the fitted model ``errors``."""
-    g = ("position", "velocity")[group]
-    ratio = dict(zip(names, np.exp(log_ratio)))
-    f = float(errors.fraction[3 * group])
-    correlated = ratio.get(f"gps {g} correlated", 1.0) ** 2 * f
-    return correlated / (correlated + ratio.get(f"gps {g} white", 1.0) ** 2 * (1.0 - f))
 
 
 def _best(build, candidates, start: np.ndarray | None = None):
@@ -146,9 +138,10 @@ def maximised(model: SplitQuadraticModel, names: list[str], start: np.ndarray | 
 
 
 def _builder(result, grid):
-    """(A function (length, times) -> (SplitQuadraticModel, group names), whether it falls back):
-    on the fit's own curvature, or on the Gauss-Newton one where the held part of the observed
-    information is not positive semidefinite (its evidence would exist only near the fit's sizes)."""
+    """(A function (length, times) -> (SplitQuadraticModel, group names), the model at the fit's
+    own length and times, whether it falls back): on the fit's own curvature, or on the
+    Gauss-Newton one where the held part of the observed information is not positive semidefinite
+    (its evidence would exist only near the fit's sizes)."""
     nlp, cov = result.nlp, result.covariance
     jacobian = nlp.derivatives.jacobian_r(result.z).tocsr()
     residuals = nlp.residual_vector(result.z)
@@ -198,4 +191,4 @@ def _builder(result, grid):
         reduced = result.solver.reduced or gauss_newton_system(nlp, result.z, cov.split)
         own_system = blocks(reduced.basis, reduced.hessian)
         own, _ = make(own_system, own_key)
-    return (lambda key: make(own_system, key, own)), fallback
+    return (lambda key: make(own_system, key, own)), own, fallback

@@ -106,19 +106,26 @@ def model_from(fitted: GpsErrorModel, ratios: dict[str, float],
     whose correlated share is below :data:`MIN_SHARE` is white (time and fraction 0)."""
     out = {}
     times = (fitted.position_time_s, fitted.velocity_time_s) if times_s is None else times_s
-    for g, tau in zip(("position", "velocity"), times):
-        f = float(fitted.fraction[0 if g == "position" else 3])
-        scale = getattr(fitted, f"{g}_scale")
-        white = ratios.get(f"gps {g} white", 1.0) ** 2 * (1.0 - f)
-        correlated = ratios.get(f"gps {g} correlated", 1.0) ** 2 * f
-        total = white + correlated
-        out[f"{g}_scale"] = scale * float(np.sqrt(total))
-        out[f"{g}_fraction"] = min(correlated / total, MAX_CORRELATED_FRACTION) if f > 0 else getattr(
-            fitted, f"{g}_fraction")
+    for k, (g, tau) in enumerate(zip(("position", "velocity"), times)):
+        f = float(fitted.fraction[3 * k])
+        total, share = variance_parts(fitted, ratios, k)
+        out[f"{g}_scale"] = getattr(fitted, f"{g}_scale") * float(np.sqrt(total))
+        out[f"{g}_fraction"] = min(share, MAX_CORRELATED_FRACTION) if f > 0 else getattr(fitted, f"{g}_fraction")
         out[f"{g}_time_s"] = float(tau)
-        if f > 0 and correlated / total < MIN_SHARE:  # white: no correlated part the data can see
+        if f > 0 and share < MIN_SHARE:  # white: no correlated part the data can see
             out[f"{g}_fraction"], out[f"{g}_time_s"] = 0.0, 0.0
     return replace(fitted, **out)
+
+
+def variance_parts(fitted: GpsErrorModel, ratios: dict[str, float], group: int) -> tuple[float, float]:
+    """(total variance over the fitted model's, correlated share of it) of the position (``group``
+    0) or velocity (1) error whose white and correlated 1-sigma are the fitted model's times
+    ``ratios`` (groups of :data:`GROUPS`; missing: 1)."""
+    g = ("position", "velocity")[group]
+    f = float(fitted.fraction[3 * group])
+    correlated = ratios.get(f"gps {g} correlated", 1.0) ** 2 * f
+    total = ratios.get(f"gps {g} white", 1.0) ** 2 * (1.0 - f) + correlated
+    return total, correlated / total
 
 
 def error_chains(result) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -181,24 +188,25 @@ def gps_row_groups(result, jacobian: sps.csr_matrix, residuals: np.ndarray, basi
     lookup = np.full(nlp.n_z, -1, np.int64)
     lookup[elim] = np.arange(elim.size)
     position_in_e = lookup[chains]
+    gram_fit_all = (fit_prior.T @ fit_prior).tocsr()
     log_det = 0.0
     for name, mask, g in (("gps position correlated", position, 0), ("gps velocity correlated", ~position, 1)):
         if not mask.any():
             continue
         own_tau = errors.time_s[active[mask][0]]
         tau = own_tau if times_s is None else times_s[g]
-        blocks, fit_blocks = [], []
-        for j in np.flatnonzero(mask):
-            w, det = chain_rows(time, tau, chains.shape[0])
-            w_own, det_own = chain_rows(time, own_tau, chains.shape[0])
-            log_det += det - det_own
-            cols = position_in_e[:, j]
-            blocks.append(sps.csr_matrix((w.data, cols[w.indices], w.indptr), shape=(w.shape[0], elim.size)))
-            fit_blocks.append(sps.csr_matrix((w_own.data, cols[w_own.indices], w_own.indptr),
-                                             shape=(w.shape[0], elim.size)))
-        rebuilt_own = sps.vstack(fit_blocks).tocsr()
+        w, det = chain_rows(time, tau, chains.shape[0])  # every chain has the fixes' times
+        w_own, det_own = chain_rows(time, own_tau, chains.shape[0])
+        log_det += int(mask.sum()) * (det - det_own)
+
+        def placed(rows: sps.csr_matrix, cols: np.ndarray) -> sps.csr_matrix:
+            return sps.csr_matrix((rows.data, cols[rows.indices], rows.indptr), shape=(rows.shape[0], elim.size))
+
+        chain_cols = [position_in_e[:, j] for j in np.flatnonzero(mask)]
+        blocks = [placed(w, cols) for cols in chain_cols]
+        rebuilt_own = sps.vstack([placed(w_own, cols) for cols in chain_cols]).tocsr()
         mine = position_in_e[:, mask].ravel()
-        gram_fit = (fit_prior.T @ fit_prior).tocsr()[mine][:, mine]
+        gram_fit = gram_fit_all[mine][:, mine]
         gram_own = (rebuilt_own.T @ rebuilt_own).tocsr()[mine][:, mine]
         if abs(gram_fit - gram_own).max() > 1e-8 * max(1.0, abs(gram_own).max()):
             raise ValueError("the fit's GPS error prior rows are not the Gauss-Markov chain rebuilt here")

@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
+from casrecon.estimation.kinds.gps import fix_sigma
 from casrecon.estimation.kinematic_data import KinematicData, KinematicOptions
 from casrecon.io.baro import read_baro
 from casrecon.io.gps_files import read_gps_track
@@ -61,7 +62,7 @@ def data_from_problem(cfg: ProblemConfig, fit_data: FitData | None = None,
         keep = (t >= data.window[0]) & (t <= data.window[1])
         baro_t, baro_p, noise = t[keep], log.pressure_pa[keep], cfg.baro.noise_pa
     y = np.column_stack([data.gps_pos_ned, data.gps_vel_ned])
-    sigma = data.gps_sigma * cfg.gps.error_model.scale  # the error's size the fit assumes
+    sigma = fix_sigma(data, cfg.gps.error_model)  # the error's size the fit assumes
     return KinematicData(data.imu_time_s, data.gyro_imu, data.accel_imu, data.gyro_valid, data.accel_valid,
                          data.gps_time_s - guess, y, sigma, data.window, baro_t, baro_p, noise, atmosphere,
                          data.notes)
