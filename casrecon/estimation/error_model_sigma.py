@@ -66,21 +66,15 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     errors = result.scenario.config.gps.error_model
     own_times = (errors.position_time_s, errors.velocity_time_s)
     length = None if grid is None else grid.length_m
-    best = _best(build, [(length, own_times)])
+    best = most_evident(build, [(length, own_times)])
     if search and grid is not None:  # the other lengths, each searched from the sizes at the fit's
         others = [(f * configured, own_times) for f in ps.LENGTH_FACTORS if f * configured != grid.length_m]
-        challenger = _best(build, others, best[4].x) if others else None
+        challenger = most_evident(build, others, best[4].x) if others else None
         if challenger is not None and challenger[0] < best[0]:
             best = challenger
-    base_times = own_times if configured_times_s is None else configured_times_s
-    for g in (0, 1):  # then each group's correlation time, at the length and times chosen so far
-        ratios = dict(zip(best[5], np.exp(best[4].x)))
-        if search and own_times[g] > 0 and variance_parts(errors, ratios, g)[1] >= MIN_SHARE:
-            times = {tuple(f * base_times[g] if i == g else best[1][i] for i in (0, 1)) for f in (1.0, *TIME_FACTORS)}
-            times.discard(best[1])
-            challenger = _best(build, [(best[2], t) for t in sorted(times)], best[4].x)
-            if challenger[0] < best[0]:
-                best = challenger
+    if search:
+        base_times = own_times if configured_times_s is None else configured_times_s
+        best = time_search(build, best, errors, own_times, base_times)
     _, times, length, model, fit, names = best
     ratio = np.exp(fit.x)
     value = -fit.fun
@@ -104,7 +98,23 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
                                    fallback, grid.length_m, length, gps)
 
 
-def _best(build, candidates, start: np.ndarray | None = None):
+def time_search(build, best, errors, own_times: tuple[float, float], base_times: tuple[float, float]):
+    """The most evident of ``best`` (as :func:`most_evident` returns) and the candidates at each other
+    position and then velocity correlation time (TIME_FACTORS times ``base_times``, at the length and
+    times chosen so far), for each group the fit's model (``errors``, times ``own_times``) has
+    correlated and whose estimated correlated share is at least MIN_SHARE."""
+    for g in (0, 1):
+        ratios = dict(zip(best[5], np.exp(best[4].x)))
+        if own_times[g] > 0 and variance_parts(errors, ratios, g)[1] >= MIN_SHARE:
+            times = {tuple(f * base_times[g] if i == g else best[1][i] for i in (0, 1)) for f in (1.0, *TIME_FACTORS)}
+            times.discard(best[1])
+            challenger = most_evident(build, [(best[2], t) for t in sorted(times)], best[4].x)
+            if challenger[0] < best[0]:
+                best = challenger
+    return best
+
+
+def most_evident(build, candidates, start: np.ndarray | None = None):
     """(-log Z, times, length, model, optimiser result, group names) of the most evident candidate
     (length, (position, velocity) correlation times), each searched from ``start`` (log ratios;
     default the fit's sizes)."""

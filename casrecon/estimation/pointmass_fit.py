@@ -23,6 +23,7 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import BSpline
 
+from casrecon.estimation import pointmass_gps_sigma as gps_sigma
 from casrecon.estimation.data_checks import check_point_mass_data
 from casrecon.estimation.engine.blocks import BlockSet, Term
 from casrecon.estimation.engine.checks import (
@@ -41,6 +42,7 @@ from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.layout import DropLayout
 from casrecon.estimation.parameters import ParameterSet, ParameterSpec
 from casrecon.estimation.pointmass_innovations import filter_innovations, measurement_rows
+from casrecon.estimation.profile_sigma import MAX_REFITS
 from casrecon.estimation.segment import SegmentError, find_segment
 from casrecon.estimation.transcription import Mesh
 from casrecon.io.errors import InputError
@@ -281,8 +283,51 @@ def build_point_mass(cfg: PointMassConfig, model_name: str | None = None) -> Poi
 
 
 def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_level: int = 0) -> PointMassResult:
-    """Fit the track of a point-mass problem with the constant or the spline drag model; its Ipopt
-    iteration lines are labelled ``constant-CdA fit`` or ``spline-CdA fit``."""
+    """Fit the track of a point-mass problem with the constant or the spline drag model; its
+    iteration lines are labelled ``constant-CdA fit`` or ``spline-CdA fit``. With a GPS error model
+    and ``[gps] error_model_from_data``, the fit is made again with the GPS error model the
+    data say until it stops changing (at most MAX_REFITS refits;
+    :mod:`casrecon.estimation.pointmass_gps_sigma`); the notes say what each estimate found."""
+    t0 = time.perf_counter()
+    result = _fitted(cfg, model_name, print_level)
+    if not gps_sigma.estimated(result):
+        return result
+    configured = cfg.gps_errors
+    times = (configured.position_time_s, configured.velocity_time_s)
+    history: tuple[str, ...] = ()
+    estimate_s = 0.0
+    for refit in range(MAX_REFITS + 1):
+        t1 = time.perf_counter()
+        try:
+            estimate = gps_sigma.estimate_gps_model(result, times, search=refit == 0)
+        except (np.linalg.LinAlgError, ValueError) as err:
+            note = (f"GPS error model not estimated from the data ({err}): fitted with the "
+                    f"{'configured' if refit == 0 else 'last estimated'} one")
+            return _noted(result, history + (note,), estimate_s, t0)
+        estimate_s += time.perf_counter() - t1
+        if not estimate.refit:
+            return _noted(result, history + (estimate.text() + "; no refit",), estimate_s, t0)
+        if refit == MAX_REFITS:
+            break
+        try:
+            again = _fitted(dataclasses.replace(result.config, gps_errors=estimate.estimated), model_name, print_level)
+        except FitError as err:  # the fit before stands, and says why it was not replaced
+            return _noted(result, history + (f"{estimate.text()}; the refit with it failed: {err}",), estimate_s, t0)
+        history += (f"{estimate.text()}; refitted (the fit before took {result.timings['total_s']:.1f} s)",)
+        result = again
+    return _noted(result, history + (f"GPS error model: still changing after {MAX_REFITS} refits; the last fit "
+                                     "stands",), estimate_s, t0)
+
+
+def _noted(result: PointMassResult, notes: tuple[str, ...], estimate_s: float, t0: float) -> PointMassResult:
+    """``result`` with the GPS error model estimate's ``notes`` and its timings (``error_model_s``:
+    the estimates; ``total_s`` from ``t0``, the fits before included)."""
+    timings = dict(result.timings, error_model_s=estimate_s, total_s=time.perf_counter() - t0)
+    return dataclasses.replace(result, notes=result.notes + notes, timings=timings)
+
+
+def _fitted(cfg: PointMassConfig, model_name: str | None, print_level: int) -> PointMassResult:
+    """One fit with the configured GPS error model (see :func:`fit_point_mass`)."""
     model_name = model_name or cfg.drag.model
     t0 = time.perf_counter()
     built = build_point_mass(cfg, model_name)
@@ -364,7 +409,9 @@ def fit_with_comparison(cfg: PointMassConfig, print_level: int = 0) -> tuple[Poi
     main = fit_point_mass(cfg, print_level=print_level)
     if cfg.drag.model == "constant" and not cfg.model_error.enabled:
         return main, main
-    return main, fit_point_mass(dataclasses.replace(cfg, model_error=ModelErrorConfig()), "constant")
+    # with the main fit's GPS error model (the one the data say, when estimated), as it is
+    comparison = dataclasses.replace(main.config, model_error=ModelErrorConfig(), gps_error_model_from_data=False)
+    return main, fit_point_mass(comparison, "constant")
 
 
 def _result(cfg, model_name, data, part, nlp, sol, cov: Covariance, r, basis) -> PointMassResult:

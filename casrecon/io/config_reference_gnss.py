@@ -61,6 +61,13 @@ POINT_MASS = FileKind(
             key("velocity_sigma_mps", "[float; 3]", "m/s", "1-sigma of the velocity north, east, down (each > 0), "
                "replacing the file's sAcc on every axis", None, attr="velocity_sigma_mps"),
             *_QUALITY_KEYS,
+            key("error_model_from_data", "bool", "", "After the fit, with a GPS error model, estimate its white and "
+               "correlated sizes (position and velocity) and correlation times from the data (type-II maximum "
+               "likelihood on the fit's KKT matrix) and refit with them while they change by more than 25 %. Off "
+               "by default here (on in the 6-DOF fit): it costs 3 to 20 times the fit (10 to 75 s on the shipped "
+               "tracks), and on the shipped real tracks it did not make every innovation channel's chi-square "
+               "better (README, GPS-only fits)", source=PointMassConfig, field="gps_error_model_from_data",
+               attr="gps_error_model_from_data"),
         ), required=True),
         Table("segment", (
             key("start_utc", "datetime or string", "UTC", "Start of the fitted segment", "<found from the data>"),

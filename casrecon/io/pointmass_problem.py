@@ -122,6 +122,7 @@ class PointMassConfig:
     segment: SegmentConfig
     dynamics: DynamicsOptions
     gps_errors: GpsErrorModel = GpsErrorModel()
+    gps_error_model_from_data: bool = False                       # estimate gps_errors' sizes and times, refit
     model_error: ModelErrorConfig = ModelErrorConfig()
     linear_solver: str = "mumps"
     max_iter: int = 200
@@ -197,7 +198,8 @@ def load_point_mass(path: str | Path) -> PointMassConfig:
         dynamics=parse_dynamics(f.table("dynamics") or empty["dynamics"]),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
         max_iter=est.integer("max_iter", 200, 1), tol=est.number("tol", 1e-8, positive=True),
-        gps_errors=gps_error_model(gps), gps_date=gps_date(gps), velocity_sigma_mps=velocity_sigma(gps))
+        gps_errors=gps_error_model(gps), gps_error_model_from_data=gps.boolean("error_model_from_data", False),
+        gps_date=gps_date(gps), velocity_sigma_mps=velocity_sigma(gps))
     for t in (head, atm, veh, gps, drag, est, f):
         t.reject_unknown()
     return cfg
