@@ -139,7 +139,9 @@ def in_threads(fn: Callable, items: Iterable, threads: int = 2) -> Iterator:
     """``fn(item)`` for each item, in order, computed on up to ``threads`` threads of this process
     (:func:`threads_for_one_task`; one: in the calling thread). For work that releases the GIL
     (SuperLU, CasADi's evaluations and constructions, large numpy operations). The pool is made for
-    the call: one kept between calls would not survive a fork."""
+    the call: one kept between calls would not survive a fork. ``fn`` must not return a SuperLU
+    factor: scipy ties its memory to the thread that made it, and it leaks when it outlives the
+    thread (:mod:`casrecon.estimation.engine.block_lu`); solving with one made elsewhere is safe."""
     items = list(items)
     threads = min(threads_for_one_task(threads), len(items))
     if threads < 2:
@@ -147,21 +149,6 @@ def in_threads(fn: Callable, items: Iterable, threads: int = 2) -> Iterator:
         return
     with ThreadPoolExecutor(threads) as pool:
         yield from pool.map(fn, items)
-
-
-def alongside(background: Callable[[], Any], foreground: Callable[[], Any]) -> tuple[Any, Any]:
-    """(``background()``, ``foreground()``), the first computed on a worker thread while the second
-    runs in the calling thread (both in the calling thread, one after the other, when this process
-    may use one thread only: :func:`threads_for_one_task`). For two independent pieces of work of
-    which at least the background one releases the GIL (SuperLU, large numpy operations); CasADi
-    symbolics belong in the foreground (their construction is not thread-safe). An exception is
-    raised once both have ended (the foreground's if both raise)."""
-    if threads_for_one_task(2) < 2:
-        return background(), foreground()
-    with ThreadPoolExecutor(1) as pool:  # leaving the block waits for the background work
-        pending = pool.submit(background)
-        front = foreground()
-        return pending.result(), front
 
 
 def report_progress(n: int = 1) -> None:

@@ -88,6 +88,32 @@ def test_projected_gram_equals_the_dense_products(monkeypatch):
         jr.data = rng.normal(size=jr.nnz)
 
 
+def test_every_factor_is_made_in_the_calling_thread(monkeypatch):
+    """With two threads allowed, the blocks' SuperLU factors are still made in the thread that keeps
+    the BlockLu (a factor made on a pool and used after it leaks its memory: scipy 15921)."""
+    import threading
+
+    from casrecon import parallel
+    from casrecon.estimation.engine import block_lu
+
+    made_in = []
+
+    def recording_splu(matrix, **options):
+        made_in.append(threading.get_ident())
+        return block_lu.splu.__wrapped__(matrix, **options)
+
+    recording_splu.__wrapped__ = block_lu.splu
+    monkeypatch.setattr(parallel, "threads_for_one_task", lambda wanted: wanted)
+    monkeypatch.setattr(block_lu, "BLOCK_THREADS", 2)
+    monkeypatch.setattr(block_lu, "splu", recording_splu)
+    rng = np.random.default_rng(8)
+    m, _, _ = shuffled_blocks(rng, sizes=(30, 41, 25, 33))
+    lu = BlockLu(m)
+    assert lu.n_blocks == 4 and made_in == [threading.get_ident()] * 4
+    b = rng.normal(size=(m.shape[0], 3))
+    assert lu.solve(b) == pytest.approx(np.linalg.solve(m.toarray(), b), abs=1e-12)
+
+
 @pytest.mark.parametrize("threads", [1, 2, 3])
 def test_threads_do_not_change_a_bit(monkeypatch, threads):
     """The blocks factorised and solved on several threads, and the Gram chunks computed on them,

@@ -46,7 +46,7 @@ from casrecon.estimation.engine.information import INFORMATION
 from casrecon.estimation.engine.kkt_covariance import MAX_CONDITION, KktCovariance, SingularCovariance
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.projected_gram import projected_gram, wide_congruence, wide_gram
-from casrecon.parallel import alongside, in_threads, single_threaded_blas
+from casrecon.parallel import in_threads, single_threaded_blas
 
 LOG = logging.getLogger(__name__)
 
@@ -319,15 +319,15 @@ def compute_covariance(nlp: Nlp, z: np.ndarray, chi2: float, dof: int, reduced: 
 @single_threaded_blas()
 def _observed_system(nlp: Nlp, z: np.ndarray, lam_g: np.ndarray, reduced: ReducedSystem | None) -> ReducedSystem:
     """The reduced system of the observed information at ``z`` (see :func:`compute_covariance`),
-    on ``reduced``'s constraint split when it has one. Otherwise the split (SuperLU and dense
-    products) is made on a second thread while this one evaluates the exact Hessian (its CasADi
-    functions, made at first use, and its blocks): 0.3 s less on an atmosphere-profile fit."""
+    on ``reduced``'s constraint split when it has one, else on a split made here. Not on a second
+    thread alongside the Hessian's evaluation (0.3 s less on an atmosphere-profile fit): the split
+    holds SuperLU factors, which leak their memory when they outlive the thread that made them
+    (:mod:`casrecon.estimation.engine.block_lu`)."""
     d = nlp.derivatives
     a = d.jacobian_g(z)
     if reduced is not None and reduced.split is not None:
         return reduced_hessian(nlp, d.observed_information(z, lam_g), a, reusable_split(reduced.split, nlp.eliminated))
-    split, h = alongside(lambda: _split_of(nlp, a), lambda: d.observed_information(z, lam_g))
-    return reduced_hessian(nlp, h, a, split)
+    return reduced_hessian(nlp, d.observed_information(z, lam_g), a, _split_of(nlp, a))
 
 
 def _null_space_covariance(nlp: Nlp, system: ReducedSystem, chi2: float, dof: int, information: str) -> Covariance:
