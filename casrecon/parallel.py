@@ -191,11 +191,16 @@ def interrupts_deferred() -> Iterator[None]:
 
 @contextmanager
 def single_threaded_blas() -> Iterator[None]:
-    """Limit the BLAS libraries loaded in this process (numpy's and scipy's OpenBLAS) to one thread
-    while the block runs. casrecon's dense products are thin (20,000 x 32): threads gain nothing
-    on them, and when another process competes for the cores (figure workers, Monte Carlo workers,
-    a second fit) OpenBLAS's spinning threads make such a product 300 times slower (0.65 s
-    against 2 ms measured on the 2-core machine)."""
+    """Limit the BLAS libraries loaded in this process when the block starts to one thread while it
+    runs. casrecon's dense products are thin (20,000 x 32): threads gain nothing on them, and when
+    another process competes for the cores (figure workers, Monte Carlo workers, a second fit)
+    OpenBLAS's spinning threads make such a product 300 times slower (0.65 s against 2 ms measured
+    on the 2-core machine). threadpoolctl reaches only loaded libraries: numpy's OpenBLAS, and
+    scipy's once ``scipy.linalg`` has been imported. ``casrecon``'s command line and the pool
+    workers set their limit before scipy's loads, so scipy's keeps two threads there (functions
+    that need it at one, e.g. the error models' evidence, set the limit themselves). Limiting it
+    everywhere (scipy.linalg imported first) was tried on 2026-11-29: one fit and a four-case
+    Monte Carlo moved by less than the machine's drift between runs; not changed."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1, user_api="blas"):
