@@ -76,14 +76,12 @@ class KktQuadraticModel:
 
     def __init__(self, held_jacobian: sps.spmatrix, held_residuals: np.ndarray, constraint_jacobian: sps.spmatrix,
                  groups: list[ScaledRows], log_normaliser: float = 0.0) -> None:
-        held = sps.csr_matrix(held_jacobian)
-        held.eliminate_zeros()  # a block's structural zeros (e.g. spline coefficients far from its nodes)
+        held = _pruned(held_jacobian)  # a block's structural zeros (e.g. spline coefficients far from its nodes)
         self.held_hessian = (held.T @ held).tocsc()
         self.held_gradient = held.T @ np.asarray(held_residuals, float)
         self.held_chi2 = float(np.dot(held_residuals, held_residuals))
         self.held_jacobian, self.held_residuals = held, np.asarray(held_residuals, float)
-        self.constraints = sps.csc_matrix(constraint_jacobian)
-        self.constraints.eliminate_zeros()
+        self.constraints = _pruned(constraint_jacobian)
         self._order = None  # the KKT matrix's band-arrow order, worked out at the first factorisation
         self._set_groups(groups, log_normaliser)
 
@@ -159,7 +157,7 @@ class KktQuadraticModel:
 
 
 def _pruned(matrix: sps.spmatrix) -> sps.csr_matrix:
-    """``matrix`` as CSR without its explicit zeros."""
+    """A CSR copy of ``matrix`` without its explicit zeros (the caller's matrix is left as it is)."""
     out = sps.csr_matrix(matrix, copy=True)
     out.eliminate_zeros()
     return out

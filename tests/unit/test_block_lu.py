@@ -96,13 +96,12 @@ def test_every_factor_is_made_in_the_calling_thread(monkeypatch):
     from casrecon import parallel
     from casrecon.estimation.engine import block_lu
 
-    made_in = []
+    made_in, original_splu = [], block_lu.splu
 
     def recording_splu(matrix, **options):
         made_in.append(threading.get_ident())
-        return block_lu.splu.__wrapped__(matrix, **options)
+        return original_splu(matrix, **options)
 
-    recording_splu.__wrapped__ = block_lu.splu
     monkeypatch.setattr(parallel, "threads_for_one_task", lambda wanted: wanted)
     monkeypatch.setattr(block_lu, "BLOCK_THREADS", 2)
     monkeypatch.setattr(block_lu, "splu", recording_splu)
