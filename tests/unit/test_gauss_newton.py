@@ -153,6 +153,8 @@ def test_the_full_space_solver_takes_the_same_steps(monkeypatch):
 
 
 def test_the_full_space_solver_holds_a_bound_like_the_null_space_one(monkeypatch):
+    """The same optimum within 0.01 sigma (the full-space solver stops at a decrement of 1e-3, the
+    null-space one at 1e-6: within 0.03 and 0.001 sigma of the optimum), the bound held exactly."""
     nlp, _, angles = pendulum_nlp(staged=True)
     lo, hi = np.full(nlp.n_z, -np.inf), np.full(nlp.n_z, np.inf)
     hi[-1] = 0.2  # the damping (truth 0.3) may not exceed 0.2
@@ -162,4 +164,7 @@ def test_the_full_space_solver_holds_a_bound_like_the_null_space_one(monkeypatch
     full = solve(nlp, z0, bounds=(lo, hi))
     assert full.method == "gauss-newton (full space)" and full.converged, full.status
     assert full.z[-1] == pytest.approx(0.2, abs=1e-12)
-    assert full.z[-2] == pytest.approx(reference.z[-2], abs=1e-5)
+    assert np.abs(nlp.derivatives.constraints(full.z)).max() <= 1e-8
+    cov = covariance_or_fail(nlp, reference.z, nlp.residual_vector(reference.z), reference.reduced)
+    sigma = np.sqrt(cov.covariance_of(np.array([nlp.n_z - 2]))[0, 0])
+    assert abs(full.z[-2] - reference.z[-2]) < 1e-2 * sigma

@@ -13,7 +13,10 @@ row dropped, one more solve). It stops when the constraints are met and a full s
 chi-square decrease, read off the step itself, is below :data:`.convergence.DECREMENT_TOL` (1e-3,
 the test that stopped Ipopt on these fits): the profile's weakly determined edge coefficients
 converge only linearly under Gauss-Newton, and the null-space solver's 1e-6 would cost several
-more iterations for changes far below a sigma. An unconverged run hands its iterate to Ipopt.
+more iterations for changes far below a sigma. An iterate whose decrement is converged but whose
+constraint violation is not (yet below PROJECTION_VIOLATION) is projected onto the constraints
+with the same factor, the decrement tested again there (:func:`feasible_projection`), instead of
+taking another step. An unconverged run hands its iterate to Ipopt.
 
 **Latent process values** (:func:`warm_start`).
 With gust or model-error values at every node the null space of the constraints has thousands of
@@ -64,6 +67,15 @@ LOG = logging.getLogger(__name__)
 #: that to converge (ees-drop-1's profile fit: after steps of 7 to 8 the refinement diverges, after
 #: 0.3 it needs 29 steps, after 0.1 or less 5 to 8, against 3 with the matrix's own factor).
 CHORD_STEP = 0.2
+#: Largest constraint violation (scaled units) from which an iterate whose step is converged but for
+#: the violation is projected onto the constraints (:func:`feasible_projection`) instead of taking
+#: another step. A step's constraint curvature leaves a violation of about 1e-4 |dz|^2, and
+#: Gauss-Newton shrinks its steps in the weakly determined profile directions only linearly (about
+#: half an iteration on ees-drop-3-model-error), so the violation, not the decrement, often decided
+#: the last iteration. (Newton steps, the exact Lagrangian Hessian, were tried for that tail: they
+#: converge quadratically, but each costs 0.5 s more than a Gauss-Newton step for the exact block
+#: Hessians alone, more than the iterations they save: ees-drop-1's profile fit 5.2 -> 6.3 s.)
+PROJECTION_VIOLATION = 1e-6
 #: Gauss-Newton steps taken at most before Ipopt.
 WARM_START_STEPS = 8
 #: The steps stop early once a full step's predicted chi-square decrease is below this fraction of
@@ -158,6 +170,39 @@ def bounded_step(factor: TimeOrderedKkt, rhs: np.ndarray, z: np.ndarray,
     return hold_bounds(solve_held, lo, hi, "the bounded full-space step did not settle")
 
 
+def feasible_projection(nlp: Nlp, factor: TimeOrderedKkt, z: np.ndarray, c: np.ndarray, grad: np.ndarray,
+                        jr: sps.spmatrix, dz: np.ndarray, bounded: tuple[np.ndarray, np.ndarray, np.ndarray]
+                        ) -> tuple[np.ndarray, float, float] | None:
+    """The iterate ``z`` moved onto the constraints when only its constraint violation stands between
+    it and convergence (see :data:`PROJECTION_VIOLATION`): (projected iterate, its violation, the
+    Gauss-Newton decrement there), or None when the projected point is not converged.
+
+    The Gauss-Newton step ``dz`` at ``z`` (constraints ``c``, gradient ``grad``, residual Jacobian
+    ``jr``) is split into a feasibility part dz_p, the least-curvature step with A dz_p = -c (the
+    same factor, one solve), and the rest dz_o = dz - dz_p, which has A dz_o = 0 and is the
+    Gauss-Newton step from z + dz_p of the same linearised problem. Its predicted chi-square
+    decrease there, -(2 (g + J^T J dz_p)^T dz_o + |J dz_o|^2), is the decrement the convergence test
+    reads, and the constraints are evaluated at z + dz_p (a step of the violation's size leaves a
+    violation of about its square). The full step's own predicted decrease mixes the two parts: on
+    ees-drop-1's profile fit it was 3.4e-4 at a violation of 1.2e-8, and 0.007 after the projection,
+    so the projection does not stop that fit early; on ees-drop-3-model-error it saves one to two
+    iterations of each of its four solves."""
+    dz_p = bounded_step(factor, np.concatenate([np.zeros(nlp.n_z), -c]), z, bounded)[:nlp.n_z]
+    dz_o = dz - dz_p
+    jdp, jdo = jr @ dz_p, jr @ dz_o
+    predicted = -(2.0 * float(grad @ dz_o) + 2.0 * float(jdp @ jdo) + float(jdo @ jdo))
+    if predicted > convergence.DECREMENT_TOL:
+        return None
+    z_p = z + dz_p
+    _, c_p = nlp.derivatives.values_only(z_p)
+    violation = float(np.abs(c_p).max()) if c_p.size else 0.0
+    if violation > convergence.FEASIBILITY_TOL:
+        return None
+    LOG.debug("full-space Gauss-Newton: projected onto the constraints (violation %.2g), decrement there %.3g",
+              violation, predicted)
+    return z_p, violation, predicted
+
+
 @single_threaded_blas()
 def solve_kkt_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
                            bounds: tuple[np.ndarray, np.ndarray] | None = None) -> GaussNewtonRun:
@@ -202,6 +247,12 @@ def solve_kkt_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
         LOG.debug("full-space Gauss-Newton step: predicted chi-square decrease %.3g, largest |dz| %.3g%s", predicted,
                   float(np.abs(dz).max()), " (the factor before)" if factor.stale else
                   "" if factor.refined else " (pivoting factorisation)")
+        if convergence.FEASIBILITY_TOL < violation <= PROJECTION_VIOLATION:
+            t2 = time.perf_counter()
+            projected = feasible_projection(nlp, factor, z, c, grad, jr, dz, bounded)
+            algebra_s += time.perf_counter() - t2
+            if projected is not None:
+                z, violation, predicted = projected
         if violation <= convergence.FEASIBILITY_TOL and predicted <= convergence.DECREMENT_TOL:
             return GaussNewtonRun(z, True, f"Converged (Gauss-Newton decrement {max(predicted, 0.0):.2g} chi2)",
                                   iteration, predicted, eval_s, algebra_s, None, lam)
