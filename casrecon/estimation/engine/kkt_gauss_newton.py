@@ -70,9 +70,9 @@ CHORD_STEP = 0.2
 #: Largest constraint violation (scaled units) from which an iterate whose step is converged but for
 #: the violation is projected onto the constraints (:func:`feasible_projection`) instead of taking
 #: another step. A step's constraint curvature leaves a violation of about 1e-4 |dz|^2, and
-#: Gauss-Newton shrinks its steps in the weakly determined profile directions only linearly (about
-#: half an iteration on ees-drop-3-model-error), so the violation, not the decrement, often decided
-#: the last iteration. (Newton steps, the exact Lagrangian Hessian, were tried for that tail: they
+#: Gauss-Newton shrinks its steps in the weakly determined profile directions only linearly (they
+#: about halve at each iteration on ees-drop-3-model-error), so the violation, not the decrement,
+#: often decided the last iteration. (Newton steps, the exact Lagrangian Hessian, were tried for that tail: they
 #: converge quadratically, but each costs 0.5 s more than a Gauss-Newton step for the exact block
 #: Hessians alone, more than the iterations they save: ees-drop-1's profile fit 5.2 -> 6.3 s.)
 PROJECTION_VIOLATION = 1e-6
