@@ -9,7 +9,7 @@ import scipy.sparse as sps
 
 from casrecon.estimation.engine import convergence
 from casrecon.estimation.engine.gauss_newton import bounded_columns
-from casrecon.estimation.engine.kkt_gauss_newton import feasible_projection
+from casrecon.estimation.engine.kkt_gauss_newton import feasibility_step, feasible_projection
 from casrecon.estimation.engine.time_ordered_kkt import OrderedPattern, TimeOrderedKkt
 from tests.unit.test_time_ordered_kkt import fit_like_kkt
 
@@ -49,7 +49,8 @@ def test_a_converged_but_infeasible_iterate_is_projected_onto_the_constraints():
     z = z_star + 1e-7 * np.random.default_rng(8).standard_normal(z_star.size)  # off the constraints by ~1e-7
     c, grad, dz = step_at(z, factor, jac, y, a, b)
     assert np.abs(c).max() > convergence.FEASIBILITY_TOL
-    out = feasible_projection(nlp, factor, z, c, grad, sps.csr_matrix(jac), dz, bounded_columns(None, z.size))
+    dz_p = feasibility_step(factor, c, z, bounded_columns(None, z.size))
+    out = feasible_projection(nlp, z, grad, sps.csr_matrix(jac), dz, dz_p)
     assert out is not None
     z_p, violation, predicted = out
     assert violation <= convergence.FEASIBILITY_TOL
@@ -66,5 +67,5 @@ def test_an_iterate_not_converged_in_the_null_space_is_not_projected():
     assert decrement(z, jac, y, z_star) > 10 * convergence.DECREMENT_TOL
     z = z + 1e-7 * np.random.default_rng(10).standard_normal(z.size)
     c, grad, dz = step_at(z, factor, jac, y, a, b)
-    assert feasible_projection(nlp, factor, z, c, grad, sps.csr_matrix(jac), dz,
-                               bounded_columns(None, z.size)) is None
+    dz_p = feasibility_step(factor, c, z, bounded_columns(None, z.size))
+    assert feasible_projection(nlp, z, grad, sps.csr_matrix(jac), dz, dz_p) is None
