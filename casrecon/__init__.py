@@ -30,13 +30,9 @@ from casrecon.parallel import single_threaded_blas
 if TYPE_CHECKING:
     from casrecon.analysis.montecarlo import MonteCarloResult
     from casrecon.estimation.engine.checks import FitError
+    from casrecon.io.kinematic_problem import KinematicConfig
     from casrecon.io.montecarlo_config import Dispersions
     from casrecon.io.pointmass_problem import PointMassConfig
-    from casrecon.output.drop_fit import DropFit
-    from casrecon.output.joint_fit import JointFit
-    from casrecon.output.kinematic_fit_result import KinematicFit
-    from casrecon.output.parameter_records import Parameter, Parameters
-    from casrecon.output.pointmass_result import PointMassFit
     from casrecon.report.result_figures import (
         plot_aero_coefficients,
         plot_aero_sigma,
@@ -61,6 +57,11 @@ if TYPE_CHECKING:
         plot_montecarlo_impact,
         plot_profile_likelihood,
     )
+    from casrecon.results.drop_fit import DropFit
+    from casrecon.results.joint_fit import JointFit
+    from casrecon.results.kinematic_fit import KinematicFit
+    from casrecon.results.parameters import Parameter, Parameters
+    from casrecon.results.pointmass_fit import PointMassFit
     from casrecon.scenario import Scenario
 
 __all__ = [
@@ -104,12 +105,12 @@ __all__ = [
 #: Names imported on first use (module, attribute): their modules import CasADi, pandas or matplotlib.
 _LAZY = {
     "FitError": ("casrecon.estimation.engine.checks", "FitError"),
-    "DropFit": ("casrecon.output.drop_fit", "DropFit"),
-    "JointFit": ("casrecon.output.joint_fit", "JointFit"),
-    "PointMassFit": ("casrecon.output.pointmass_result", "PointMassFit"),
-    "KinematicFit": ("casrecon.output.kinematic_fit_result", "KinematicFit"),
-    "Parameter": ("casrecon.output.parameter_records", "Parameter"),
-    "Parameters": ("casrecon.output.parameter_records", "Parameters"),
+    "DropFit": ("casrecon.results.drop_fit", "DropFit"),
+    "JointFit": ("casrecon.results.joint_fit", "JointFit"),
+    "PointMassFit": ("casrecon.results.pointmass_fit", "PointMassFit"),
+    "KinematicFit": ("casrecon.results.kinematic_fit", "KinematicFit"),
+    "Parameter": ("casrecon.results.parameters", "Parameter"),
+    "Parameters": ("casrecon.results.parameters", "Parameters"),
     "Dispersions": ("casrecon.io.montecarlo_config", "Dispersions"),
     **{name: ("casrecon.report.result_figures", name) for name in (
         "plot_trajectory", "plot_qbar_alpha_t", "plot_pitching_moment", "plot_reconciled", "plot_residuals",
@@ -142,7 +143,7 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
 
 
-def load_problem(path: str | Path) -> Scenario | PointMassConfig:
+def load_problem(path: str | Path) -> Scenario | PointMassConfig | KinematicConfig:
     """Read a problem folder (or its ``problem.toml``).
 
     Returns
@@ -156,48 +157,56 @@ def load_problem(path: str | Path) -> Scenario | PointMassConfig:
     InputError
         A malformed or missing input, located (file, line, field).
     """
-    from casrecon.io.pointmass_problem import load_point_mass, problem_kind
-    from casrecon.scenario import Scenario
+    from casrecon.io.problem_file import problem_document, problem_kind
 
     path = Path(path)
     if not path.exists():
         raise InputError(path, "problem folder or problem.toml not found")
-    kind = problem_kind(path)
+    document = problem_document(path)
+    kind = problem_kind(document)
     if kind == "point-mass":
-        return load_point_mass(path)
+        from casrecon.io.pointmass_problem import load_point_mass
+
+        return load_point_mass(document)
     if kind == "kinematic":
         from casrecon.io.kinematic_problem import load_kinematic
 
-        return load_kinematic(path)
-    return Scenario.load(path)
+        return load_kinematic(document)
+    from casrecon.scenario import Scenario
+
+    return Scenario.load(document)
 
 
 @single_threaded_blas()
 def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
-        print_level: int = 0, solver: str | None = None, method: str | None = None
-        ) -> DropFit | PointMassFit | KinematicFit:
-    """Reconstruct one drop: the per-drop fit of ``casrecon fit``, with its residuals and reconciled
-    simulations (for a ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`;
-    for a ``kind = "kinematic"`` problem the IMU-driven reconstruction, a :class:`KinematicFit`;
-    ``linear_solver``, ``hessian``, ``solver`` and ``method`` do not apply to them).
+        print_level: int = 0, solver: str | None = None, method: str | None = None,
+        kinematic_check: bool = False) -> DropFit | PointMassFit | KinematicFit:
+    """Reconstruct one drop: what ``casrecon fit`` computes and writes (the same pipeline,
+    :mod:`casrecon.pipelines`), with its residuals and reconciled simulations; for a
+    ``kind = "point-mass"`` problem the GPS-only fit, a :class:`PointMassFit`; for a
+    ``kind = "kinematic"`` problem the IMU-driven reconstruction, a :class:`KinematicFit`.
 
     Parameters
     ----------
     problem : path or Scenario
         Problem folder, its ``problem.toml``, or a loaded :class:`~casrecon.scenario.Scenario`.
     linear_solver : {"mumps", "spral"}, optional
-        Overrides ``[estimation] linear_solver``.
+        Overrides ``[estimation] linear_solver`` (6-DOF problems; ``--linear-solver``).
     hessian : {"gauss-newton", "exact"}, optional
-        Overrides ``[estimation] hessian``.
+        Overrides ``[estimation] hessian`` (6-DOF problems; ``--hessian``).
     print_level : int
-        Ipopt's print level (0 silent, 5 every iteration).
+        Ipopt's print level (0 silent, 5 every iteration; ``--verbose``).
     solver : {"auto", "ipopt"}, optional
         Overrides ``[estimation] solver``: "auto" solves with the null-space Gauss-Newton solver
-        where it applies (no disturbance states), else with Ipopt.
+        where it applies (no disturbance states), else with Ipopt (6-DOF problems; ``--solver``).
     method : {"map", "marginal"}, optional
         Overrides ``[estimation] method``: "marginal" moves the parameters from the joint MAP to
-        the maximum of their Laplace marginal likelihood (6-DOF fits; see
+        the maximum of their Laplace marginal likelihood (6-DOF problems; ``--method``; see
         :mod:`casrecon.estimation.engine.laplace`).
+    kinematic_check : bool
+        Also reconstruct the drop from its IMU without the aero model and compare the aero
+        coefficients; the verdict ends the report, ``save`` writes ``implied_aero.csv`` and
+        ``kinematic_check.csv``/``.json`` (6-DOF problems; ``--kinematic-check``).
 
     Returns
     -------
@@ -206,59 +215,29 @@ def fit(problem: str | Path | Scenario, *, linear_solver: str | None = None, hes
     Raises
     ------
     InputError
-        Bad input files.
+        Bad input files, or a 6-DOF option given for a point-mass or kinematic problem.
     FitError
         No convergence, singular KKT matrix or unusable data (the message says which).
     """
-    import time
+    from casrecon.pipelines import fit_problem
+    from casrecon.pipelines.options import FitOptions
+    from casrecon.pipelines.sixdof import fit_sixdof
+    from casrecon.scenario import Scenario
 
-    from casrecon.analysis.fit_products import fit_products
-    from casrecon.estimation.fit import fit_drop
-    from casrecon.output.drop_fit import DropFit
-    from casrecon.report.fit_report import fit_report
-
-    t0 = time.perf_counter()
-    scenario = problem if hasattr(problem, "config") and hasattr(problem, "model") else load_problem(problem)
-    if hasattr(scenario, "imu") and not hasattr(scenario, "model"):  # a kinematic problem
-        return _fit_kinematic(scenario, print_level)
-    if not hasattr(scenario, "model"):
-        return _fit_point_mass(scenario, print_level)
-    result = fit_drop(scenario, linear_solver=linear_solver, hessian=hessian, print_level=print_level, solver=solver,
-                      method=method)
-    products = fit_products(result)
-    report = fit_report(result, products.adequacy)
-    result.timings["total_s"] = time.perf_counter() - t0
-    return DropFit.from_fit(result, products, report)
+    options = FitOptions(linear_solver=linear_solver, hessian=hessian, solver=solver, method=method,
+                         print_level=print_level, kinematic_check=kinematic_check)
+    if isinstance(problem, Scenario):
+        return fit_sixdof(problem, options)
+    return fit_problem(problem, options)
 
 
-def _fit_kinematic(cfg, print_level: int) -> KinematicFit:
-    """The IMU-driven reconstruction of ``casrecon fit`` on a kinematic problem, with its verdict."""
-    from casrecon.analysis.fit_adequacy import kinematic_adequacy
-    from casrecon.estimation.kinematic_fit import fit_kinematic
-    from casrecon.estimation.kinematic_inputs import inputs_from_config
-    from casrecon.output.kinematic_fit_result import KinematicFit
-    from casrecon.report.kinematic_report import kinematic_report
-
-    result = fit_kinematic(*inputs_from_config(cfg), print_level=print_level)
-    adequacy = kinematic_adequacy(result)
-    report = kinematic_report(result, cfg.name, adequacy)
-    return KinematicFit.from_fit(result, report, cfg.site, cfg.path, cfg.name, adequacy.to_dict())
-
-
-def _fit_point_mass(cfg: PointMassConfig, print_level: int) -> PointMassFit:
-    """The GPS-only fit of ``casrecon fit`` on a point-mass problem, with the constant-drag comparison."""
-    from casrecon.estimation.pointmass_fit import fit_with_comparison
-    from casrecon.output.pointmass_result import PointMassFit
-    from casrecon.report.pointmass_report import pointmass_report
-
-    main, constant = fit_with_comparison(cfg, print_level=print_level)
-    return PointMassFit.from_fit(main, constant, pointmass_report(main, constant))
-
-
+@single_threaded_blas()
 def fit_joint(problems: str | Path | Sequence[str | Path], *, name: str = "joint", shared: Sequence[str] | None = None,
-              per_drop: Sequence[str] = (), fixed: Sequence[str] = (), single: bool = False, hessian: str | None = None,
-              linear_solver: str | None = None, print_level: int = 0) -> JointFit:
-    """Joint aero fit of several drops in one NLP (``casrecon joint``).
+              per_drop: Sequence[str] = (), fixed: Sequence[str] = (), single: bool = True, hessian: str | None = None,
+              linear_solver: str | None = None, solver: str | None = None, method: str | None = None,
+              print_level: int = 0) -> JointFit:
+    """Joint aero fit of several drops in one NLP: what ``casrecon joint`` computes and writes (the
+    same pipeline, :mod:`casrecon.pipelines.joint`).
 
     Parameters
     ----------
@@ -266,14 +245,15 @@ def fit_joint(problems: str | Path | Sequence[str | Path], *, name: str = "joint
         A joint ``.toml`` file (``[joint] name, drops, shared, per_drop, fixed``; the keyword
         arguments below are then ignored), or at least two problem folders.
     name : str
-        Name of the joint fit (problem folders only).
+        Name of the joint fit (problem folders only; ``--name``).
     shared, per_drop, fixed : list of str
         Dispersion factors common to all drops (None: every factor the drops estimate), estimated
-        by each drop for itself, held at 0.
+        by each drop for itself, held at 0 (``--shared``, ``--per-drop``, ``--fixed``).
     single : bool
-        Also fit each drop alone for the joint-vs-single sigma table (slower).
-    hessian, linear_solver, print_level
-        As for :func:`fit`.
+        Also fit each drop alone, on two processes beside the joint fit, for the joint-vs-single
+        sigma table (default, as ``casrecon joint``; False is ``--no-single``).
+    hessian, linear_solver, solver, method, print_level
+        As for :func:`fit`, for every drop.
 
     Returns
     -------
@@ -283,30 +263,13 @@ def fit_joint(problems: str | Path | Sequence[str | Path], *, name: str = "joint
     ------
     InputError, FitError
     """
-    import time
+    from casrecon.pipelines.joint import fit_joint_problems, joint_problem
+    from casrecon.pipelines.options import FitOptions
 
-    from casrecon.analysis.fit_products import fit_products
-    from casrecon.analysis.single_sigmas import single_drop_sigmas
-    from casrecon.estimation import joint
-    from casrecon.output.joint_fit import JointFit
-    from casrecon.scenario import Scenario
-
-    t0 = time.perf_counter()
-    if isinstance(problems, (str, Path)):
-        if not Path(problems).is_file():
-            raise InputError(problems, "expected a joint .toml file or a list of at least two problem folders")
-        cfg = joint.load_joint(problems)
-    else:
-        if len(problems) < 2:
-            raise InputError(", ".join(map(str, problems)) or "(none)", "a joint fit needs at least two problems")
-        cfg = joint.JointConfig(name=name, drops=tuple(Path(p) for p in problems),
-                                shared=tuple(shared) if shared is not None else None, per_drop=tuple(per_drop),
-                                fixed=tuple(fixed))
-    scenarios = [Scenario.load(p) for p in cfg.drops]
-    result = joint.fit_joint(scenarios, cfg, hessian=hessian, linear_solver=linear_solver, print_level=print_level)
-    sigmas = single_drop_sigmas(list(cfg.drops)) if single else {}
-    result.timings["total_s"] = time.perf_counter() - t0
-    return JointFit.from_fit(result, {d.scenario.config.name: fit_products(d) for d in result.drops}, sigmas)
+    problem = joint_problem(problems, name=name, shared=shared, per_drop=per_drop, fixed=fixed)
+    options = FitOptions(linear_solver=linear_solver, hessian=hessian, solver=solver, method=method,
+                         print_level=print_level)
+    return fit_joint_problems(problem, options, single=single)
 
 
 def montecarlo(problem: str | Path, cases: int | None = None, *, seed: int | None = None,
@@ -357,9 +320,9 @@ def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit | Kine
         The folder does not exist or is not a results folder (the message names the folder and
         the missing file).
     """
-    from casrecon.output.drop_fit import DropFit, read_document
-    from casrecon.output.joint_fit import JointFit
-    from casrecon.output.pointmass_result import PointMassFit
+    from casrecon.results.drop_fit import DropFit, read_document
+    from casrecon.results.joint_fit import JointFit
+    from casrecon.results.pointmass_fit import PointMassFit
 
     folder = Path(folder)
     if not folder.is_dir():
@@ -371,7 +334,7 @@ def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit | Kine
     if kind == "point-mass":
         return PointMassFit.load(folder)
     if kind == "kinematic":
-        from casrecon.output.kinematic_fit_result import KinematicFit
+        from casrecon.results.kinematic_fit import KinematicFit
 
         return KinematicFit.load(folder)
     return DropFit.load(folder)

@@ -37,13 +37,27 @@ from casrecon.cli_guard import (
 )
 from casrecon.cli_montecarlo import montecarlo_command
 from casrecon.cli_options import HelpFormatter, add_verbosity_arguments, configure_logging, log_level, version_text
-from casrecon.parallel import single_threaded_blas, stop_child_processes
+from casrecon.parallel import single_threaded_blas
 
 
 def _run(args: argparse.Namespace) -> int:
-    """Check ``--out`` of a writing command first, in milliseconds (``args.where``), then run the command."""
+    """Read the command's problem file(s) once (``args.document``, or ``args.joint`` for ``joint``),
+    check ``--out`` of a writing command with them, in milliseconds (``args.where``), then run the
+    command."""
+    documents: tuple = ()
+    if getattr(args, "problems", None):
+        from casrecon.pipelines.joint import joint_problem
+
+        args.joint = joint_problem([Path(p) for p in args.problems], name=args.name, shared=args.shared or None,
+                                   per_drop=args.per_drop, fixed=args.fixed)
+        documents = args.joint.documents
+    elif getattr(args, "problem", None) is not None and args.func in _READS_ITS_PROBLEM:
+        from casrecon.io.problem_file import problem_document
+
+        args.document = problem_document(args.problem)
+        documents = (args.document,)
     if getattr(args, "force", None) is not None:
-        args.where = out_folder_arguments(args, *(getattr(args, "problems", None) or [args.problem]))
+        args.where = out_folder_arguments(args, *(documents or [args.problem]))
     return args.func(args)
 
 
@@ -73,7 +87,7 @@ def _simulate(args: argparse.Namespace) -> int:
         print(f"casrecon: --every must be a positive integer, got {args.every}", file=sys.stderr)
         return 2
     t0 = time.perf_counter()
-    scenario = Scenario.load(args.problem)
+    scenario = Scenario.load(args.document)
     cfg = scenario.config
     if args.data:
         data = make_synthetic(scenario, seed=args.seed)
@@ -101,177 +115,74 @@ def _simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fit_options(args: argparse.Namespace):
+    """The pipeline options of ``casrecon fit`` / ``casrecon joint`` (products on a second core)."""
+    from casrecon.pipelines.options import FitOptions
+
+    return FitOptions(linear_solver=args.linear_solver, hessian=args.hessian, solver=args.solver,
+                      method=args.method, print_level=5 if args.verbose else 0,
+                      kinematic_check=getattr(args, "kinematic_check", False), concurrent=True)
+
+
 def _fit(args: argparse.Namespace) -> int:
     from contextlib import nullcontext
 
-    from casrecon.io.pointmass_problem import problem_kind
+    from casrecon.estimation.fit import FitError
+    from casrecon.estimation.fitdata import FitDataError
+    from casrecon.io.problem_file import problem_kind, problem_name
+    from casrecon.pipelines import fit_problem
 
     t0 = time.perf_counter()
-    kind = problem_kind(args.problem)
-    if kind == "point-mass":
-        return _fit_point_mass(args)
-    if kind == "kinematic":
-        return _fit_kinematic(args)
-    from casrecon.report.figure_pool import FigurePool
+    document = args.document
+    if problem_kind(document) == "six-dof" and not args.no_figures:
+        from casrecon.report.figure_pool import FigurePool
 
-    # figure workers forked first: they import matplotlib while this process fits
-    with nullcontext() if args.no_figures else FigurePool() as figures:
-        return _fit_drop(args, t0, figures)
-
-
-def _fit_drop(args: argparse.Namespace, t0: float, figures) -> int:
-    from casrecon.analysis.fit_products import fit_products
-    from casrecon.estimation.fit import FitError, fit_drop
-    from casrecon.output.fit_results import write_fit_results
-    from casrecon.output.results import atomic_folder
-    from casrecon.report.fit_report import fit_report
-    from casrecon.report.tables import drop_tables
-    from casrecon.scenario import Scenario
-
-    scenario = Scenario.load(args.problem)
-    try:
-        result = fit_drop(scenario, linear_solver=args.linear_solver, hessian=args.hessian, solver=args.solver,
-                          print_level=5 if args.verbose else 0, method=args.method)
-    except FitError as err:
-        return fit_failed(f"fit of {scenario.config.name}", err)
-    products = fit_products(result, concurrent=True)
-    report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
-    check = None
-    if args.kinematic_check:
-        from casrecon.analysis.kinematic_check import kinematic_check
-
+        pool = FigurePool()  # figure workers forked first: they import matplotlib while this process fits
+    else:
+        pool = nullcontext()
+    with pool as figures:
         try:
-            _, implied, check = kinematic_check(result, products.aero_coefficients)
-        except FitError as err:
-            return fit_failed(f"kinematic check of {scenario.config.name}", err)
-        report = f"{report.rstrip()}\n{check.verdict()}\n"
-    with atomic_folder(args.out, **args.where) as out:
-        result.timings["total_s"] = time.perf_counter() - t0
-        write_fit_results(out, result, products, report, drop_tables(result, products))
-        if check is not None:
-            from casrecon.output.kinematic_check_results import write_kinematic_check
-
-            write_kinematic_check(out, implied, check)
-            if figures is not None:
-                from casrecon.report.kinematic_check_plots import plot_kinematic_check
-
-                plot_kinematic_check(out, args.formats)
-        if figures is not None:
-            notes: list[str] = []
-            figures.draw(out, notes, args.formats)
-            for note in notes:
-                print(f"casrecon: figure skipped: {note}", file=sys.stderr)
+            result = fit_problem(document, _fit_options(args))
+        except (FitError, FitDataError) as err:
+            return fit_failed(f"fit of {problem_name(document)}", err)
+        _save(result, args, figures)
     if not args.quiet:
-        print(report)
+        print(result.report_text)
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
     return 0
+
+
+def _save(result, args: argparse.Namespace, pool=None) -> None:
+    """Write ``result`` into ``--out`` atomically, with its figures unless ``--no-figures``; skipped
+    figures are said on stderr."""
+    from casrecon.output.results import atomic_folder
+
+    with atomic_folder(args.out, **args.where) as out:
+        result.write(out)
+        if not args.no_figures:
+            notes: list[str] = []
+            if pool is not None:
+                result.draw(out, args.formats, notes, pool=pool)
+            else:
+                result.draw(out, args.formats, notes)
+            for note in notes:
+                print(f"casrecon: figure skipped: {note}", file=sys.stderr)
 
 
 def _joint(args: argparse.Namespace) -> int:
-    from concurrent.futures import ThreadPoolExecutor
-
-    from casrecon.analysis.fit_products import fit_products
-    from casrecon.analysis.single_sigmas import single_drop_sigmas
     from casrecon.estimation.fit import FitError
-    from casrecon.estimation.joint import JointConfig, fit_joint, load_joint
-    from casrecon.output.joint_results import write_joint_results
-    from casrecon.output.results import atomic_folder
-    from casrecon.scenario import Scenario
+    from casrecon.pipelines.joint import fit_joint_problems
 
     t0 = time.perf_counter()
-    if len(args.problems) == 1 and Path(args.problems[0]).is_file() and args.problems[0].endswith(".toml"):
-        cfg = load_joint(args.problems[0])
-    else:
-        if len(args.problems) < 2:
-            missing = "" if Path(args.problems[0]).exists() else f"{args.problems[0]}: file not found; "
-            print(f"casrecon: {missing}joint needs at least two problems, or one joint .toml file", file=sys.stderr)
-            return 2
-        cfg = JointConfig(name=args.name, drops=tuple(Path(p) for p in args.problems),
-                          shared=tuple(args.shared) if args.shared else None, per_drop=tuple(args.per_drop),
-                          fixed=tuple(args.fixed))
-    scenarios = [Scenario.load(p) for p in cfg.drops]
-    args.where = out_folder_arguments(args, *args.problems, *cfg.drops)  # the drops' inputs too
-    # the single-drop fits of the sigma comparison run on two processes beside the joint fit (a
-    # thread of this process waits for them), on the cores the joint fit leaves idle (whole command
-    # 14.8 -> 12.6 s for the EES drops, 3 interleaved runs)
-    background = None if args.no_single else ThreadPoolExecutor(1)
-    singles = None if background is None else background.submit(single_drop_sigmas, list(cfg.drops))
+    problem = args.joint
     try:
-        result = fit_joint(scenarios, cfg, hessian=args.hessian, linear_solver=args.linear_solver,
-                           solver=args.solver, print_level=5 if args.verbose else 0, method=args.method)
-    except BaseException as err:
-        stop_child_processes()  # the single-drop fits are not wanted now: the command ends without them
-        if isinstance(err, FitError):
-            return fit_failed(f"joint fit {cfg.name}", err)
-        raise
-    finally:
-        if background is not None:
-            background.shutdown(wait=False)
-    single = {} if singles is None else singles.result()
-    with atomic_folder(args.out, **args.where) as out:
-        result.timings["total_s"] = time.perf_counter() - t0
-        products = {d.scenario.config.name: fit_products(d, concurrent=True) for d in result.drops}
-        write_joint_results(out, result, single, products)
-        if not args.no_figures:
-            _figures(out, args.formats)
-        if not args.quiet:
-            print((out / "tables.md").read_text())
-    print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
-    return 0
-
-
-def _fit_point_mass(args: argparse.Namespace) -> int:
-    from casrecon.estimation.fit import FitError
-    from casrecon.estimation.pointmass_fit import fit_with_comparison
-    from casrecon.io.pointmass_problem import load_point_mass
-    from casrecon.output.pointmass_results import write_pointmass_results
-    from casrecon.output.results import atomic_folder
-    from casrecon.report.pointmass_plots import plot_track_fit
-    from casrecon.report.pointmass_report import pointmass_report
-
-    cfg = load_point_mass(args.problem)
-    try:
-        main, constant = fit_with_comparison(cfg, print_level=5 if args.verbose else 0)
+        result = fit_joint_problems(problem, _fit_options(args), single=not args.no_single)
     except FitError as err:
-        return fit_failed(f"fit of {cfg.name}", err)
-    report = pointmass_report(main, constant)
-    with atomic_folder(args.out, **args.where) as out:
-        write_pointmass_results(out, main, constant, report)
-        if not args.no_figures:
-            plot_track_fit(out, args.formats)
+        return fit_failed(f"joint fit {problem.config.name}", err)
+    _save(result, args)
     if not args.quiet:
-        print(report)
-    print(f"results -> {args.out}")
-    return 0
-
-
-def _fit_kinematic(args: argparse.Namespace) -> int:
-    from casrecon.analysis.fit_adequacy import kinematic_adequacy
-    from casrecon.estimation.fit import FitError
-    from casrecon.estimation.fitdata import FitDataError
-    from casrecon.estimation.kinematic_fit import fit_kinematic
-    from casrecon.estimation.kinematic_inputs import inputs_from_config
-    from casrecon.io.kinematic_problem import load_kinematic
-    from casrecon.output.kinematic_results import write_kinematic_results
-    from casrecon.output.results import atomic_folder
-    from casrecon.report.kinematic_plots import plot_kinematic
-    from casrecon.report.kinematic_report import kinematic_report
-
-    cfg = load_kinematic(args.problem)
-    try:
-        data, options = inputs_from_config(cfg)
-        result = fit_kinematic(data, options, print_level=5 if args.verbose else 0)
-    except (FitError, FitDataError) as err:
-        return fit_failed(f"fit of {cfg.name}", err)
-    adequacy = kinematic_adequacy(result)
-    report = kinematic_report(result, cfg.name, adequacy)
-    with atomic_folder(args.out, **args.where) as out:
-        write_kinematic_results(out, result, report, cfg.site, cfg.path, cfg.name, adequacy.to_dict())
-        if not args.no_figures:
-            plot_kinematic(out, args.formats)
-    if not args.quiet:
-        print(report)
-    print(f"results -> {args.out}")
+        print(result.tables_md)
+    print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
     return 0
 
 
@@ -284,7 +195,7 @@ def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario
 
-    scenario = Scenario.load(args.problem)
+    scenario = Scenario.load(args.document)
     specs = parameter_set(scenario.config).specs  # design predicts the shared (aero) factors only
     known = [sp.name for sp in specs if args.study == "profile" or sp.group == "aero"]
     if args.study != "fisher" and args.parameter not in known:
@@ -343,6 +254,9 @@ def _report(args: argparse.Namespace) -> int:
     print(f"{len(paths)} figures -> {folder}")
     return 0
 
+
+#: Commands whose ``problem`` argument ``_run`` reads once, as ``args.document``.
+_READS_ITS_PROBLEM = (_simulate, _fit, _sensitivity)
 
 OUT_HELP = "results folder: written atomically, kept on failure; an existing one only if casrecon wrote it"
 FORCE_HELP = ("replace an existing --out that casrecon did not write (or a file); never a folder holding "

@@ -15,6 +15,7 @@ import numpy as np
 
 from casrecon.io.problem import ProblemConfig, load_problem
 from casrecon.io.sounding import read_sounding
+from casrecon.io.toml_fields import TomlDocument
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.dynamics import FlightModel, default_parameters
@@ -30,9 +31,9 @@ class Scenario:
     model: FlightModel
 
     @classmethod
-    def load(cls, path: str | Path) -> Scenario:
-        """Parse ``problem.toml`` (file or folder) and build the model."""
-        return cls.from_config(load_problem(path))
+    def load(cls, source: str | Path | TomlDocument) -> Scenario:
+        """Parse ``problem.toml`` (file or folder, or its parsed document) and build the model."""
+        return cls.from_config(load_problem(source))
 
     @classmethod
     def from_config(cls, config: ProblemConfig) -> Scenario:

@@ -5,18 +5,19 @@ from __future__ import annotations
 from pathlib import Path
 
 from casrecon.estimation.fit import fit_drop
+from casrecon.io.problem import ProblemConfig
 from casrecon.io.units import output_unit
 from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
 
 
-def single_drop_sigma(problem: str | Path) -> tuple[str, dict[str, float]]:
+def single_drop_sigma(problem: str | Path | ProblemConfig) -> tuple[str, dict[str, float]]:
     """Fit one drop on its own.
 
     Parameters
     ----------
-    problem : str or Path
-        Problem folder or ``problem.toml``.
+    problem : str, Path or ProblemConfig
+        Problem folder or ``problem.toml``, or the problem as already parsed (not read again).
 
     Returns
     -------
@@ -29,18 +30,19 @@ def single_drop_sigma(problem: str | Path) -> tuple[str, dict[str, float]]:
     casrecon.estimation.fit.FitError
         When the fit fails.
     """
-    result = fit_drop(Scenario.load(problem))
+    scenario = Scenario.from_config(problem) if isinstance(problem, ProblemConfig) else Scenario.load(problem)
+    result = fit_drop(scenario)
     return result.scenario.config.name, {spec.name: float(sigma) * output_unit(spec.unit)[1]
                                          for spec, sigma in zip(result.params.specs, result.sigma)}
 
 
-def single_drop_sigmas(problems: list[Path], workers: int = 2) -> dict[str, dict[str, float]]:
+def single_drop_sigmas(problems: list[Path | ProblemConfig], workers: int = 2) -> dict[str, dict[str, float]]:
     """1-sigma of every parameter in each drop's own fit, the drops fitted in parallel processes.
 
     Parameters
     ----------
-    problems : list of Path
-        Problem folders or ``problem.toml`` files.
+    problems : list of Path or ProblemConfig
+        Problem folders or ``problem.toml`` files, or the problems as already parsed.
     workers : int
         Local (spawned) processes.
 
@@ -50,4 +52,5 @@ def single_drop_sigmas(problems: list[Path], workers: int = 2) -> dict[str, dict
         Problem name -> parameter name -> absolute 1-sigma (output unit, as :func:`single_drop_sigma`),
         in the order of ``problems``.
     """
-    return dict(parallel_map(single_drop_sigma, [str(p) for p in problems], workers=workers))
+    items = [p if isinstance(p, ProblemConfig) else str(p) for p in problems]
+    return dict(parallel_map(single_drop_sigma, items, workers=workers))

@@ -27,7 +27,7 @@ from casrecon.estimation.layout import NS, DropLayout
 from casrecon.estimation.parameters import ParameterSet
 from casrecon.estimation.settings import FitSettings
 from casrecon.estimation.transcription import STATE_SCALE
-from casrecon.io.toml_fields import load_toml
+from casrecon.io.toml_fields import TomlDocument, load_toml
 from casrecon.parallel import in_threads
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.scenario import Scenario
@@ -66,9 +66,11 @@ def _names(t, key: str) -> tuple[str, ...] | None:
     return tuple(value)
 
 
-def load_joint(path: str | Path) -> JointConfig:
-    """Parse a joint file: ``[joint] name, drops = [...], shared, per_drop, fixed``."""
-    f = load_toml(path)
+def load_joint(source: str | Path | TomlDocument) -> JointConfig:
+    """Parse a joint file (its path, or its parsed document): ``[joint] name, drops = [...], shared,
+    per_drop, fixed``."""
+    f = load_toml(source)
+    path = f.path
     t = f.table("joint", required=True)
     drops = t.raw("drops", required=True)
     if not isinstance(drops, list) or len(drops) < 2 or not all(isinstance(d, str) for d in drops):

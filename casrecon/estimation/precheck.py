@@ -10,8 +10,9 @@ from casrecon.estimation.fitdata import load_fit_data
 from casrecon.estimation.kinematic_inputs import inputs_from_config
 from casrecon.estimation.pointmass_fit import prepare_data
 from casrecon.io.kinematic_problem import load_kinematic
-from casrecon.io.pointmass_problem import load_point_mass, problem_kind
+from casrecon.io.pointmass_problem import load_point_mass
 from casrecon.io.problem import load_problem
+from casrecon.io.problem_file import problem_document, problem_kind
 
 
 def check_problem(path: str | Path) -> tuple[str, ...]:
@@ -30,9 +31,10 @@ def check_problem(path: str | Path) -> tuple[str, ...]:
     FitError, FitDataError
         Data a fit cannot use for another reason (no release or impact found, too few fixes).
     """
-    kind = problem_kind(path)
+    document = problem_document(path)
+    kind = problem_kind(document)
     if kind == "point-mass":
-        return prepare_data(load_point_mass(path)).notes
+        return prepare_data(load_point_mass(document)).notes
     if kind == "kinematic":
-        return inputs_from_config(load_kinematic(path))[0].notes
-    return load_fit_data(load_problem(path)).notes
+        return inputs_from_config(load_kinematic(document))[0].notes
+    return load_fit_data(load_problem(document)).notes

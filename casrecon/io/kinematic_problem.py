@@ -33,7 +33,8 @@ from casrecon.io.errors import InputError
 from casrecon.io.gps_rules import GpsQuality, gps_date, gps_error_model, velocity_sigma
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.problem import parse_dynamics, parse_site
-from casrecon.io.toml_fields import Fields, load_toml
+from casrecon.io.problem_file import problem_document
+from casrecon.io.toml_fields import Fields, TomlDocument
 from casrecon.physics.dynamics import DynamicsOptions, Site
 from casrecon.physics.sensor_errors import GpsErrorModel
 
@@ -139,12 +140,10 @@ def _imu(t: Fields) -> KinematicImu:
         gyro_senses_earth_rate=t.boolean("gyro_senses_earth_rate", True))
 
 
-def load_kinematic(path: str | Path) -> KinematicConfig:
-    """Parse and validate a kinematic ``problem.toml`` (file or folder)."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "problem.toml"
-    f = load_toml(path)
+def load_kinematic(source: str | Path | TomlDocument) -> KinematicConfig:
+    """Parse and validate a kinematic ``problem.toml`` (file or folder, or its parsed document)."""
+    document = problem_document(source)
+    path, f = document.path, document.fields()
     head = f.table("problem", required=True)
     if head.string("kind", "six-dof", choices=("six-dof", "point-mass", "kinematic")) != "kinematic":
         raise head.error("kind", 'expected kind = "kinematic" for a kinematic problem')

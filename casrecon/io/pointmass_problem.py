@@ -24,7 +24,8 @@ import numpy as np
 
 from casrecon.io.gps_rules import GpsQuality, gps_date, gps_error_model, velocity_sigma
 from casrecon.io.problem import parse_dynamics, parse_site, parse_utc
-from casrecon.io.toml_fields import Fields, load_toml
+from casrecon.io.problem_file import problem_document
+from casrecon.io.toml_fields import Fields, TomlDocument
 from casrecon.physics.dynamics import DynamicsOptions, Site
 from casrecon.physics.sensor_errors import GpsErrorModel
 
@@ -132,14 +133,6 @@ class PointMassConfig:
     humidity: bool = True                                         # moist-air density from the sounding's dewpoints
 
 
-def problem_kind(path: str | Path) -> str:
-    """``"six-dof"`` or ``"point-mass"`` from ``[problem] kind`` (default six-dof)."""
-    path = Path(path)
-    f = load_toml(path / "problem.toml" if path.is_dir() else path)
-    head = f.table("problem", required=True)
-    return head.string("kind", "six-dof", choices=("six-dof", "point-mass", "kinematic"))
-
-
 def _segment(t: Fields) -> SegmentConfig:
     d = SegmentConfig()
     start = parse_utc(t, "start_utc").timestamp() if t.has("start_utc") else None
@@ -162,12 +155,10 @@ def _model_error(t: Fields) -> ModelErrorConfig:
     return cfg
 
 
-def load_point_mass(path: str | Path) -> PointMassConfig:
-    """Parse and validate a point-mass ``problem.toml`` (file or folder)."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "problem.toml"
-    f = load_toml(path)
+def load_point_mass(source: str | Path | TomlDocument) -> PointMassConfig:
+    """Parse and validate a point-mass ``problem.toml`` (file or folder, or its parsed document)."""
+    document = problem_document(source)
+    path, f = document.path, document.fields()
     empty = {k: Fields({}, path, f"{k}.") for k in ("drag", "segment", "estimation", "dynamics", "model_error")}
     head = f.table("problem", required=True)
     if head.string("kind", "six-dof", choices=("six-dof", "point-mass")) != "point-mass":

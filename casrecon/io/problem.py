@@ -34,7 +34,8 @@ from casrecon.io.estimation_config import EstimationConfig, parse_disturbance, p
 from casrecon.io.gps_rules import gps_error_model, velocity_sigma
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.montecarlo_config import MonteCarloConfig, parse_montecarlo
-from casrecon.io.toml_fields import Fields, load_toml
+from casrecon.io.problem_file import problem_document
+from casrecon.io.toml_fields import Fields, TomlDocument
 from casrecon.io.truth_errors import TruthErrors, read_truth_errors
 from casrecon.io.vehicle_files import load_aero, load_vehicle
 from casrecon.physics.aero import DISPERSION_NAMES, AeroDatabase
@@ -153,12 +154,10 @@ class ProblemConfig:
         return self.path.parent
 
 
-def load_problem(path: str | Path) -> ProblemConfig:
-    """Parse and validate ``problem.toml`` (a file, or a folder containing one)."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "problem.toml"
-    f = load_toml(path)
+def load_problem(source: str | Path | TomlDocument) -> ProblemConfig:
+    """Parse and validate ``problem.toml`` (a file, or a folder containing one, or its parsed document)."""
+    document = problem_document(source)
+    path, f = document.path, document.fields()
     head = f.table("problem", required=True)
     if head.string("kind", "six-dof", choices=("six-dof", "point-mass")) != "six-dof":
         raise head.error("kind", "this is a point-mass problem: load it with casrecon.io.pointmass_problem")

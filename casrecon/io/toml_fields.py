@@ -7,6 +7,7 @@ import re
 import tomllib
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,8 +33,22 @@ def record_keys() -> Iterator[set[tuple[Path, str, str]]]:
         _RECORDERS.remove(keys)
 
 
-def load_toml(path: str | Path) -> Fields:
-    """Parse a TOML file into :class:`Fields`, turning syntax errors into located InputErrors."""
+@dataclass(frozen=True)
+class TomlDocument:
+    """A TOML file parsed once: its ``path`` (as given; relative paths inside it are read against its
+    folder) and its ``data``. Commands read each input TOML once (:func:`read_toml`) and hand the
+    document to every layer that needs it (the ``--out`` check, the problem's kind, its loader)."""
+
+    path: Path
+    data: dict
+
+    def fields(self) -> Fields:
+        """The document as located, validating :class:`Fields` (a fresh record of the keys read)."""
+        return Fields(self.data, self.path, "")
+
+
+def read_toml(path: str | Path) -> TomlDocument:
+    """Parse a TOML file once, turning syntax errors into located InputErrors."""
     path = Path(path)
     try:
         with open(path, "rb") as fh:
@@ -48,7 +63,14 @@ def load_toml(path: str | Path) -> Fields:
         raise InputError(path, f"not valid TOML: {err}", line=line) from None
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(path, f"cannot read: {err}") from None
-    return Fields(data, path, "")
+    return TomlDocument(path, data)
+
+
+def load_toml(source: str | Path | TomlDocument) -> Fields:
+    """:class:`Fields` of a TOML file: of an already parsed :class:`TomlDocument`, or of a path
+    parsed now (:func:`read_toml`)."""
+    document = source if isinstance(source, TomlDocument) else read_toml(source)
+    return document.fields()
 
 
 class Fields:

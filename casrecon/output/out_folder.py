@@ -32,12 +32,12 @@ import shutil
 import signal
 import tempfile
 import threading
-import tomllib
 from collections.abc import Iterable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 
 from casrecon.io.errors import InputError
+from casrecon.io.toml_fields import TomlDocument, read_toml
 
 #: Marker file of a casrecon results folder.
 MARKER = ".casrecon-results.json"
@@ -104,13 +104,16 @@ def _signed(path: Path, key_groups: tuple[tuple[str, ...], ...]) -> bool:
     return isinstance(doc, dict) and any(all(k in doc for k in keys) for keys in key_groups)
 
 
-def input_paths(problems: Iterable[str | Path], *, sensor_files: bool = True) -> list[Path]:
+def input_paths(problems: Iterable[str | Path | TomlDocument], *, sensor_files: bool = True) -> list[Path]:
     """The inputs a run reads, to be protected: each problem file and its folder, and every file or
     folder a string of its TOML names (relative to the file), one level deep (a joint file's drops).
-    ``sensor_files=False`` leaves out what the ``[sensors]`` table names (``simulate --data`` writes
-    those files rather than reading them, e.g. into the problem's ``data/`` folder)."""
+    A problem given as its parsed :class:`~casrecon.io.toml_fields.TomlDocument` is not read again;
+    neither is a named ``.toml`` that is one of the given documents. ``sensor_files=False`` leaves
+    out what the ``[sensors]`` table names (``simulate --data`` writes those files rather than
+    reading them, e.g. into the problem's ``data/`` folder)."""
+    parsed = {p.path.expanduser().resolve(): p.data for p in problems if isinstance(p, TomlDocument)}
     out: list[Path] = []
-    todo = [(Path(p), 0) for p in problems]
+    todo = [(p.path if isinstance(p, TomlDocument) else Path(p), 0) for p in problems]
     while todo:
         path, depth = todo.pop()
         path = path.expanduser().resolve()
@@ -119,10 +122,12 @@ def input_paths(problems: Iterable[str | Path], *, sensor_files: bool = True) ->
         if depth > 1 or not toml.is_file():
             continue
         out.append(toml)
-        try:
-            data = tomllib.loads(toml.read_text(errors="replace"))
-        except (OSError, tomllib.TOMLDecodeError):
-            continue  # the loader says what is wrong with it, located
+        data = parsed.get(toml)
+        if data is None:
+            try:
+                data = read_toml(toml).data
+            except InputError:
+                continue  # the loader says what is wrong with it, located
         if not sensor_files and isinstance(data, dict):
             data = {k: v for k, v in data.items() if k != "sensors"}
         for text in _strings(data):

@@ -1,13 +1,13 @@
 """Figures of a result object, returned as ``matplotlib.figure.Figure`` (the public plot API).
 
-Each function takes a :class:`~casrecon.output.drop_fit.DropFit` (from ``casrecon.fit`` or
+Each function takes a :class:`~casrecon.results.drop_fit.DropFit` (from ``casrecon.fit`` or
 ``casrecon.load_results``), a results folder path, or a :class:`~casrecon.report.results_folder.DropFolder`
 / :class:`~casrecon.report.results_folder.DropTables`, and draws the same figure as ``casrecon
 report`` does, without writing anything: ``fig.savefig("x.png")`` saves it. Figures use matplotlib's
 object API on an Agg canvas (no pyplot state); in a notebook, display ``fig`` itself.
 
 The ``plot_joint_*`` functions and :func:`plot_shared_correlation` take a
-:class:`~casrecon.output.joint_fit.JointFit` (``casrecon.fit_joint``, ``casrecon.load_results`` on a
+:class:`~casrecon.results.joint_fit.JointFit` (``casrecon.fit_joint``, ``casrecon.load_results`` on a
 joint folder) or a joint results folder and draw the figures ``casrecon joint`` puts in its
 ``figures/`` (every drop on one plot).
 """

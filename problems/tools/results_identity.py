@@ -7,10 +7,12 @@ Usage::
 
 ``write`` runs ``casrecon fit PROBLEM --out OUT/NAME --no-figures`` for every folder of ``problems/``
 with a ``problem.toml``, and ``casrecon joint problems/ees-joint.toml --out OUT/ees-joint``.
-``compare`` says, for every file of two such trees, whether it is byte-identical, identical but for
-timings (JSON keys ending in ``_s`` under ``timings``, ``wall_time_s``, ``total_s``; ``results -> ...
-(total ... s)`` lines; the ``.casrecon-results.json`` marker's time stamp and version), or different, and
-exits 1 when any file differs. Used to show that a restructuring changes no number.
+``compare`` says, for every results file of two such trees, whether it is byte-identical, identical
+but for timings (the ``timings`` table and its copies, durations "12.3 s" in notes and reports, the
+``.casrecon-results.json`` marker's time stamp and version; the source tree's and the output tree's
+paths read as ``<ROOT>`` and ``<OUT>``), or different, and exits 1 when any file differs. The commands'
+stdout (``NAME.log``) is kept beside the folders but not compared. Used to show that a restructuring
+changes no number.
 """
 
 from __future__ import annotations
@@ -24,8 +26,12 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-#: JSON keys whose values are wall-clock measurements or stamps, not results.
-TIMING_KEYS = re.compile(r"(^timings$|wall_time_s$|^total_s$|_time_s$|^created$|^written$|^version$|^casrecon$)")
+#: JSON keys whose values are wall-clock measurements or stamps, not results: the ``timings`` table and
+#: its copies at the top of summary.json, wall times, the marker's time stamp and version.
+TIMING_KEYS = re.compile(r"^(timings|build_s|solve_s|covariance_s|total_s|fit_s|wall_time_s|wall_s|written_utc|"
+                         r"casrecon_version|version)$")
+#: File (in an output tree) that records which source tree wrote it: its paths are compared as <ROOT>.
+ROOT_FILE = "_root.txt"
 
 
 def shipped_problems() -> list[Path]:
@@ -35,6 +41,7 @@ def shipped_problems() -> list[Path]:
 
 def write(out: Path, only: list[str], figures: bool) -> int:
     out.mkdir(parents=True, exist_ok=True)
+    (out / ROOT_FILE).write_text(f"{ROOT}\n{out.resolve()}\n")
     jobs = [(p.name, ["fit", str(p)]) for p in shipped_problems()]
     jobs.append(("ees-joint", ["joint", str(ROOT / "problems" / "ees-joint.toml")]))
     status = 0
@@ -60,21 +67,32 @@ def _strip(doc):
     return doc
 
 
-def _same_but_timings(a: Path, b: Path) -> bool:
+def _same_but_timings(a: Path, b: Path, roots: tuple[list[str], list[str]]) -> bool:
+    """Whether two files agree once their source and output roots read ``<ROOT>``/``<OUT>`` and their
+    timings are left out."""
+    try:
+        text_a, text_b = a.read_text(), b.read_text()
+    except UnicodeDecodeError:
+        return False
+    for i, (old, new) in enumerate(zip(*roots)):
+        tag = ("<ROOT>", "<OUT>")[i]
+        text_a, text_b = text_a.replace(old, tag), text_b.replace(new, tag)
+    drop = re.compile(r"(\(total [0-9.]+ s\)|\d+\.\d+ s\b)")  # durations in notes and reports
+    text_a, text_b = drop.sub("", text_a), drop.sub("", text_b)
     if a.suffix == ".json":
         try:
-            return _strip(json.loads(a.read_text())) == _strip(json.loads(b.read_text()))
-        except (json.JSONDecodeError, UnicodeDecodeError):
+            return _strip(json.loads(text_a)) == _strip(json.loads(text_b))
+        except json.JSONDecodeError:
             return False
-    if a.suffix in (".txt", ".md", ".log"):
-        drop = re.compile(r"(\d+\.\d+ s\b|total \S+ s|wall time.*)")
-        return drop.sub("", a.read_text()) == drop.sub("", b.read_text())
-    return False
+    return text_a == text_b
 
 
 def compare(old: Path, new: Path) -> int:
-    names = sorted({p.relative_to(old) for p in old.rglob("*") if p.is_file()}
-                   | {p.relative_to(new) for p in new.rglob("*") if p.is_file()})
+    roots = tuple((tree / ROOT_FILE).read_text().split() if (tree / ROOT_FILE).is_file() else []
+                  for tree in (old, new))
+    names = sorted(p for p in ({p.relative_to(old) for p in old.rglob("*") if p.is_file()}
+                               | {p.relative_to(new) for p in new.rglob("*") if p.is_file()})
+                   if p != Path(ROOT_FILE) and p.suffix != ".log")  # the logs are the commands' stdout
     counts = {"identical": 0, "timings only": 0, "different": 0, "missing": 0}
     for rel in names:
         a, b = old / rel, new / rel
@@ -82,7 +100,7 @@ def compare(old: Path, new: Path) -> int:
             verdict = "missing"
         elif a.read_bytes() == b.read_bytes():
             verdict = "identical"
-        elif _same_but_timings(a, b):
+        elif _same_but_timings(a, b, roots):
             verdict = "timings only"
         else:
             verdict = "different"

@@ -17,8 +17,8 @@ from conftest import PROBLEMS
 
 from casrecon.analysis.fit_products import fit_products
 from casrecon.estimation.fit import fit_drop
-from casrecon.output.drop_fit import DropFit
 from casrecon.output.fit_results import write_diagnostics
+from casrecon.results.drop_fit import DropFit
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name
 

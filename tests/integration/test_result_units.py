@@ -27,10 +27,10 @@ from casrecon.estimation.joint import JointConfig, fit_joint
 from casrecon.io.flysight import read_flysight
 from casrecon.io.units import unit_of, unnamed_columns, unnamed_json_numbers
 from casrecon.output.consistency import write_consistency
-from casrecon.output.drop_fit import DropFit
-from casrecon.output.joint_fit import JointFit
 from casrecon.output.sensitivity_results import design_document, fisher_document, profile_document
 from casrecon.report.results_folder import read_csv
+from casrecon.results.drop_fit import DropFit
+from casrecon.results.joint_fit import JointFit
 from casrecon.scenario import Scenario
 
 #: Files ``casrecon simulate --data`` writes in the input formats the readers take (FlySight columns,

@@ -8,7 +8,9 @@ Layers, lowest first; a module may import casrecon modules of its own layer or l
 3. ``casrecon.estimation`` (the NLP engine);
 4. ``casrecon.analysis``;
 5. ``casrecon.output`` (writers) and ``casrecon.report`` (text, tables, figures);
-6. ``casrecon.cli``, ``casrecon.cli_guard``, ``casrecon.cli_options``, ``casrecon.cli_montecarlo``,
+6. ``casrecon.results`` (the public result objects: they save through the writers, report through the reports);
+7. ``casrecon.pipelines`` (one pipeline per problem kind: load, fit, products, report, result);
+8. ``casrecon.cli``, ``casrecon.cli_guard``, ``casrecon.cli_options``, ``casrecon.cli_montecarlo``,
    ``casrecon.__main__`` and the public API in ``casrecon/__init__.py``.
 
 Also: no private name (leading underscore) is imported from, or used as an attribute of, another
@@ -25,8 +27,8 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[2] / "casrecon"
 MAX_LINES = 500
 LAYERS = {"physics": 0, "parallel": 0, "io": 1, "scenario": 1, "simulation": 2, "estimation": 3, "analysis": 4,
-          "output": 5, "report": 5, "cli": 6, "cli_guard": 6, "cli_options": 6,
-          "cli_montecarlo": 6, "__main__": 6, "__init__": 6}
+          "output": 5, "report": 5, "results": 6, "pipelines": 7, "cli": 8, "cli_guard": 8, "cli_options": 8,
+          "cli_montecarlo": 8, "__main__": 8, "__init__": 8}
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,9 @@ import pytest
 from casrecon.estimation.joint import load_joint
 from casrecon.io import config_reference as ref
 from casrecon.io.kinematic_problem import load_kinematic
-from casrecon.io.pointmass_problem import load_point_mass, problem_kind
+from casrecon.io.pointmass_problem import load_point_mass
 from casrecon.io.problem import load_problem
+from casrecon.io.problem_file import problem_kind
 from casrecon.io.toml_fields import record_keys
 from casrecon.io.vehicle_files import load_aero, load_vehicle
 

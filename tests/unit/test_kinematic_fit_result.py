@@ -3,8 +3,8 @@
 import numpy as np
 import pandas as pd
 
-from casrecon.output.kinematic_fit_result import KinematicFit
-from casrecon.output.parameter_records import Parameters
+from casrecon.results.kinematic_fit import KinematicFit
+from casrecon.results.parameters import Parameters
 
 
 def test_yaw_is_interpolated_across_the_wrap():

@@ -17,9 +17,9 @@ from casrecon.io.pointmass_problem import (
     ModelErrorConfig,
     SegmentConfig,
     load_point_mass,
-    problem_kind,
 )
 from casrecon.io.problem import load_problem
+from casrecon.io.problem_file import problem_kind
 
 REPO = Path(__file__).resolve().parents[2]
 PROBLEMS = REPO / "problems"

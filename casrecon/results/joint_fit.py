@@ -1,22 +1,23 @@
 """The joint result of the public API (``casrecon.fit_joint``, ``casrecon.load_results`` on a joint
 folder): global parameters (shared ones plain, each drop's own as ``<drop>.<name>``) with their
-correlations, every drop as a :class:`~casrecon.output.drop_fit.DropFit`, and the results folder
+correlations, every drop as a :class:`~casrecon.results.drop_fit.DropFit`, and the results folder
 that ``casrecon joint --out`` writes.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from casrecon.analysis.fit_adequacy import JointAdequacy, joint_adequacy
 from casrecon.io.errors import InputError
-from casrecon.output.drop_fit import DropFit, adequacy_of, read_document
+from casrecon.results.drop_fit import DropFit, adequacy_of, read_document
 from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
 from casrecon.output.out_folder import input_paths
-from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.results.parameters import Parameters, from_document
 from casrecon.output.results import save_results_folder, to_builtin
 
 if TYPE_CHECKING:
@@ -158,23 +159,29 @@ class JointFit:
         return (f"<JointFit {self.name!r}: {len(self.drops)} drops, {len(self.shared)} shared factors, "
                 f"reduced chi2 {self.reduced_chi2:.4f}, {len(self.params)} parameters{where}>")
 
-    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
+    def write(self, out: Path) -> None:
+        """Write this joint fit's results files into the folder ``out`` being made (by :meth:`save`, or
+        by ``casrecon joint`` inside its atomic folder): the same writers, so the same bytes.
+        ValueError for a loaded result (:meth:`save` copies its folder)."""
+        if self.fit is None or self.products is None:
+            raise ValueError(f"{self.name}: a loaded result has no fit to write; save() copies its folder")
+        write_joint_results(out, self.fit, self.single, self.products)
+
+    def draw(self, out: Path, formats: Sequence[str] | None = None, notes: list[str] | None = None) -> None:
+        """Draw every drop's and the joint figures of the folder ``out`` (written by :meth:`write`), in
+        each of ``formats`` (default PNG); reasons for skipped figures appended to ``notes``."""
+        from casrecon.report.figure_style import DEFAULT_FORMATS  # matplotlib only when figures are asked for
+        from casrecon.report.plots import draw_figures
+
+        draw_figures(out, notes, tuple(formats or DEFAULT_FORMATS))
+
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False,
+             formats: Sequence[str] | None = None) -> Path:
         """Write the folder ``casrecon joint --out folder`` writes, atomically; figures only if asked.
         A loaded result is saved as a copy of its files (without ``figures/`` unless ``figures``). A
         foreign existing folder or a file is replaced only with ``force``, a folder holding inputs never."""
-        write = None
-        if self.fit is not None and self.products is not None:
-            fit, single, products = self.fit, self.single, self.products
-
-            def write(out: Path) -> None:
-                write_joint_results(out, fit, single, products)
-
+        write = self.write if self.fit is not None and self.products is not None else None
         inputs = input_paths([d.scenario.config.path for d in self.fit.drops] if self.fit is not None else [])
-        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+        return save_results_folder(folder, self.name, write, self.source,
+                                   (lambda out: self.draw(out, formats)) if figures else None,
                                    kind="joint", force=force, inputs=inputs)
-
-
-def _draw_figures(out: Path) -> None:
-    from casrecon.report.plots import draw_figures  # matplotlib only when figures are asked for
-
-    draw_figures(out)

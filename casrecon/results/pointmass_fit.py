@@ -15,9 +15,9 @@ import numpy as np
 
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
-from casrecon.output.drop_fit import FolderViews, read_document, read_frame, sample_frame
+from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.out_folder import input_paths
-from casrecon.output.parameter_records import from_document
+from casrecon.results.parameters import from_document
 from casrecon.output.pointmass_results import write_pointmass_results
 from casrecon.output.results import save_results_folder
 
@@ -124,22 +124,27 @@ class PointMassFit(FolderViews):
         column (listing the available ones) or a time outside the segment."""
         return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
 
-    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
+    def write(self, out: Path) -> None:
+        """Write this fit's results files into the folder ``out`` being made (by :meth:`save`, or by
+        ``casrecon fit`` inside its atomic folder). ValueError for a loaded result."""
+        if self.fit is None or self.constant is None:
+            raise ValueError(f"{self.name}: a loaded result has no fit to write; save() copies its folder")
+        write_pointmass_results(out, self.fit, self.constant, self.report_text)
+
+    def draw(self, out: Path, formats: Sequence[str] | None = None, notes: list[str] | None = None) -> None:
+        """Draw the track-fit figure of the folder ``out`` into ``out/figures``, in each of ``formats``
+        (default PNG). ``notes`` is accepted for symmetry with the other results (nothing is skipped)."""
+        from casrecon.report.figure_style import DEFAULT_FORMATS  # matplotlib only when figures are asked for
+        from casrecon.report.pointmass_plots import plot_track_fit
+
+        plot_track_fit(out, tuple(formats or DEFAULT_FORMATS))
+
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False,
+             formats: Sequence[str] | None = None) -> Path:
         """Write the folder ``casrecon fit --out folder`` writes for a point-mass problem, atomically; a
         foreign existing folder or a file is replaced only with ``force``, a folder holding inputs never."""
-        write = None
-        if self.fit is not None and self.constant is not None:
-            fit, constant = self.fit, self.constant
-
-            def write(out: Path) -> None:
-                write_pointmass_results(out, fit, constant, self.report_text)
-
+        write = self.write if self.fit is not None and self.constant is not None else None
         inputs = input_paths([self.fit.config.path] if self.fit is not None else [])
-        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+        return save_results_folder(folder, self.name, write, self.source,
+                                   (lambda out: self.draw(out, formats)) if figures else None,
                                    kind="fit", force=force, inputs=inputs)
-
-
-def _draw_figures(out: Path) -> None:
-    from casrecon.report.pointmass_plots import plot_track_fit  # matplotlib only when figures are asked for
-
-    plot_track_fit(out)

@@ -24,8 +24,9 @@ from casrecon.output.fit_results import (
     trajectory_table,
     write_fit_results,
 )
+from casrecon.output.kinematic_check_results import write_kinematic_check
 from casrecon.output.out_folder import input_paths
-from casrecon.output.parameter_records import Parameters, from_document
+from casrecon.results.parameters import Parameters, from_document
 from casrecon.output.results import save_results_folder, to_builtin
 from casrecon.report.results_folder import DropTables
 
@@ -33,7 +34,9 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from casrecon.analysis.fit_products import FitProducts
+    from casrecon.analysis.kinematic_check import KinematicCheck
     from casrecon.estimation.fit import FitResult
+    from casrecon.report.figure_pool import FigurePool
 
 #: Time columns of ``trajectory`` (s): IMU clock, flight time since release, UTC (Unix seconds).
 TIME_COLUMNS = ("time_imu_s", "flight_time_s", TIME_UNIX)
@@ -159,6 +162,12 @@ class DropFit(FolderViews):
         Residuals and reconciled simulations as computed; None when loaded.
     source : Path or None
         The folder a loaded result came from.
+    kinematic_check : casrecon.analysis.kinematic_check.KinematicCheck or None
+        The comparison with the drop's IMU-driven reconstruction (``kinematic_check=True``), whose
+        verdict ends the report; None when not asked for, or loaded (the folder's
+        ``kinematic_check.json`` and ``.csv`` are in :attr:`documents` and :attr:`tables`).
+    implied_aero : dict of str to numpy.ndarray or None
+        The coefficients that reconstruction implies (``implied_aero.csv``), with the check.
     """
 
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
@@ -166,11 +175,15 @@ class DropFit(FolderViews):
     fit: FitResult | None = None
     products: FitProducts | None = None
     source: Path | None = None
+    kinematic_check: KinematicCheck | None = None
+    implied_aero: dict[str, np.ndarray] | None = None
 
     # ---- construction -------------------------------------------------------------------------
     @classmethod
-    def from_fit(cls, fit: FitResult, products: FitProducts, report_text: str) -> DropFit:
-        """Wrap a converged :class:`~casrecon.estimation.fit.FitResult` and its products."""
+    def from_fit(cls, fit: FitResult, products: FitProducts, report_text: str,
+                 kinematic_check: tuple[dict[str, np.ndarray], KinematicCheck] | None = None) -> DropFit:
+        """Wrap a converged :class:`~casrecon.estimation.fit.FitResult` and its products (and the
+        ``(implied coefficients, check)`` of a kinematic check, when made)."""
         import pandas as pd
 
         params_doc = json.loads(json.dumps(parameters_document(fit)))  # exactly what parameters.json holds
@@ -183,7 +196,8 @@ class DropFit(FolderViews):
                    residuals=_residuals_of(tables), summary=summary, report_text=report_text, tables=tables,
                    documents={"parameters.json": params_doc, "summary.json": summary,
                               "imu_sigma.json": dict(products.imu_sigma)},
-                   fit=fit, products=products)
+                   fit=fit, products=products, kinematic_check=None if kinematic_check is None else kinematic_check[1],
+                   implied_aero=None if kinematic_check is None else kinematic_check[0])
 
     @classmethod
     def load(cls, folder: str | Path) -> DropFit:
@@ -258,33 +272,53 @@ class DropFit(FolderViews):
                   for k, df in self.tables.items()}
         return DropTables(self.name, self.summary, tables, self.documents)
 
-    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
+    def write(self, out: Path) -> None:
+        """Write this fit's results files into the folder ``out`` being made (by :meth:`save`, or by
+        ``casrecon fit`` inside its atomic folder): the same writers, so the same bytes. ValueError
+        for a loaded result (it holds the files, not the fit: :meth:`save` copies them)."""
+        from casrecon.report.tables import drop_tables
+
+        if self.fit is None or self.products is None:
+            raise ValueError(f"{self.name}: a loaded result has no fit to write; save() copies its folder")
+        write_fit_results(out, self.fit, self.products, self.report_text, drop_tables(self.fit, self.products))
+        if self.kinematic_check is not None:
+            write_kinematic_check(out, self.implied_aero, self.kinematic_check)
+
+    def draw(self, out: Path, formats: Sequence[str] | None = None, notes: list[str] | None = None,
+             pool: FigurePool | None = None) -> None:
+        """Draw the figures of the results folder ``out`` (written by :meth:`write`) into ``out/figures``,
+        in each of ``formats`` (default PNG); reasons for skipped figures appended to ``notes``.
+        ``pool``: figure workers started before the fit (``casrecon fit``); without it the figures
+        are drawn in this process."""
+        from casrecon.report.figure_style import DEFAULT_FORMATS  # matplotlib only when figures are asked for
+        from casrecon.report.plots import draw_drop_figures
+
+        formats = tuple(formats or DEFAULT_FORMATS)
+
+        if pool is not None:
+            pool.draw(out, notes, formats)
+        else:
+            draw_drop_figures(out, notes, workers=1, formats=formats)
+        if (out / "kinematic_check.json").is_file():
+            from casrecon.report.kinematic_check_plots import plot_kinematic_check
+
+            plot_kinematic_check(out, formats)
+
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False,
+             formats: Sequence[str] | None = None) -> Path:
         """Write the results folder ``casrecon fit --out folder`` writes, atomically (an earlier folder
-        is replaced only once the new one is complete); figures only if ``figures``.
+        is replaced only once the new one is complete); figures only if ``figures``, in ``formats``.
 
         A loaded result is saved as a copy of the files it was loaded from (without ``figures/``
         unless ``figures``). An existing folder that casrecon did not write (no
         ``.casrecon-results.json``), or a file, is replaced only with ``force``; a folder holding the
         problem's inputs never (:class:`~casrecon.output.out_folder.OutFolderError`). Returns the folder.
         """
-        from casrecon.report.tables import drop_tables
-
-        write = None
-        if self.fit is not None and self.products is not None:
-            fit, products = self.fit, self.products
-
-            def write(out: Path) -> None:
-                write_fit_results(out, fit, products, self.report_text, drop_tables(fit, products))
-
+        write = self.write if self.fit is not None and self.products is not None else None
         inputs = input_paths([self.fit.scenario.config.path] if self.fit is not None else [])
-        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+        return save_results_folder(folder, self.name, write, self.source,
+                                   (lambda out: self.draw(out, formats)) if figures else None,
                                    kind="fit", force=force, inputs=inputs)
-
-
-def _draw_figures(out: Path) -> None:
-    from casrecon.report.plots import draw_drop_figures  # matplotlib only when figures are asked for
-
-    draw_drop_figures(out, workers=1)
 
 
 def history_columns(frame: pd.DataFrame, time_columns: Sequence[str]) -> tuple[str, ...]:

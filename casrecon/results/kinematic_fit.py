@@ -16,10 +16,10 @@ import numpy as np
 
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
-from casrecon.output.drop_fit import FolderViews, read_document, read_frame, sample_frame
+from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.kinematic_results import write_kinematic_results
 from casrecon.output.out_folder import input_paths
-from casrecon.output.parameter_records import from_document
+from casrecon.results.parameters import from_document
 from casrecon.output.results import save_results_folder
 
 if TYPE_CHECKING:
@@ -123,24 +123,29 @@ class KinematicFit(FolderViews):
                 out[col] = 180.0 - np.mod(180.0 - out[col].to_numpy(float), 360.0)
         return out
 
-    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False) -> Path:
+    def write(self, out: Path) -> None:
+        """Write this fit's results files into the folder ``out`` being made (by :meth:`save`, or by
+        ``casrecon fit`` inside its atomic folder). ValueError for a loaded result."""
+        if self.fit is None or self.site is None:
+            raise ValueError(f"{self.name}: a loaded result has no fit to write; save() copies its folder")
+        write_kinematic_results(out, self.fit, self.report_text, self.site, self.problem_path, self.name,
+                                self.summary.get("adequacy"))
+
+    def draw(self, out: Path, formats: Sequence[str] | None = None, notes: list[str] | None = None) -> None:
+        """Draw the figures of the folder ``out`` into ``out/figures``, in each of ``formats`` (default
+        PNG). ``notes`` is accepted for symmetry with the other results (nothing is skipped)."""
+        from casrecon.report.figure_style import DEFAULT_FORMATS  # matplotlib only when figures are asked for
+        from casrecon.report.kinematic_plots import plot_kinematic
+
+        plot_kinematic(out, tuple(formats or DEFAULT_FORMATS))
+
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False,
+             formats: Sequence[str] | None = None) -> Path:
         """Write the folder ``casrecon fit --out folder`` writes for a kinematic problem, atomically;
         a foreign existing folder or a file is replaced only with ``force``, a folder holding inputs
         never."""
-        write = None
-        if self.fit is not None and self.site is not None:
-            fit, site = self.fit, self.site
-            adequacy = self.summary.get("adequacy")
-
-            def write(out: Path) -> None:
-                write_kinematic_results(out, fit, self.report_text, site, self.problem_path, self.name, adequacy)
-
+        write = self.write if self.fit is not None and self.site is not None else None
         inputs = input_paths([self.problem_path] if self.problem_path is not None else [])
-        return save_results_folder(folder, self.name, write, self.source, _draw_figures if figures else None,
+        return save_results_folder(folder, self.name, write, self.source,
+                                   (lambda out: self.draw(out, formats)) if figures else None,
                                    kind="fit", force=force, inputs=inputs)
-
-
-def _draw_figures(out: Path) -> None:
-    from casrecon.report.kinematic_plots import plot_kinematic  # matplotlib only when figures are asked for
-
-    plot_kinematic(out)

@@ -1,0 +1,27 @@
+"""The GPS-only point-mass pipeline: problem -> fitted and constant-drag fits -> report -> PointMassFit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from casrecon.io.toml_fields import TomlDocument
+from casrecon.pipelines.options import DEFAULT_OPTIONS, FitOptions
+from casrecon.results.pointmass_fit import PointMassFit
+
+
+def fit_point_mass(problem: str | Path | TomlDocument, options: FitOptions = DEFAULT_OPTIONS) -> PointMassFit:
+    """The GPS-only fit of a ``kind = "point-mass"`` problem, with the constant-drag comparison.
+
+    Raises
+    ------
+    InputError
+        Bad input files.
+    FitError, FitDataError
+        The fit failed, or the data cannot be fitted (the message says why).
+    """
+    from casrecon.estimation.pointmass_fit import fit_with_comparison
+    from casrecon.io.pointmass_problem import load_point_mass
+    from casrecon.report.pointmass_report import pointmass_report
+
+    main, constant = fit_with_comparison(load_point_mass(problem), print_level=options.print_level)
+    return PointMassFit.from_fit(main, constant, pointmass_report(main, constant))

@@ -1,0 +1,109 @@
+"""One pipeline per problem kind: ``casrecon.fit`` / ``casrecon.fit_joint`` and the command line write the
+same results folder (byte for byte but for timings), every option of ``casrecon fit`` and ``casrecon
+joint`` exists in the API, and a command reads each ``problem.toml`` once."""
+
+from __future__ import annotations
+
+import importlib.util
+import inspect
+import tomllib
+from pathlib import Path
+
+import pytest
+
+import casrecon
+from casrecon.cli import build_parser, main
+
+ROOT = Path(__file__).resolve().parents[2]
+PROBLEMS = ROOT / "problems"
+
+_spec = importlib.util.spec_from_file_location("results_identity", ROOT / "problems" / "tools" / "results_identity.py")
+results_identity = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(results_identity)
+
+
+def differing_files(api: Path, cli: Path) -> list[str]:
+    """Results files of two folders that differ other than in timings (both written from this tree)."""
+    names = sorted({p.relative_to(api) for p in api.rglob("*") if p.is_file()}
+                   | {p.relative_to(cli) for p in cli.rglob("*") if p.is_file()})
+    out = []
+    for rel in names:
+        a, b = api / rel, cli / rel
+        if not (a.is_file() and b.is_file()):
+            out.append(f"{rel} (only in one)")
+        elif a.read_bytes() != b.read_bytes() and (
+                rel.name == ".casrecon-results.json"  # its stamp, checked apart
+                or not results_identity._same_but_timings(a, b, ([str(api)], [str(cli)]))):
+            if rel.name != ".casrecon-results.json":
+                out.append(str(rel))
+    return out
+
+
+@pytest.mark.parametrize("problem, options, flags", [
+    ("ees-drop-2", {}, []),
+    ("ees-drop-2", {"kinematic_check": True, "solver": "auto"}, ["--kinematic-check", "--solver", "auto"]),
+    ("realdata-skyderby-411", {}, []),
+    ("realdata-fs2-chicago-kinematic", {}, []),
+])
+def test_the_api_and_the_command_line_write_the_same_folder(problem, options, flags, tmp_path):
+    api = casrecon.fit(PROBLEMS / problem, **options).save(tmp_path / "api")
+    assert main(["fit", str(PROBLEMS / problem), "--out", str(tmp_path / "cli"), "--no-figures", "--quiet",
+                 *flags]) == 0
+    assert sorted(p.name for p in api.iterdir()) == sorted(p.name for p in (tmp_path / "cli").iterdir())
+    assert differing_files(api, tmp_path / "cli") == []
+    if options.get("kinematic_check"):
+        assert (api / "kinematic_check.json").is_file() and "kinematic check" in (api / "report.txt").read_text()
+
+
+def test_the_joint_api_and_the_command_line_write_the_same_folder(tmp_path):
+    drops = [str(PROBLEMS / "ees-drop-1"), str(PROBLEMS / "ees-drop-2")]
+    api = casrecon.fit_joint(drops, name="pair", single=False, solver="auto").save(tmp_path / "api")
+    assert main(["joint", *drops, "--name", "pair", "--no-single", "--solver", "auto", "--out",
+                 str(tmp_path / "cli"), "--no-figures", "--quiet"]) == 0
+    assert (api / "drops").is_dir()
+    assert differing_files(api, tmp_path / "cli") == []
+
+
+#: Options of the command line that say where and how results are written or printed, not what is computed.
+OUTPUT_ONLY = {"help", "out", "force", "no_figures", "formats", "quiet", "verbose", "debug", "problem", "problems"}
+#: Command-line options whose API keyword has another name.
+API_NAME = {"no_single": "single"}
+
+
+@pytest.mark.parametrize("command, function", [("fit", casrecon.fit), ("joint", casrecon.fit_joint)])
+def test_every_command_line_option_exists_in_the_api(command, function):
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices[command]
+    options = {API_NAME.get(a.dest, a.dest) for a in sub._actions} - OUTPUT_ONLY
+    keywords = set(inspect.signature(function).parameters)
+    assert options <= keywords, f"casrecon {command} options missing from the API: {sorted(options - keywords)}"
+    assert "print_level" in keywords  # --verbose
+
+
+@pytest.fixture
+def parsed_files(monkeypatch):
+    """Every file ``tomllib.load`` parses in this process, in order."""
+    seen: list[Path] = []
+    real = tomllib.load
+
+    def counting(fh, **kw):
+        seen.append(Path(fh.name).resolve())
+        return real(fh, **kw)
+
+    monkeypatch.setattr(tomllib, "load", counting)
+    return seen
+
+
+@pytest.mark.parametrize("argv", [
+    ["fit", "{P}/ees-drop-2"],
+    ["fit", "{P}/realdata-skyderby-411"],
+    ["fit", "{P}/realdata-fs2-chicago-kinematic"],
+    ["joint", "{P}/ees-drop-1", "{P}/ees-drop-2", "--no-single"],
+    ["simulate", "{P}/ees-drop-2"],
+])
+def test_a_command_parses_each_problem_file_once(argv, parsed_files, tmp_path):
+    args = [a.replace("{P}", str(PROBLEMS)) for a in argv]
+    assert main([*args, "--out", str(tmp_path / "out"), *(["--no-figures", "--quiet"] if argv[0] != "simulate"
+                                                          else [])]) == 0
+    problems = [p for p in parsed_files if p.name == "problem.toml"]
+    assert problems, "the count must see the problem files"
+    assert sorted(problems) == sorted(set(problems)), f"parsed more than once: {problems}"
