@@ -188,10 +188,15 @@ def _joint(args: argparse.Namespace) -> int:
 
 def _sensitivity(args: argparse.Namespace) -> int:
     from casrecon.analysis import observability as obs
+    from casrecon.analysis.sensitivity_documents import (
+        design_document,
+        fisher_document,
+        parameter_unit,
+        profile_document,
+    )
     from casrecon.estimation.drop import parameter_set
     from casrecon.estimation.fit import FitError, fit_drop
     from casrecon.output.results import atomic_folder, write_json
-    from casrecon.output.sensitivity_results import design_document, fisher_document, parameter_unit, profile_document
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario
 

@@ -8,7 +8,7 @@ posterior covariance of u is M = W P W^T. Under the fit's model E[u_hat u_hat^T]
 minus posterior, the law of total variance), so:
 
 - the size test: the NEES of u_hat on the directions the data inform, u_hat^T S^+ u_hat with
-  S = I - M (eigenvalues above :data:`~casrecon.analysis.adequacy.INFORMED`), against chi-square
+  S = I - M (eigenvalues above :data:`~casrecon.analysis.adequacy_tests.INFORMED`), against chi-square
   with as many degrees of freedom, as the parameters' prior NEES is made. Above its interval the
   process is larger than the prior says and the bands are too narrow (a failure); below it, smaller
   (a caution: the bands are wider than the data need);
@@ -113,7 +113,7 @@ class ProcessPrior:
 
 def process_scale(prior: ProcessPrior, alpha: float) -> ProcessScale:
     """:class:`ProcessScale` of ``prior`` at the per-test level ``alpha``."""
-    from casrecon.analysis.adequacy import prior_nees
+    from casrecon.analysis.adequacy_tests import prior_nees
 
     u = np.asarray(prior.whitened, dtype=float)
     m = np.asarray(prior.posterior, dtype=float)

@@ -35,7 +35,7 @@ def _save(fig: Figure, path: Path, formats: Sequence[str]) -> Path:
 
 
 def fisher_figure(document: dict) -> Figure:
-    """The Fisher directions of ``fisher.json`` (:func:`casrecon.output.sensitivity_results.fisher_document`):
+    """The Fisher directions of ``fisher.json`` (:func:`casrecon.analysis.sensitivity_documents.fisher_document`):
     loadings (-1..1) per direction and parameter, weakest direction at the top, and each
     direction's sigma (scaled parameters, log axis)."""
     directions = document["directions"]

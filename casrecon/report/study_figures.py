@@ -25,8 +25,8 @@ from matplotlib.figure import Figure
 
 from casrecon.analysis.montecarlo import MonteCarloResult
 from casrecon.analysis.observability import Profile, fisher_directions
+from casrecon.analysis.sensitivity_documents import fisher_document
 from casrecon.io.montecarlo_config import Dispersions
-from casrecon.output.sensitivity_results import fisher_document
 from casrecon.report import montecarlo_plots, sensitivity_plots
 from casrecon.report.results_folder import read_csv, read_json
 

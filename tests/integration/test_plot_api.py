@@ -15,9 +15,9 @@ from matplotlib.figure import Figure
 
 import casrecon
 from casrecon.analysis.observability import Profile
+from casrecon.analysis.sensitivity_documents import design_document, fisher_document, profile_document
 from casrecon.cli_montecarlo import run_montecarlo_command
 from casrecon.output.results import write_json
-from casrecon.output.sensitivity_results import design_document, fisher_document, profile_document
 from tests.unit.test_plots import make_drop_folder
 
 DROP1 = PROBLEMS / "ees-drop-1"

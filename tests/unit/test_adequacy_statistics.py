@@ -9,11 +9,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from casrecon.analysis.adequacy import (
-    FAMILY_ALPHA,
-    Adequacy,
-    GroundCheck,
-    assess,
+from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
+from casrecon.analysis.adequacy_tests import (
     channel_test,
     lag1_autocorrelation,
     ljung_box,

@@ -1,5 +1,6 @@
-"""The JSON documents of ``casrecon sensitivity``: Fisher directions, a profile likelihood and a drop
-design study, each number named with its unit (:mod:`casrecon.io.units`)."""
+"""The JSON documents of ``casrecon sensitivity`` (written by the command, drawn by the reports): Fisher
+directions, a profile likelihood and a drop design study, each number named with its unit
+(:mod:`casrecon.io.units`)."""
 
 from __future__ import annotations
 
