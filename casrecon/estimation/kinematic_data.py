@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from casrecon.io.baro import HEIGHT_SCALE_SIGMA, BaroConfig
 from casrecon.physics.sensor_errors import GpsErrorModel
 
 
@@ -80,8 +81,8 @@ class KinematicOptions:
     clock_guess_s: float = 0.0
     max_node_spacing_s: float = 0.5
     gps_errors: GpsErrorModel = field(default_factory=GpsErrorModel.white)
-    baro_bias_sigma_pa: float = 50.0
-    baro_height_scale_sigma: float = 0.01
+    baro_bias_sigma_pa: float = BaroConfig.bias_sigma_pa
+    baro_height_scale_sigma: float = HEIGHT_SCALE_SIGMA
     linear_solver: str = "mumps"
     max_iter: int = 100
     tol: float = 1e-8

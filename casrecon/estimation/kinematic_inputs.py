@@ -13,7 +13,7 @@ import numpy as np
 from casrecon.estimation.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.kinds.gps import fix_sigma
 from casrecon.estimation.kinematic_data import KinematicData, KinematicOptions
-from casrecon.io.baro import read_baro
+from casrecon.io.baro import BaroConfig, read_baro
 from casrecon.io.gps_files import read_gps_track
 from casrecon.io.gps_rules import fixes_ned, good_fixes
 from casrecon.io.imu import read_imu_csv
@@ -43,7 +43,7 @@ def options_from_problem(cfg: ProblemConfig, **overrides) -> KinematicOptions:
         earth_rotation=cfg.dynamics.earth_rotation, gyro_senses_earth_rate=False,
         clock_sigma_s=est.clock_sigma_s if est.estimate_clock else 0.0, clock_guess_s=est.clock_offset_guess_s,
         gps_errors=cfg.gps.error_model, linear_solver=est.linear_solver,
-        baro_bias_sigma_pa=cfg.baro.bias_sigma_pa if cfg.baro is not None else 50.0)
+        baro_bias_sigma_pa=cfg.baro.bias_sigma_pa if cfg.baro is not None else BaroConfig.bias_sigma_pa)
     fields.update(overrides)
     return KinematicOptions(**fields)
 

@@ -12,7 +12,9 @@ from casrecon.io.estimation_config import EstimationConfig
 
 @dataclass(frozen=True)
 class FitSettings:
-    """How the NLP is solved.
+    """How the NLP is solved: an ``[estimation]`` table with its "auto" Hessian resolved
+    (:meth:`from_estimation`; its defaults are :class:`~casrecon.io.estimation_config.EstimationConfig`'s,
+    written there only) and the run's overrides.
 
     Parameters
     ----------
@@ -37,13 +39,13 @@ class FitSettings:
         Ipopt print level (0: silent).
     """
 
-    hessian: str = "gauss-newton"
-    information: str = "auto"
-    linear_solver: str = "mumps"
-    solver: str = "auto"
-    method: str = "map"
-    max_iter: int = 200
-    tol: float = 1e-6
+    hessian: str
+    information: str
+    linear_solver: str
+    solver: str
+    method: str
+    max_iter: int
+    tol: float
     print_level: int = 0
 
     @classmethod

@@ -48,18 +48,20 @@ class AtmosphereConfig:
     humidity: bool = True
 
 
-
 def parse_atmosphere(t: Fields) -> AtmosphereConfig:
     """The ``[atmosphere]`` table of a 6-DOF problem, validated (located InputError on a bad key)."""
-    cfg = AtmosphereConfig(sounding=t.path_of("sounding", required=True), launch=t.integer("launch", 0, 0),
-                           wind_3sigma_mps=t.number("wind_3sigma_mps", 1.0, positive=True),
-                           density_3sigma=t.number("density_3sigma", 0.01, positive=True),
-                           profile_wind_sigma_mps=t.number("profile_wind_sigma_mps", 0.5, minimum=0.0),
-                           profile_density_sigma=t.number("profile_density_sigma", 0.005, minimum=0.0),
-                           profile_length_m=t.number("profile_length_m", 300.0, positive=True),
-                           profile_step_m=t.number("profile_step_m", 10.0, positive=True),
-                           profile_sigma_from_data=t.boolean("profile_sigma_from_data", True),
-                           humidity=t.boolean("humidity", True))
+    d = AtmosphereConfig  # the defaults, written once: on the record's fields
+    cfg = AtmosphereConfig(sounding=t.path_of("sounding", required=True), launch=t.integer("launch", d.launch, 0),
+                           wind_3sigma_mps=t.number("wind_3sigma_mps", d.wind_3sigma_mps, positive=True),
+                           density_3sigma=t.number("density_3sigma", d.density_3sigma, positive=True),
+                           profile_wind_sigma_mps=t.number("profile_wind_sigma_mps", d.profile_wind_sigma_mps,
+                                                           minimum=0.0),
+                           profile_density_sigma=t.number("profile_density_sigma", d.profile_density_sigma,
+                                                          minimum=0.0),
+                           profile_length_m=t.number("profile_length_m", d.profile_length_m, positive=True),
+                           profile_step_m=t.number("profile_step_m", d.profile_step_m, positive=True),
+                           profile_sigma_from_data=t.boolean("profile_sigma_from_data", d.profile_sigma_from_data),
+                           humidity=t.boolean("humidity", d.humidity))
     if cfg.profile_step_m > cfg.profile_length_m:
         raise t.error("profile_step_m", f"expected a grid step at most the correlation length profile_length_m = "
                                         f"{cfg.profile_length_m:g} m, got {cfg.profile_step_m:g} m")

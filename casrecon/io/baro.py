@@ -70,14 +70,23 @@ class BaroConfig:
     position_error_sigma: float = 0.0
 
 
+#: 1-sigma prior of the kinematic fit's barometric height scale k (pressure read at the ground altitude
+#: plus the height above the ground times 1 + k): the temperature of the day differing from the
+#: profile's moves pressure altitude by about 3.5 % per 10 K. The kinematic problems' default
+#: (``[baro] height_scale_sigma``) and the kinematic check's of a 6-DOF fit.
+HEIGHT_SCALE_SIGMA = 0.03
+
+
 def parse_baro(t: Fields | None) -> BaroConfig | None:
     """The ``[sensors.baro]`` table, or None when absent."""
     if t is None:
         return None
-    cfg = BaroConfig(file=t.path_of("file", must_exist=False), noise_pa=t.number("noise_pa", 3.0, positive=True),
-                     bias_sigma_pa=t.number("bias_sigma_pa", 50.0, positive=True),
-                     bias_prior=t.boolean("bias_prior", True), rate_hz=t.number("rate_hz", 25.0, positive=True),
-                     position_error_sigma=t.number("position_error_sigma", 0.0, minimum=0.0))
+    d = BaroConfig  # the defaults, written once: on the record's fields
+    cfg = BaroConfig(file=t.path_of("file", must_exist=False), noise_pa=t.number("noise_pa", d.noise_pa, positive=True),
+                     bias_sigma_pa=t.number("bias_sigma_pa", d.bias_sigma_pa, positive=True),
+                     bias_prior=t.boolean("bias_prior", d.bias_prior),
+                     rate_hz=t.number("rate_hz", d.rate_hz, positive=True),
+                     position_error_sigma=t.number("position_error_sigma", d.position_error_sigma, minimum=0.0))
     t.reject_unknown()
     return cfg
 

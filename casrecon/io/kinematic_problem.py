@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.io.baro import HEIGHT_SCALE_SIGMA, BaroConfig
 from casrecon.io.errors import InputError
 from casrecon.io.gps_rules import GpsQuality, gps_date, gps_error_model, velocity_sigma
 from casrecon.io.imu import ImuCsvSpec
@@ -168,9 +169,11 @@ def load_kinematic(source: str | Path | TomlDocument) -> KinematicConfig:
                            gps.number("max_s_acc_mps", 1.0, positive=True), gps.integer("min_num_sv", 6, 0)),
         gps_errors=gps_error_model(gps), gps_date=gps_date(gps), velocity_sigma_mps=velocity_sigma(gps),
         baro_file=baro.path_of("file", required=True) if baro is not None else None,
-        baro_noise_pa=baro.number("noise_pa", 3.0, positive=True) if baro is not None else 3.0,
-        baro_bias_sigma_pa=baro.number("bias_sigma_pa", 50.0, positive=True) if baro is not None else 50.0,
-        baro_height_scale_sigma=baro.number("height_scale_sigma", 0.03, positive=True) if baro is not None else 0.03,
+        baro_noise_pa=baro.number("noise_pa", BaroConfig.noise_pa, positive=True) if baro else BaroConfig.noise_pa,
+        baro_bias_sigma_pa=(baro.number("bias_sigma_pa", BaroConfig.bias_sigma_pa, positive=True) if baro
+                            else BaroConfig.bias_sigma_pa),
+        baro_height_scale_sigma=(baro.number("height_scale_sigma", HEIGHT_SCALE_SIGMA, positive=True) if baro
+                                 else HEIGHT_SCALE_SIGMA),
         start_s=start, end_s=end, max_node_spacing_s=est.number("max_node_spacing_s", 0.5, positive=True),
         clock_sigma_s=est.number("clock_sigma_s", 0.0, minimum=0.0),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
