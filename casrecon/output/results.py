@@ -201,6 +201,35 @@ def to_builtin(obj):
     return str(obj)
 
 
+def json_values(obj):
+    """``obj`` as its JSON file reads back (``json.loads(json.dumps(obj, default=to_builtin))``), made
+    without the text: dicts with string keys (``True`` -> ``"true"``, ``None`` -> ``"null"``, numbers
+    by their repr), tuples and arrays as lists, numpy scalars as Python numbers, anything else as
+    :func:`to_builtin` makes it. What a fresh result object holds is then what its saved folder holds."""
+    if isinstance(obj, dict):
+        return {_json_key(k): json_values(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_values(v) for v in obj]
+    if obj is None or isinstance(obj, bool):
+        return obj
+    if isinstance(obj, str):
+        return str(obj)
+    if isinstance(obj, int):
+        return int(obj)
+    if isinstance(obj, float):
+        return float(obj)
+    return json_values(to_builtin(obj))
+
+
+def _json_key(key) -> str:
+    """A dict key as ``json.dumps`` writes it (a TypeError for keys it refuses, as it does)."""
+    if isinstance(key, str):
+        return str(key)
+    if key is None or isinstance(key, (bool, int, float)):
+        return json.dumps(key)
+    raise TypeError(f"keys must be str, int, float, bool or None, not {type(key).__name__}")
+
+
 def write_columns(path: str | Path, columns: Sequence[str], data: np.ndarray, fmt: str = "%.9g") -> None:
     """Write a numeric table as CSV with a header row."""
     np.savetxt(path, np.asarray(data), delimiter=",", header=",".join(columns), comments="", fmt=fmt)

@@ -27,7 +27,7 @@ from casrecon.output.fit_results import (
 from casrecon.output.kinematic_check_results import write_kinematic_check
 from casrecon.output.out_folder import input_paths
 from casrecon.results.parameters import Parameters, from_document
-from casrecon.output.results import save_results_folder, to_builtin
+from casrecon.output.results import json_values, save_results_folder
 from casrecon.report.results_folder import DropTables
 
 if TYPE_CHECKING:
@@ -186,8 +186,8 @@ class DropFit(FolderViews):
         ``(implied coefficients, check)`` of a kinematic check, when made)."""
         import pandas as pd
 
-        params_doc = json.loads(json.dumps(parameters_document(fit)))  # exactly what parameters.json holds
-        summary = json.loads(json.dumps({**summary_document(fit), **products_summary(products)}, default=to_builtin))
+        params_doc = json_values(parameters_document(fit))  # exactly what parameters.json holds
+        summary = json_values({**summary_document(fit), **products_summary(products)})
         trajectory = with_timestamps(pd.DataFrame(trajectory_table(fit)))
         tables = {"trajectory.csv": trajectory}
         tables.update({k: pd.DataFrame({c: np.asarray(v, dtype=float) for c, v in t.items()})

@@ -18,7 +18,7 @@ from casrecon.results.drop_fit import DropFit, adequacy_of, read_document
 from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
 from casrecon.output.out_folder import input_paths
 from casrecon.results.parameters import Parameters, from_document
-from casrecon.output.results import save_results_folder, to_builtin
+from casrecon.output.results import json_values, save_results_folder
 
 if TYPE_CHECKING:
     from casrecon.analysis.fit_products import FitProducts
@@ -81,9 +81,8 @@ class JointFit:
                  for d in result.drops}
         reconciled = {n: products[n].reconciled_summary for n in drops}
         adequacy = joint_adequacy({n: p.adequacy for n, p in products.items() if p.adequacy is not None})
-        doc = json.loads(json.dumps(joint_parameters_document(result)))
-        summary = json.loads(json.dumps(joint_summary_document(result, single, reconciled, adequacy),
-                                        default=to_builtin))
+        doc = json_values(joint_parameters_document(result))
+        summary = json_values(joint_summary_document(result, single, reconciled, adequacy))
         return cls(name=result.config.name, params=from_document(doc), drops=drops, summary=summary,
                    tables_md=joint_tables(result, single, reconciled, adequacy), fit=result, products=products,
                    single=single)
