@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from casrecon.analysis.parameter_estimates import parameter_estimates
 from casrecon.estimation.fit import fit_drop
 from casrecon.io.problem import ProblemConfig
-from casrecon.io.units import output_unit
 from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
 
@@ -32,8 +32,7 @@ def single_drop_sigma(problem: str | Path | ProblemConfig) -> tuple[str, dict[st
     """
     scenario = Scenario.from_config(problem) if isinstance(problem, ProblemConfig) else Scenario.load(problem)
     result = fit_drop(scenario)
-    return result.scenario.config.name, {spec.name: float(sigma) * output_unit(spec.unit)[1]
-                                         for spec, sigma in zip(result.params.specs, result.sigma)}
+    return result.scenario.config.name, {e.name: e.sigma for e in parameter_estimates(result)}
 
 
 def single_drop_sigmas(problems: list[Path | ProblemConfig], workers: int = 2) -> dict[str, dict[str, float]]:

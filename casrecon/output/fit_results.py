@@ -21,20 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
+from casrecon.analysis.parameter_estimates import parameter_estimates
 from casrecon.io.gps_rules import ned_to_geodetic
-from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, output_unit, utc_text
+from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, utc_text
 from casrecon.output.columns import write_table
 from casrecon.output.results import write_json
-
-
-def parameter_record(spec, value: float, sigma: float, chi2_scale: float) -> dict:
-    """One ``parameters.json`` entry, in the parameter's output unit (:func:`output_unit`: gyro
-    biases in deg/s); ``group`` and ``prior_sigma`` when ``spec`` has them."""
-    unit, f = output_unit(spec.unit)
-    prior = getattr(spec, "prior_sigma", None)
-    return {"value": float(value) * f, "sigma": float(sigma) * f, "three_sigma": 3 * float(sigma) * f,
-            "sigma_chi2_scaled": float(sigma) * chi2_scale * f, "unit": unit, "group": spec.group,
-            "prior_sigma": None if prior is None else prior * f}
 
 
 def parameters_document(result) -> dict:
@@ -47,8 +38,7 @@ def parameters_document(result) -> dict:
     from casrecon.estimation.engine.information import information_text
 
     scale = float(np.sqrt(result.reduced_chi2))
-    params = {spec.name: parameter_record(spec, result.values[i], result.sigma[i], scale)
-              for i, spec in enumerate(result.params.specs)}
+    params = {e.name: e.record() for e in parameter_estimates(result)}
     return {"parameters": params,
             "correlation": {"names": list(result.params.names),
                             "matrix": np.asarray(result.correlation, dtype=float).tolist()},

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.analysis.fit_adequacy import joint_adequacy
+from casrecon.analysis.parameter_estimates import parameter_estimate
 from casrecon.io.units import output_unit
-from casrecon.output.fit_results import parameter_record, write_fit_results
+from casrecon.output.fit_results import write_fit_results
 from casrecon.output.results import write_json
 from casrecon.report.fit_report import fit_report
 from casrecon.report.joint_tables import joint_tables
@@ -31,14 +32,14 @@ def joint_specs(result) -> dict[str, object]:
 
 def joint_parameters_document(result) -> dict:
     """``parameters.json`` of a joint fit: per global parameter the record of
-    :func:`~casrecon.output.fit_results.parameter_record` (values in its ``unit``; gyro biases in
+    :meth:`~casrecon.analysis.parameter_estimates.ParameterEstimate.record` (values in its ``unit``; gyro biases in
     deg/s) and ``shared``; the correlation matrix over all (full precision)."""
     from casrecon.estimation.engine.information import information_text
 
     scale = float(np.sqrt(result.reduced_chi2))
     specs = joint_specs(result)
     information = result.drops[0].covariance.information  # one covariance, shared by every drop
-    params = {n: {**parameter_record(specs[n], v, s, scale), "shared": n in result.shared}
+    params = {n: {**parameter_estimate(specs[n], v, s, scale).record(), "shared": n in result.shared}
               for n, v, s in zip(result.names, result.values, result.sigma)}
     return {"parameters": params,
             "correlation": {"names": list(result.names),

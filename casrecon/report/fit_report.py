@@ -3,12 +3,10 @@ an error bar is missing."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from casrecon.analysis.adequacy import Adequacy
 from casrecon.analysis.fit_products import result_adequacy
+from casrecon.analysis.parameter_estimates import parameter_estimates
 from casrecon.estimation.engine.information import information_text
-from casrecon.io.units import output_unit
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.report.adequacy_block import report_lines
 
@@ -19,16 +17,13 @@ PRIOR_DOMINATED = 0.9
 
 
 def _parameter_lines(result) -> list[str]:
-    scale = np.sqrt(result.reduced_chi2)
     lines = []
-    for i, spec in enumerate(result.params.specs):
-        unit, f = output_unit(spec.unit)  # gyro biases in deg/s, as in parameters.json
-        v, s = result.values[i] * f, result.sigma[i] * f
+    for e in parameter_estimates(result):  # gyro biases in deg/s, as in parameters.json
         note = ""
-        if spec.prior_sigma and s > PRIOR_DOMINATED * spec.prior_sigma * f:
+        if e.prior_sigma and e.sigma > PRIOR_DOMINATED * e.prior_sigma:
             note = "  <- set mostly by its prior (the data add little)"
-        lines.append(f"    {spec.name:16s} = {v: .6g} +/- {3 * s:.3g} (3-sigma; chi2-scaled {3 * s * scale:.3g})"
-                     f" [{unit}]{note}")
+        lines.append(f"    {e.name:16s} = {e.value: .6g} +/- {e.three_sigma:.3g} (3-sigma; chi2-scaled "
+                     f"{3 * e.sigma_chi2_scaled:.3g}) [{e.unit}]{note}")
     fixed = [n for n in DISPERSION_NAMES if n not in result.params.names]
     for name in fixed:
         lines.append(f"    {name:16s} = 0 (fixed: not estimated, its database size U is 0 or "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from casrecon.analysis.parameter_estimates import parameter_estimates
 from casrecon.physics.aero import DISPERSION_NAMES
 
 TABLE3_COLUMNS = (("h_agl_m", "h_agl, m"), ("vel_n_mps", "Vn, m/s"), ("vel_e_mps", "Ve, m/s"),
@@ -56,16 +57,15 @@ def dispersion_table(result) -> str:
              "Normalised factors (database 3-sigma = 1). 'data share' is 1 - (posterior / prior "
              "variance): near 0 means the prior, not the data, sets the value.", "",
              "| factor | estimate | 3-sigma | prior 3-sigma | data share |", "|---|---|---|---|---|"]
+    estimates = {e.name: e for e in parameter_estimates(result)}
     for name in DISPERSION_NAMES:
-        if name not in result.params.names:
+        e = estimates.get(name)
+        if e is None:
             lines.append(f"| {name} | 0 (fixed) | - | - | not estimated |")
             continue
-        i = result.params.index(name)
-        spec = result.params.specs[i]
-        prior = spec.prior_sigma
-        share = "-" if prior is None else f"{1 - (result.sigma[i] / prior) ** 2:.3f}"
-        prior_txt = "off" if prior is None else f"{3 * prior:.3g}"
-        lines.append(f"| {name} | {result.values[i]:.4f} | {3 * result.sigma[i]:.4f} | {prior_txt} | {share} |")
+        share = "-" if e.prior_sigma is None else f"{1 - (e.sigma / e.prior_sigma) ** 2:.3f}"
+        prior_txt = "off" if e.prior_sigma is None else f"{3 * e.prior_sigma:.3g}"
+        lines.append(f"| {name} | {e.value:.4f} | {e.three_sigma:.4f} | {prior_txt} | {share} |")
     return "\n".join(lines) + "\n"
 
 
