@@ -20,7 +20,7 @@ from fit_seeds import PROBLEMS, scenario_with_seed
 from scipy import stats
 
 from casrecon.analysis.fit_products import result_adequacy
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 
 

@@ -26,7 +26,7 @@ import statistics
 import time
 from pathlib import Path
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.physics import compiled
 from casrecon.scenario import Scenario
 

@@ -47,7 +47,7 @@ def median(values: list[float]) -> str:
 
 def import_time(runs: int) -> list[float]:
     """Seconds to import what ``casrecon fit`` needs, over a bare interpreter's start."""
-    code = ("import casrecon.cli, casrecon.estimation.fit, casrecon.analysis.fit_products, "
+    code = ("import casrecon.cli, casrecon.estimation.sixdof.fit, casrecon.analysis.fit_products, "
             "casrecon.output.fit_results, casrecon.report.fit_report")
     out = []
     for _ in range(runs):
@@ -63,7 +63,7 @@ def import_time(runs: int) -> list[float]:
 def parts(problem: Path, runs: int, figures: bool) -> dict[str, list[float]]:
     """The parts of the fit command, timed in this process."""
     from casrecon.analysis.fit_products import fit_products
-    from casrecon.estimation.fit import fit_drop
+    from casrecon.estimation.sixdof.fit import fit_drop
     from casrecon.output.fit_results import write_fit_results
     from casrecon.report.fit_report import fit_report
     from casrecon.report.plots import draw_figures
@@ -120,8 +120,8 @@ def command(problem: Path, runs: int, extra: list[str]) -> tuple[list[float], li
 
 
 def joint_ratio(runs: int) -> None:
-    from casrecon.estimation.fit import fit_drop
-    from casrecon.estimation.joint import JointConfig, fit_joint
+    from casrecon.estimation.sixdof.fit import fit_drop
+    from casrecon.estimation.sixdof.joint import JointConfig, fit_joint
     from casrecon.scenario import Scenario
 
     drops = [PROBLEMS / f"ees-drop-{i}" for i in (1, 2, 3, 4)]

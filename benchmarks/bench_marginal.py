@@ -28,7 +28,7 @@ CASE = """
 import dataclasses, json, resource, sys, tempfile, time
 from pathlib import Path
 from casrecon.analysis.gust_calibration import GustCase, case_scenario
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 start, seed, what = float(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 interval = float(sys.argv[5]) if len(sys.argv) > 5 else None

@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from casrecon.estimation.pointmass_fit import fit_point_mass
+from casrecon.estimation.pointmass.fit import fit_point_mass
 from casrecon.io.pointmass_problem import load_point_mass
 
 ROOT = Path(__file__).resolve().parents[1]

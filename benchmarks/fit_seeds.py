@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.io.flysight import write_flysight1
 from casrecon.io.imu import write_imu_csv
 from casrecon.scenario import Scenario

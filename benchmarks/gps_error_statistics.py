@@ -47,7 +47,7 @@ from casrecon.analysis.gps_error_statistics import (
     gauss_markov_series,
     variogram,
 )
-from casrecon.estimation.pointmass_fit import fit_point_mass
+from casrecon.estimation.pointmass.fit import fit_point_mass
 from casrecon.io.flysight import read_flysight, write_flysight1
 from casrecon.io.gps_rules import ned_to_geodetic
 from casrecon.io.pointmass_problem import SegmentConfig, load_point_mass

@@ -20,7 +20,7 @@ import numpy as np
 from gust_cases import case_arguments, whole_drop_cases
 
 from casrecon.analysis.gust_calibration import AXES, GustCase, case_scenario
-from casrecon.estimation.fit import fit_drop, with_marginal_estimate
+from casrecon.estimation.sixdof.fit import fit_drop, with_marginal_estimate
 from casrecon.parallel import parallel_map
 from casrecon.simulation.synthetic import truth_disturbance
 

@@ -35,7 +35,7 @@ import numpy as np
 from casrecon.analysis.estimator_mc import parameter_errors
 from casrecon.analysis.fit_products import result_adequacy
 from casrecon.analysis.model_error_mc import band_coverage
-from casrecon.estimation.fit import FitError, fit_drop
+from casrecon.estimation.sixdof.fit import FitError, fit_drop
 from casrecon.io.sounding import read_sounding, write_sounding_csv
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name

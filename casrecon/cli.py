@@ -127,8 +127,8 @@ def _fit_options(args: argparse.Namespace):
 def _fit(args: argparse.Namespace) -> int:
     from contextlib import nullcontext
 
-    from casrecon.estimation.fit import FitError
-    from casrecon.estimation.fitdata import FitDataError
+    from casrecon.estimation.sixdof.fit import FitError
+    from casrecon.estimation.sixdof.fitdata import FitDataError
     from casrecon.io.problem_file import problem_kind, problem_name
     from casrecon.pipelines import fit_problem
 
@@ -170,7 +170,7 @@ def _save(result, args: argparse.Namespace, pool=None) -> None:
 
 
 def _joint(args: argparse.Namespace) -> int:
-    from casrecon.estimation.fit import FitError
+    from casrecon.estimation.sixdof.fit import FitError
     from casrecon.pipelines.joint import fit_joint_problems
 
     t0 = time.perf_counter()
@@ -194,8 +194,8 @@ def _sensitivity(args: argparse.Namespace) -> int:
         parameter_unit,
         profile_document,
     )
-    from casrecon.estimation.drop import parameter_set
-    from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.estimation.sixdof.drop import parameter_set
+    from casrecon.estimation.sixdof.fit import FitError, fit_drop
     from casrecon.output.results import atomic_folder, write_json
     from casrecon.report import sensitivity_plots
     from casrecon.scenario import Scenario

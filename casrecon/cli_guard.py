@@ -238,7 +238,7 @@ def fit_failed(what: str, err: Exception) -> int:
 
 def describe(err: BaseException) -> tuple[int, str]:
     """Exit status and the one line for an exception that ended a command."""
-    from casrecon.estimation.fit import FitError
+    from casrecon.estimation.sixdof.fit import FitError
     from casrecon.output.out_folder import ResultsWriteError
 
     if isinstance(err, InputError):

@@ -28,8 +28,8 @@ import numpy as np
 
 from casrecon.analysis.gust_calibration import GustCase, case_scenario
 from casrecon.analysis.observability import design_study, fisher_directions, profile_likelihood
-from casrecon.estimation.diagnostics import imu_residuals, reconciled_simulation
-from casrecon.estimation.fit import fit_drop, with_marginal_estimate
+from casrecon.estimation.sixdof.diagnostics import imu_residuals, reconciled_simulation
+from casrecon.estimation.sixdof.fit import fit_drop, with_marginal_estimate
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name
 

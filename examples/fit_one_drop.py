@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.report.fit_report import fit_report
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name

@@ -14,8 +14,8 @@ import json
 from pathlib import Path
 
 from casrecon.analysis.single_sigmas import single_drop_sigmas
-from casrecon.estimation.diagnostics import reconciled_simulation
-from casrecon.estimation.joint import JointConfig, fit_joint
+from casrecon.estimation.sixdof.diagnostics import reconciled_simulation
+from casrecon.estimation.sixdof.joint import JointConfig, fit_joint
 from casrecon.scenario import Scenario
 
 ROOT = Path(__file__).resolve().parents[1] / "problems"

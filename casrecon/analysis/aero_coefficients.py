@@ -16,7 +16,7 @@ At every node three sets of :data:`~casrecon.analysis.aero_columns.COEFFICIENTS`
   damping, about the MRP.
 - **nominal**: the same with every dispersion 0 (no band).
 
-3-sigma bands by the delta method, as :mod:`casrecon.estimation.bands` does for the trajectory: the
+3-sigma bands by the delta method, as :mod:`casrecon.estimation.sixdof.bands` does for the trajectory: the
 Jacobian of each coefficient with respect to the node's state, the parameters (IMU biases, wind,
 density, dispersions) and the node's disturbances, times their covariance block (never a dense
 covariance of the whole decision vector). The reconstructed band adds the measurement noise passed
@@ -32,11 +32,11 @@ import casadi as ca
 import numpy as np
 
 from casrecon.analysis import aero_columns as cols
-from casrecon.estimation.bands import MAX_BAND_NODES, node_cell_inputs, node_parameters
 from casrecon.estimation.kinds.imu import SENSOR_NAMES, imu_sigma
-from casrecon.estimation.layout import NS, BlockLocals
-from casrecon.estimation.savgol import savgol_coeffs
-from casrecon.estimation.transcription import STATE_SCALE, disturbance_selection
+from casrecon.estimation.numerics.savgol import savgol_coeffs
+from casrecon.estimation.sixdof.bands import MAX_BAND_NODES, node_cell_inputs, node_parameters
+from casrecon.estimation.sixdof.layout import NS, BlockLocals
+from casrecon.estimation.sixdof.transcription import STATE_SCALE, disturbance_selection
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment, flow_angles
 from casrecon.physics.dynamics import DISTURBANCE_NAMES, FlightModel
 from casrecon.physics.numpy_call import numpy_call
@@ -218,7 +218,7 @@ def aero_coefficients(result) -> dict[str, np.ndarray]:
 
     Parameters
     ----------
-    result : casrecon.estimation.fit.FitResult
+    result : casrecon.estimation.sixdof.fit.FitResult
 
     Returns
     -------

@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import chi2
 
-from casrecon.estimation.drop import parameter_set
 from casrecon.estimation.engine.convergence import iteration_logging
+from casrecon.estimation.sixdof.drop import parameter_set
 from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
 
@@ -67,7 +67,7 @@ def chi2_interval(dof: int, quantiles: tuple[float, float] = (0.025, 0.975)) -> 
 
 def parameter_errors(result, truth: dict[str, float]) -> tuple[np.ndarray, float]:
     """(estimate - truth over the estimated parameters (SI), NEES e^T C^-1 e with C the reported
-    absolute parameter covariance) of a :class:`~casrecon.estimation.fit.FitResult`."""
+    absolute parameter covariance) of a :class:`~casrecon.estimation.sixdof.fit.FitResult`."""
     e = np.array([result.values[i] - truth[n] for i, n in enumerate(result.params.names)])
     cov = result.correlation * np.outer(result.sigma, result.sigma)
     return e, float(e @ np.linalg.solve(cov, e))
@@ -78,7 +78,7 @@ def run_case(problem: str, seed: int, index: int, method: str | None = None, inf
     chi-square and its wall time ``case_s`` (s). ``method`` ("map" or "marginal") and
     ``information`` ("observed" or "expected") override the problem's ``[estimation]``. The
     fit's iteration lines are logged at DEBUG."""
-    from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.estimation.sixdof.fit import FitError, fit_drop
     from casrecon.simulation.synthetic import truth_parameters_by_name, with_synthetic_data
 
     t0 = time.perf_counter()

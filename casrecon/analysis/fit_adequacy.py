@@ -9,10 +9,10 @@ import numpy as np
 
 from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
 from casrecon.analysis.process_scale import ProcessPrior
-from casrecon.estimation import diagnostics as dg
-from casrecon.estimation.kinematic_terms import INTERVAL_RESIDUALS
-from casrecon.estimation.profile import PROFILE_COMPONENTS, PROFILE_UNITS
-from casrecon.estimation.profile_sigma import profile_prior_rows
+from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS, PROFILE_UNITS
+from casrecon.estimation.error_models.profile_sigma import profile_prior_rows
+from casrecon.estimation.kinematic.terms import INTERVAL_RESIDUALS
+from casrecon.estimation.sixdof import diagnostics as dg
 
 #: Accepted distance (m) between the fitted height at impact and the site's ground altitude, on top
 #: of 3 sigma of the fitted height: terrain relief over a landing area of a few kilometres, the
@@ -33,7 +33,7 @@ def prior_arrays(specs, values: np.ndarray, covariance: np.ndarray) -> tuple[lis
 
     Parameters
     ----------
-    specs : sequence of casrecon.estimation.parameters.ParameterSpec
+    specs : sequence of casrecon.estimation.sixdof.parameters.ParameterSpec
     values : ndarray
         Estimates of every spec (SI).
     covariance : ndarray
@@ -68,8 +68,8 @@ def drop_channels(imu: dict, gps: dict, others: dict) -> dict[str, np.ndarray]:
     Parameters
     ----------
     imu, gps : dict
-        :func:`casrecon.estimation.diagnostics.imu_residuals` (``residual`` (N, 6), ``valid``,
-        ``sigma`` (6,)) and :func:`~casrecon.estimation.diagnostics.gps_residuals` (``residual`` and
+        :func:`casrecon.estimation.sixdof.diagnostics.imu_residuals` (``residual`` (N, 6), ``valid``,
+        ``sigma`` (6,)) and :func:`~casrecon.estimation.sixdof.diagnostics.gps_residuals` (``residual`` and
         ``sigma``, (M, 6)), SI.
     others : dict of str to dict
         Other kinds' residual columns (``"baro"``: ``pressure_residual_pa``, ``pressure_sigma_pa``).
@@ -94,7 +94,7 @@ def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAM
 
     Parameters
     ----------
-    result : casrecon.estimation.fit.FitResult
+    result : casrecon.estimation.sixdof.fit.FitResult
     imu, gps, others : dict
         Its residuals, as :func:`drop_channels` takes them.
     alpha : float
@@ -133,7 +133,7 @@ def profile_priors(result) -> tuple[ProcessPrior, ...]:
 
 def pointmass_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
     """Verdict of a GPS-only fit
-    (:class:`~casrecon.estimation.pointmass_fit.PointMassResult`): its six GPS channels, the
+    (:class:`~casrecon.estimation.pointmass.fit.PointMassResult`): its six GPS channels, the
     wind-bias priors, and the track's lowest point against the ground (a track that ends in the air
     has no impact to check)."""
     specs = result.params.specs
@@ -162,7 +162,7 @@ KINEMATIC_PRIOR_HINT = ("the IMU error model or its priors do not describe this 
 
 def kinematic_adequacy(result, alpha: float = FAMILY_ALPHA) -> Adequacy:
     """Verdict of a kinematic reconstruction
-    (:class:`~casrecon.estimation.kinematic_fit.KinematicResult`): the six GPS components, the
+    (:class:`~casrecon.estimation.kinematic.fit.KinematicResult`): the six GPS components, the
     barometer, and the priors of the IMU errors, clock offset and barometer (no ground check: a
     kinematic span need not end on the ground).
 

@@ -1,7 +1,7 @@
 """What a per-drop fit leaves for its results folder besides the fit itself: sensor residuals, the
 reconstructed pitching moment, and the reconciled forward simulations (EES paper VI).
 
-:func:`fit_products` runs the computations of :mod:`casrecon.estimation.diagnostics` (CasADi and
+:func:`fit_products` runs the computations of :mod:`casrecon.estimation.sixdof.diagnostics` (CasADi and
 two forward simulations) once and returns them as named columns, so that the writers in
 :mod:`casrecon.output` only serialise.
 """
@@ -15,9 +15,9 @@ import numpy as np
 from casrecon.analysis.adequacy import Adequacy
 from casrecon.analysis.aero_coefficients import aero_coefficients
 from casrecon.analysis.fit_adequacy import drop_adequacy
-from casrecon.estimation import diagnostics as dg
-from casrecon.estimation.drop import MEASUREMENT_KINDS
 from casrecon.estimation.kinds.gps import clock_offset
+from casrecon.estimation.sixdof import diagnostics as dg
+from casrecon.estimation.sixdof.drop import MEASUREMENT_KINDS
 from casrecon.io.units import (
     GPS_COMPONENT_UNITS,
     IMU_CHANNEL_UNITS,
@@ -106,11 +106,11 @@ def roll_rate_comparison(result, rec: dict, nom: dict, n: int = 6) -> list[dict]
 
     Parameters
     ----------
-    result : casrecon.estimation.fit.FitResult
+    result : casrecon.estimation.sixdof.fit.FitResult
         The fit.
     rec, nom : dict
         Forward simulations with the fitted and the nominal lift-curve slope: ``flight_time_s`` (s)
-        and ``p_dps`` (deg/s) arrays, as :func:`casrecon.estimation.diagnostics.reconciled_simulation`
+        and ``p_dps`` (deg/s) arrays, as :func:`casrecon.estimation.sixdof.diagnostics.reconciled_simulation`
         returns them.
     n : int
         Number of times, evenly spaced through the fit window.
@@ -137,7 +137,7 @@ def fit_products(result, concurrent: bool = False) -> FitProducts:
 
     Parameters
     ----------
-    result : casrecon.estimation.fit.FitResult
+    result : casrecon.estimation.sixdof.fit.FitResult
         A converged per-drop fit.
     concurrent : bool
         Run the nominal-database simulation with the model-adequacy verdict, and the aerodynamic

@@ -26,7 +26,7 @@ import numpy as np
 from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
 from casrecon.estimation.engine.checks import FitError
 from casrecon.estimation.engine.laplace import LatentSplit, log_det_curvature
-from casrecon.estimation.fit import FitResult, fit_drop, with_marginal_estimate
+from casrecon.estimation.sixdof.fit import FitResult, fit_drop, with_marginal_estimate
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_disturbance, truth_parameters_by_name, with_synthetic_data
@@ -58,7 +58,7 @@ class GustCase:
     interval_s : float or None
         The fit's collocation interval, s (None: the problem's ``[estimation] interval_s``, 25 ms by
         default). The truth's gusts vary between the fit's nodes; the fit models that part to first
-        order (:mod:`casrecon.estimation.subgrid`), and a finer mesh shrinks it.
+        order (:mod:`casrecon.estimation.sixdof.subgrid`), and a finer mesh shrinks it.
     fit_noise_scale : tuple of 2 float
         The fit's accelerometer and gyro noise sigmas as multiples of the truth's (1, 1: the data's
         own): a diagnostic of which channel over-trusts what it sees of the gusts.
@@ -140,7 +140,7 @@ def _case_figures(case: GustCase, sc: Scenario, r: FitResult, seconds: float) ->
 def run_gust_case(case: GustCase, marginal: bool = False) -> dict:
     """Fit one case; its status, reduced chi-square, per-axis gust figures and parameter errors.
     ``marginal``: also move that joint-MAP fit to the marginal-likelihood estimate
-    (:func:`~casrecon.estimation.fit.with_marginal_estimate`) and return the same figures of both,
+    (:func:`~casrecon.estimation.sixdof.fit.with_marginal_estimate`) and return the same figures of both,
     ``{"map": ..., "marginal": ...}`` (the marginal's ``fit_s`` is its extra time)."""
     t0 = time.perf_counter()
     sc, r = _fit_case(case)

@@ -32,8 +32,8 @@ import numpy as np
 
 from casrecon.analysis import aero_columns as cols
 from casrecon.analysis.aero_coefficients import coefficient_vector, imu_force_moment, smoothed_imu
-from casrecon.estimation.kinematic_fit import KinematicResult
-from casrecon.estimation.kinematic_terms import KINEMATIC_SCALE, N_STATE
+from casrecon.estimation.kinematic.fit import KinematicResult
+from casrecon.estimation.kinematic.terms import KINEMATIC_SCALE, N_STATE
 from casrecon.physics.aero import DISPERSION_NAMES, AeroDatabase, aero_force_moment, flow_angles
 from casrecon.physics.atmosphere import Atmosphere, AtmosphereCorrections
 from casrecon.physics.preintegration import IMU_PARAMETERS, N_IMU_PARAMETERS, imu_gains

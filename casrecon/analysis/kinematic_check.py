@@ -120,7 +120,7 @@ def kinematic_check(result, dynamic: dict[str, np.ndarray]):
 
     Parameters
     ----------
-    result : casrecon.estimation.fit.FitResult
+    result : casrecon.estimation.sixdof.fit.FitResult
         A converged per-drop 6-DOF fit.
     dynamic : dict of str to array
         Its aerodynamic coefficient columns (``FitProducts.aero_coefficients``).
@@ -136,8 +136,8 @@ def kinematic_check(result, dynamic: dict[str, np.ndarray]):
     FitError
         The kinematic fit does not converge.
     """
-    from casrecon.estimation.kinematic_fit import fit_kinematic
-    from casrecon.estimation.kinematic_inputs import data_from_problem, options_from_problem
+    from casrecon.estimation.kinematic.fit import fit_kinematic
+    from casrecon.estimation.kinematic.inputs import data_from_problem, options_from_problem
     from casrecon.physics.aero import DISPERSION_NAMES
 
     scenario = result.scenario

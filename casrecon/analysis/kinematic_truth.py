@@ -124,8 +124,8 @@ def truth_case(problem: str, seed: int, index: int, steps: tuple[int, ...] = (1,
     from casrecon.analysis.fit_adequacy import kinematic_adequacy
     from casrecon.analysis.implied_aero import AirPrior, implied_aero
     from casrecon.estimation.engine.checks import FitError
-    from casrecon.estimation.kinematic_fit import fit_kinematic
-    from casrecon.estimation.kinematic_inputs import data_from_problem, options_from_problem
+    from casrecon.estimation.kinematic.fit import fit_kinematic
+    from casrecon.estimation.kinematic.inputs import data_from_problem, options_from_problem
     from casrecon.scenario import Scenario
     from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from casrecon.analysis.observability import refit_with_held
 from casrecon.estimation.engine.laplace import half_log_det
-from casrecon.estimation.fit import FitResult
+from casrecon.estimation.sixdof.fit import FitResult
 
 LOG = logging.getLogger(__name__)
 

@@ -103,7 +103,7 @@ def band_coverage(result, trajectory, release_imu_s: float) -> dict[str, tuple[i
 
     Parameters
     ----------
-    result : casrecon.estimation.fit.FitResult
+    result : casrecon.estimation.sixdof.fit.FitResult
     trajectory : casrecon.simulation.simulate.Trajectory
         The truth (flight time since the true release).
     release_imu_s : float
@@ -134,7 +134,7 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     "observed" or "expected"; defaults its ``[estimation]``'s) and summarise it against the truth
     (or the failure)."""
     from casrecon.analysis.fit_products import result_adequacy
-    from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.estimation.sixdof.fit import FitError, fit_drop
 
     t0 = time.perf_counter()
     try:

@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.estimation.continuation import clock_bounds
-from casrecon.estimation.drop import build_nlp, parameter_set
 from casrecon.estimation.engine.convergence import iteration_logging
 from casrecon.estimation.engine.covariance import compute_covariance
 from casrecon.estimation.engine.solve import SolveResult, solve
-from casrecon.estimation.fit import FitResult, prepare_drop
+from casrecon.estimation.sixdof.continuation import clock_bounds
+from casrecon.estimation.sixdof.drop import build_nlp, parameter_set
+from casrecon.estimation.sixdof.fit import FitResult, prepare_drop
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import simulate_truth, truth_parameters_by_name, with_synthetic_data
 

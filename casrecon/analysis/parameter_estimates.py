@@ -46,7 +46,7 @@ class ParameterEstimate:
 
 
 def parameter_estimate(spec, value: float, sigma: float, chi2_scale: float) -> ParameterEstimate:
-    """The estimate of the parameter ``spec`` (a :class:`~casrecon.estimation.parameters.ParameterSpec`:
+    """The estimate of the parameter ``spec`` (a :class:`~casrecon.estimation.sixdof.parameters.ParameterSpec`:
     ``name``, ``unit`` (SI), ``group``, ``prior_sigma``) at ``value`` +- ``sigma`` (SI), with the
     chi-square scale sqrt(reduced chi-square)."""
     unit, f = output_unit(spec.unit)
@@ -56,7 +56,7 @@ def parameter_estimate(spec, value: float, sigma: float, chi2_scale: float) -> P
 
 
 def parameter_estimates(result) -> tuple[ParameterEstimate, ...]:
-    """Every estimated parameter of a per-drop fit (:class:`~casrecon.estimation.fit.FitResult`), in fit order."""
+    """Every estimated parameter of a per-drop fit (:class:`~casrecon.estimation.sixdof.fit.FitResult`), in fit order."""
     scale = float(np.sqrt(result.reduced_chi2))
     return tuple(parameter_estimate(spec, result.values[i], result.sigma[i], scale)
                  for i, spec in enumerate(result.params.specs))

@@ -28,7 +28,7 @@ def fisher_document(problem: str, directions: Sequence, specs: Sequence) -> dict
         Problem name.
     directions : sequence of casrecon.analysis.observability.FisherDirection
         Weakest first (:func:`~casrecon.analysis.observability.fisher_directions`).
-    specs : sequence of casrecon.estimation.parameters.ParameterSpec
+    specs : sequence of casrecon.estimation.sixdof.parameters.ParameterSpec
         The fit's parameters (name, scale, SI unit), in fit order.
 
     Returns
@@ -80,6 +80,6 @@ def design_document(design: dict, unit: str) -> dict:
 
 def parameter_unit(config, name: str) -> str:
     """The SI unit of parameter ``name`` of a 6-DOF problem (``"-"`` when it has no such parameter)."""
-    from casrecon.estimation.drop import parameter_set  # CasADi only when a study is written
+    from casrecon.estimation.sixdof.drop import parameter_set  # CasADi only when a study is written
 
     return next((s.unit for s in parameter_set(config).specs if s.name == name), "-")

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from casrecon.analysis.parameter_estimates import parameter_estimates
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.io.problem import ProblemConfig
 from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
@@ -27,7 +27,7 @@ def single_drop_sigma(problem: str | Path | ProblemConfig) -> tuple[str, dict[st
 
     Raises
     ------
-    casrecon.estimation.fit.FitError
+    casrecon.estimation.sixdof.fit.FitError
         When the fit fails.
     """
     scenario = Scenario.from_config(problem) if isinstance(problem, ProblemConfig) else Scenario.load(problem)

@@ -13,7 +13,7 @@ from casrecon.io.toml_fields import Fields
 class AtmosphereConfig:
     """Balloon sounding file, its stated uncertainty (3-sigma, as the EES paper gives it) and the
     fit's model of the profile error (1-sigma, Gauss-Markov in altitude; see
-    :mod:`casrecon.estimation.profile`).
+    :mod:`casrecon.estimation.error_models.profile`).
 
     Profile-error defaults: a GPS-tracked radiosonde measures wind to about 0.15 m/s and
     temperature and pressure to about 0.1 % in density, but the balloon flies tens of minutes
@@ -25,7 +25,7 @@ class AtmosphereConfig:
 
     ``profile_sigma_from_data``: after the fit, estimate the profile sigmas and their correlation
     length (1/3 to 10 times ``profile_length_m``) from the data (type-II maximum likelihood,
-    :mod:`casrecon.estimation.profile_sigma`) and, where they differ from the
+    :mod:`casrecon.estimation.error_models.profile_sigma`) and, where they differ from the
     configured ones by more than 25 %, fit again with them (without the profile model when the
     data show none), so that neither the bands nor the aero sigmas rest on a guessed size. Per-drop
     fits without disturbance states and with the MAP method only; each refit costs a fit, and the

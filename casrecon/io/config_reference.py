@@ -346,7 +346,7 @@ AERO = FileKind(
 JOINT = FileKind(
     "Joint file (`casrecon joint FILE`)",
     "Several drops in one fit sharing aero dispersion factors. Read by "
-    "`casrecon.estimation.joint.load_joint`.",
+    "`casrecon.estimation.sixdof.joint.load_joint`.",
     (
         Table("joint", (
             key("name", "string", "", "Name of the joint fit", REQUIRED),

@@ -35,7 +35,7 @@ class EstimationConfig:
         Hermite-Simpson discretisation error of a 500 Hz drop well below the reported sigmas (at
         50 ms a noise-free fit of ees-drop-3 is off by 4.4 sigma along its best-determined CA/Cmn
         combination; at 24 ms by 0.23 sigma). With disturbance states the same: what a gust does
-        between the nodes is modelled (:mod:`casrecon.estimation.subgrid`), and the whole-drop gust
+        between the nodes is modelled (:mod:`casrecon.estimation.sixdof.subgrid`), and the whole-drop gust
         calibration passes on 25 ms (README, issue 13).
     samples_per_interval : int, optional
         IMU samples per collocation interval; overrides ``interval_s`` when given.

@@ -5,7 +5,7 @@ flight computer's ``gnssInfo.csv``: ``ts,latitude,longitude,satellites``), read 
 Time base: ``ts`` is the flight computer's clock (s), the clock of its IMU (``imu.csv`` ``ts``); the log
 holds no UTC. The track's ``time_unix_s`` is ``utc_at_zero_s + ts``: with the default ``utc_at_zero_s = 0``
 it is the IMU clock itself, and a fit that maps a fix stamped ``u`` to IMU time ``u - utc_at_zero`` (see
-:mod:`casrecon.estimation.fitdata`) takes ``[sensors.imu.clock] utc_at_zero = "1970-01-01T00:00:00Z"``
+:mod:`casrecon.estimation.sixdof.fitdata`) takes ``[sensors.imu.clock] utc_at_zero = "1970-01-01T00:00:00Z"``
 (or the same instant given to both).
 
 Rules (violations raise a located :class:`~casrecon.io.errors.InputError`):

@@ -1,5 +1,5 @@
 """Plausibility rules for an IMU log, in one place: the pre-solve data check of the fits
-(:mod:`casrecon.estimation.data_checks`) refuses a log that breaks one, ``casrecon inspect`` warns.
+(:mod:`casrecon.estimation.validation.data_checks`) refuses a log that breaks one, ``casrecon inspect`` warns.
 
 Each rule looks at a span of samples (the fit window, or the whole log for ``inspect``) and returns
 a :class:`Finding` (message, line of the IMU CSV, column) or None. The thresholds:

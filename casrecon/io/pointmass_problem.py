@@ -97,7 +97,7 @@ class SegmentConfig:
     began (vertical speed below 2 m/s), ending ``end_margin_s`` before the final drop (canopy
     opening or impact) began: the run's last fixes whose vertical speed is each more than
     ``deploy_drop_mps`` (m/s) below its running maximum over the preceding 2 s
-    (:func:`casrecon.estimation.segment.drop_onset`)."""
+    (:func:`casrecon.estimation.pointmass.segment.drop_onset`)."""
 
     start_unix_s: float | None = None
     end_unix_s: float | None = None

@@ -144,7 +144,7 @@ def write_fit_results(out: Path, result, products, report_text: str, tables_md: 
     ----------
     out : Path
         Existing (empty) folder.
-    result : casrecon.estimation.fit.FitResult
+    result : casrecon.estimation.sixdof.fit.FitResult
         The fit.
     products : casrecon.analysis.fit_products.FitProducts
         Its residuals, pitching moment and reconciled simulations.

@@ -77,7 +77,7 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
     ----------
     out : Path
         Existing (empty) folder.
-    result : casrecon.estimation.joint.JointResult
+    result : casrecon.estimation.sixdof.joint.JointResult
         The joint fit.
     single : dict of str to dict of str to float
         Drop name -> parameter -> 1-sigma of the drop's own fit, output unit (empty when not run).

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from casrecon.estimation.kinematic_terms import INTERVAL_RESIDUALS
+from casrecon.estimation.kinematic.terms import INTERVAL_RESIDUALS
 from casrecon.io.gps_rules import ned_to_geodetic
 from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, utc_text
 from casrecon.output.columns import write_table
@@ -51,7 +51,7 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
     Parameters
     ----------
     out : Path
-    result : casrecon.estimation.kinematic_fit.KinematicResult
+    result : casrecon.estimation.kinematic.fit.KinematicResult
     report_text : str
     site : casrecon.physics.dynamics.Site
         For latitude, longitude and h_MSL.

@@ -40,7 +40,7 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
     ----------
     out : Path
         Existing (empty) folder.
-    main, constant : casrecon.estimation.pointmass_fit.PointMassResult
+    main, constant : casrecon.estimation.pointmass.fit.PointMassResult
         The fitted model and the constant-drag model (the same object when the model is constant).
     report_text : str
         Written as ``report.txt`` (:func:`casrecon.report.pointmass_report.pointmass_report`).

@@ -21,7 +21,7 @@ class JointProblem:
 
     Attributes
     ----------
-    config : casrecon.estimation.joint.JointConfig
+    config : casrecon.estimation.sixdof.joint.JointConfig
         Name, drops (problem folders), shared, per-drop and fixed factors.
     documents : tuple of TomlDocument
         The joint file's document (when there is one) and every drop's ``problem.toml``; the
@@ -46,7 +46,7 @@ def joint_problem(problems: str | Path | Sequence[str | Path], *, name: str = "j
     InputError
         A missing or malformed file, a single problem that is not a joint file, or fewer than two drops.
     """
-    from casrecon.estimation.joint import JointConfig, load_joint
+    from casrecon.estimation.sixdof.joint import JointConfig, load_joint
 
     listed = [problems] if isinstance(problems, (str, Path)) else list(problems)
     head: tuple[TomlDocument, ...] = ()
@@ -89,7 +89,7 @@ def fit_joint_problems(problem: JointProblem, options: FitOptions = DEFAULT_OPTI
 
     from casrecon.analysis.fit_products import fit_products
     from casrecon.analysis.single_sigmas import single_drop_sigmas
-    from casrecon.estimation.joint import fit_joint
+    from casrecon.estimation.sixdof.joint import fit_joint
     from casrecon.io.problem import load_problem
     from casrecon.parallel import stop_child_processes
     from casrecon.scenario import Scenario

@@ -20,8 +20,8 @@ def fit_kinematic_problem(problem: str | Path | TomlDocument, options: FitOption
         The fit failed, or the data cannot be fitted (the message says why).
     """
     from casrecon.analysis.fit_adequacy import kinematic_adequacy
-    from casrecon.estimation.kinematic_fit import fit_kinematic
-    from casrecon.estimation.kinematic_inputs import inputs_from_config
+    from casrecon.estimation.kinematic.fit import fit_kinematic
+    from casrecon.estimation.kinematic.inputs import inputs_from_config
     from casrecon.io.kinematic_problem import load_kinematic
     from casrecon.report.kinematic_report import kinematic_report
 

@@ -19,7 +19,7 @@ def fit_point_mass(problem: str | Path | TomlDocument, options: FitOptions = DEF
     FitError, FitDataError
         The fit failed, or the data cannot be fitted (the message says why).
     """
-    from casrecon.estimation.pointmass_fit import fit_with_comparison
+    from casrecon.estimation.pointmass.fit import fit_with_comparison
     from casrecon.io.pointmass_problem import load_point_mass
     from casrecon.report.pointmass_report import pointmass_report
 

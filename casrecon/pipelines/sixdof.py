@@ -33,7 +33,7 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
         The fit (or the kinematic check's reconstruction) failed; the message says why.
     """
     from casrecon.analysis.fit_products import fit_products
-    from casrecon.estimation.fit import FitError, fit_drop
+    from casrecon.estimation.sixdof.fit import FitError, fit_drop
     from casrecon.report.fit_report import fit_report
 
     t0 = time.perf_counter()

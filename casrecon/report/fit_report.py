@@ -52,7 +52,7 @@ def estimator_text(sol) -> str:
 
 
 def fit_report(result, adequacy: Adequacy | None = None) -> str:
-    """Multi-line text report of a :class:`~casrecon.estimation.fit.FitResult`, ending with its
+    """Multi-line text report of a :class:`~casrecon.estimation.sixdof.fit.FitResult`, ending with its
     model-adequacy verdict (``adequacy``, computed from the fit's residuals when not given)."""
     cfg, sol, d = result.scenario.config, result.solver, result.data
     chi2 = sum(result.chi2.values())

@@ -13,7 +13,7 @@ PRIOR_Z_LIMIT = 3.0
 
 
 def kinematic_report(result, name: str = "", adequacy=None) -> str:
-    """The report text of ``result`` (:class:`~casrecon.estimation.kinematic_fit.KinematicResult`),
+    """The report text of ``result`` (:class:`~casrecon.estimation.kinematic.fit.KinematicResult`),
     with the model-adequacy block of ``adequacy`` (:func:`casrecon.analysis.fit_adequacy.kinematic_adequacy`)
     when given."""
     t = result.node_time_s

@@ -92,7 +92,7 @@ def plot_fisher_directions(result: Any) -> Figure:
     ----------
     result : DropFit, FitResult, dict or path
         A fresh fit (``casrecon.fit``; a result loaded from a folder lacks the parameter scales),
-        the estimator's :class:`~casrecon.estimation.fit.FitResult`, a ``fisher.json`` document, or
+        the estimator's :class:`~casrecon.estimation.sixdof.fit.FitResult`, a ``fisher.json`` document, or
         that file or the ``casrecon sensitivity --out`` folder holding it.
     """
     fit = getattr(result, "fit", result)

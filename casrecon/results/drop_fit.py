@@ -26,16 +26,16 @@ from casrecon.output.fit_results import (
 )
 from casrecon.output.kinematic_check_results import write_kinematic_check
 from casrecon.output.out_folder import input_paths
-from casrecon.results.parameters import Parameters, from_document
 from casrecon.output.results import json_values, save_results_folder
 from casrecon.report.results_folder import DropTables
+from casrecon.results.parameters import Parameters, from_document
 
 if TYPE_CHECKING:
     import pandas as pd
 
     from casrecon.analysis.fit_products import FitProducts
     from casrecon.analysis.kinematic_check import KinematicCheck
-    from casrecon.estimation.fit import FitResult
+    from casrecon.estimation.sixdof.fit import FitResult
     from casrecon.report.figure_pool import FigurePool
 
 #: Time columns of ``trajectory`` (s): IMU clock, flight time since release, UTC (Unix seconds).
@@ -156,7 +156,7 @@ class DropFit(FolderViews):
         a fresh fit holds ``reconciled.csv`` and ``nominal.csv`` at every sample, the files every 5th.
     documents : dict of str to dict
         Every JSON document by file name (``parameters.json``, ``imu_sigma.json``, ...).
-    fit : casrecon.estimation.fit.FitResult or None
+    fit : casrecon.estimation.sixdof.fit.FitResult or None
         The estimator's own result (CasADi objects, covariance); None when loaded from a folder.
     products : casrecon.analysis.fit_products.FitProducts or None
         Residuals and reconciled simulations as computed; None when loaded.
@@ -182,7 +182,7 @@ class DropFit(FolderViews):
     @classmethod
     def from_fit(cls, fit: FitResult, products: FitProducts, report_text: str,
                  kinematic_check: tuple[dict[str, np.ndarray], KinematicCheck] | None = None) -> DropFit:
-        """Wrap a converged :class:`~casrecon.estimation.fit.FitResult` and its products (and the
+        """Wrap a converged :class:`~casrecon.estimation.sixdof.fit.FitResult` and its products (and the
         ``(implied coefficients, check)`` of a kinematic check, when made)."""
         import pandas as pd
 

@@ -6,7 +6,6 @@ that ``casrecon joint --out`` writes.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,15 +13,15 @@ from typing import TYPE_CHECKING
 
 from casrecon.analysis.fit_adequacy import JointAdequacy, joint_adequacy
 from casrecon.io.errors import InputError
-from casrecon.results.drop_fit import DropFit, adequacy_of, read_document
 from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
 from casrecon.output.out_folder import input_paths
-from casrecon.results.parameters import Parameters, from_document
 from casrecon.output.results import json_values, save_results_folder
+from casrecon.results.drop_fit import DropFit, adequacy_of, read_document
+from casrecon.results.parameters import Parameters, from_document
 
 if TYPE_CHECKING:
     from casrecon.analysis.fit_products import FitProducts
-    from casrecon.estimation.joint import JointResult
+    from casrecon.estimation.sixdof.joint import JointResult
 
 #: Files without which a folder is not a joint results folder (besides ``drops/``).
 REQUIRED_FILES = ("summary.json", "parameters.json")
@@ -48,7 +47,7 @@ class JointFit:
         (:attr:`adequacy`), reconciled-simulation differences per drop.
     tables_md : str
         ``tables.md``: shared factors (Table 5 style), per-drop summary, joint vs single sigmas.
-    fit : casrecon.estimation.joint.JointResult or None
+    fit : casrecon.estimation.sixdof.joint.JointResult or None
         The estimator's result; None when loaded.
     products : dict of str to FitProducts or None
         Each drop's residuals and reconciled simulations; None when loaded.
@@ -71,7 +70,7 @@ class JointFit:
     @classmethod
     def from_fit(cls, result: JointResult, products: dict[str, FitProducts],
                  single: dict[str, dict[str, float]] | None = None) -> JointFit:
-        """Wrap a :class:`~casrecon.estimation.joint.JointResult` and each drop's products."""
+        """Wrap a :class:`~casrecon.estimation.sixdof.joint.JointResult` and each drop's products."""
         from casrecon.report.fit_report import fit_report
         from casrecon.report.joint_tables import joint_tables
 

@@ -16,16 +16,16 @@ import numpy as np
 
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
-from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.kinematic_results import write_kinematic_results
 from casrecon.output.out_folder import input_paths
-from casrecon.results.parameters import from_document
 from casrecon.output.results import save_results_folder
+from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
+from casrecon.results.parameters import from_document
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from casrecon.estimation.kinematic_fit import KinematicResult
+    from casrecon.estimation.kinematic.fit import KinematicResult
     from casrecon.physics.dynamics import Site
 
 #: Time columns of ``trajectory`` (s): UTC (Unix seconds; only when the clock is UTC) and time since the span's start.

@@ -15,16 +15,16 @@ import numpy as np
 
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
-from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.output.out_folder import input_paths
-from casrecon.results.parameters import from_document
 from casrecon.output.pointmass_results import write_pointmass_results
 from casrecon.output.results import save_results_folder
+from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
+from casrecon.results.parameters import from_document
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from casrecon.estimation.pointmass_fit import PointMassResult
+    from casrecon.estimation.pointmass.fit import PointMassResult
 
 #: Time columns of ``trajectory`` (s): UTC (Unix seconds, us resolution) and time since the segment start.
 TIME_COLUMNS = (TIME_UNIX, "time_s")

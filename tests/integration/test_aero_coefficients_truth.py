@@ -26,7 +26,7 @@ from conftest import PROBLEMS
 
 from casrecon.analysis import aero_columns as cols
 from casrecon.analysis.aero_coefficients import aero_coefficients, coefficient_functions
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import simulate_truth
 

@@ -16,7 +16,7 @@ import pytest
 from conftest import PROBLEMS
 
 from casrecon.analysis.fit_products import fit_products
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.output.fit_results import write_diagnostics
 from casrecon.results.drop_fit import DropFit
 from casrecon.scenario import Scenario

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from conftest import PROBLEMS
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.physics import compiled
 from casrecon.scenario import Scenario
 

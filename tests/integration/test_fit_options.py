@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.fit import FitError, fit_drop
+from casrecon.estimation.sixdof.fit import FitError, fit_drop
 from casrecon.io.imu import read_imu_csv
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name
@@ -165,7 +165,7 @@ def test_gauss_newton_decrement_measures_distance_from_optimum(mask_fit):
 def test_declared_imu_rate_must_match_the_file():
     """A log whose samples are 500 Hz apart declared as 400 Hz is refused, naming both rates,
     instead of silently getting intervals of another length than asked for."""
-    from casrecon.estimation.fit import prepare_drop
+    from casrecon.estimation.sixdof.fit import prepare_drop
 
     sc = Scenario.load(PROBLEMS / "ees-drop-1")
     cfg = sc.config

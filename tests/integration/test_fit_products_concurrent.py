@@ -10,7 +10,7 @@ import numpy as np
 from conftest import short_window
 
 from casrecon.analysis.fit_products import fit_products
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 
 
 def assert_same(a, b, where: str) -> None:

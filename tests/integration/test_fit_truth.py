@@ -27,8 +27,8 @@ import numpy as np
 import pytest
 from conftest import EES_DROPS, PROBLEMS
 
-from casrecon.estimation.fit import fit_drop
-from casrecon.estimation.layout import NS
+from casrecon.estimation.sixdof.fit import fit_drop
+from casrecon.estimation.sixdof.layout import NS
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import simulate_truth, truth_parameters_by_name

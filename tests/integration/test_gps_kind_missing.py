@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-import casrecon.estimation.fitdata as fitdata
-from casrecon.estimation.fit import fit_drop
+import casrecon.estimation.sixdof.fitdata as fitdata
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.scenario import Scenario
 

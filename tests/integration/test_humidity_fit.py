@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.io.sounding import read_sounding, write_sounding_csv
 from casrecon.physics.atmosphere import R_AIR, Atmosphere
 from casrecon.scenario import Scenario

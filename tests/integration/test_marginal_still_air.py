@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.fit import fit_drop, with_marginal_estimate
+from casrecon.estimation.sixdof.fit import fit_drop, with_marginal_estimate
 from casrecon.scenario import Scenario
 
 

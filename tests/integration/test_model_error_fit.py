@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 
 FOLDER = PROBLEMS / "ees-drop-3-model-error"

@@ -1,5 +1,5 @@
 """The GPS-only fit's GPS error model from the data ([gps] error_model_from_data;
-casrecon.estimation.pointmass_gps_sigma): a synthetic track whose receiver reports accuracies twice
+casrecon.estimation.error_models.pointmass_gps_sigma): a synthetic track whose receiver reports accuracies twice
 the errors it makes (Gauss-Markov errors at half the reported sizes), fitted with the right
 correlation times and fractions at the reported sizes. The estimate must find the smaller sizes, the
 refit must weigh the fixes accordingly, and its bands must still hold the truth."""
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import noisy_flysight_track, point_mass_flight, point_mass_toml
 
-from casrecon.estimation.pointmass_fit import fit_point_mass
+from casrecon.estimation.pointmass.fit import fit_point_mass
 from casrecon.io.flysight import write_flysight1
 from casrecon.io.pointmass_problem import load_point_mass
 from casrecon.physics.atmosphere import Atmosphere
@@ -83,7 +83,7 @@ def test_the_refits_bands_hold_the_truth(fits):
 
 
 def test_an_estimate_that_fails_leaves_the_configured_fit_and_says_why(fits, monkeypatch):
-    from casrecon.estimation import pointmass_gps_sigma
+    from casrecon.estimation.error_models import pointmass_gps_sigma
 
     configured, _, _, cfg = fits
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from test_pointmass_truth import SEEDS, T0_UNIX, make_track, simulate, write_problem
 
-import casrecon.estimation.pointmass_fit as pmf
+import casrecon.estimation.pointmass.fit as pmf
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import iso_utc, read_flysight

@@ -28,7 +28,7 @@ import pytest
 from pointmass_truth import CDA, SIGMA_M2, TAU_S, WIND, write_problem
 
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
-from casrecon.estimation.pointmass_fit import fit_point_mass
+from casrecon.estimation.pointmass.fit import fit_point_mass
 from casrecon.io.pointmass_problem import ModelErrorConfig, load_point_mass
 
 SEEDS = (5, 6)
@@ -86,7 +86,7 @@ def test_innovations_skip_missing_components_and_gaps(tmp_path, monkeypatch):
     """An NMEA-like track (no vertical velocity) with a 2 s run of fixes dropped by the quality rules:
     the filter predicts across the gap and leaves the missing values out; the verdict tests the five
     channels there are, and trusts the right model."""
-    import casrecon.estimation.pointmass_fit as pmf
+    import casrecon.estimation.pointmass.fit as pmf
     from casrecon.io.flysight import read_flysight
 
     path, _, areas = write_problem(tmp_path / "nmea", SEEDS[0], SIGMA_M2)

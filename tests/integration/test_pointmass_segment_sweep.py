@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from casrecon.estimation.engine.checks import FitError
-from casrecon.estimation.pointmass_fit import build_point_mass, fit_point_mass
-from casrecon.estimation.segment import find_segment
+from casrecon.estimation.pointmass.fit import build_point_mass, fit_point_mass
+from casrecon.estimation.pointmass.segment import find_segment
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import read_flysight
 from casrecon.io.pointmass_problem import PointMassConfig, load_point_mass

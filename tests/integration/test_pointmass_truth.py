@@ -40,7 +40,7 @@ import numpy as np
 import pytest
 from conftest import noisy_flysight_track, point_mass_flight, point_mass_toml
 
-from casrecon.estimation.pointmass_fit import PointMassResult, fit_point_mass, prepare_data
+from casrecon.estimation.pointmass.fit import PointMassResult, fit_point_mass, prepare_data
 from casrecon.io.flysight import GpsTrack, iso_utc, write_flysight1
 from casrecon.io.pointmass_problem import load_point_mass
 from casrecon.physics.atmosphere import Atmosphere

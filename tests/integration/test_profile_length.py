@@ -14,8 +14,8 @@ from conftest import PROBLEMS
 
 from casrecon.analysis.estimator_mc import parameter_errors
 from casrecon.analysis.model_error_mc import band_coverage
-from casrecon.estimation import profile_sigma
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.error_models import profile_sigma
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.io.sounding import read_sounding, write_sounding_csv
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name

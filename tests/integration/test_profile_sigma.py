@@ -1,4 +1,4 @@
-"""The atmosphere-profile sigmas from the data (casrecon.estimation.profile_sigma): a drop whose air
+"""The atmosphere-profile sigmas from the data (casrecon.estimation.error_models.profile_sigma): a drop whose air
 differs from its sounding by a known profile error, fitted with the default model (0.5 m/s, 0.5 %)
 and ``profile_sigma_from_data`` on. The estimate finds the flown size and the refit with it keeps
 the truth within 3 sigma with smaller aero sigmas; a drop that flies its sounding exactly is
@@ -13,8 +13,8 @@ import pytest
 from conftest import PROBLEMS
 
 from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
-from casrecon.estimation.fit import fit_drop
-from casrecon.estimation.profile_sigma import estimate_profile_sigma
+from casrecon.estimation.error_models.profile_sigma import estimate_profile_sigma
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 

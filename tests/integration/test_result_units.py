@@ -24,7 +24,7 @@ from casrecon.analysis.fit_products import fit_products
 from casrecon.analysis.sensitivity_documents import design_document, fisher_document, profile_document
 from casrecon.cli import main
 from casrecon.cli_montecarlo import run_montecarlo_command
-from casrecon.estimation.joint import JointConfig, fit_joint
+from casrecon.estimation.sixdof.joint import JointConfig, fit_joint
 from casrecon.io.flysight import read_flysight
 from casrecon.io.units import unit_of, unnamed_columns, unnamed_json_numbers
 from casrecon.output.consistency import write_consistency

@@ -1,4 +1,4 @@
-"""The pre-solve data check (casrecon/estimation/data_checks.py, casrecon/io/imu_checks.py): each bad
+"""The pre-solve data check (casrecon/estimation/validation/data_checks.py, casrecon/io/imu_checks.py): each bad
 input built from shipped problem data (a copy of problems/ees-drop-2, or of the GPS-only
 realdata-skyderby-411, with one thing corrupted) is refused before any NLP is built, with exit status
 2, one located stderr line naming the file, no traceback, inputs unchanged, no results folder; the
@@ -26,8 +26,8 @@ import pytest
 
 import casrecon
 from casrecon.cli import main
-from casrecon.estimation.pointmass_fit import fit_point_mass
-from casrecon.estimation.precheck import check_problem
+from casrecon.estimation.pointmass.fit import fit_point_mass
+from casrecon.estimation.validation.precheck import check_problem
 from casrecon.io.errors import InputError
 from casrecon.io.imu import ImuCsvSpec, read_imu_csv
 from casrecon.io.inspect import inspect_file
@@ -396,7 +396,7 @@ def test_rows_without_fix_dropped_with_a_note(problems):
     edit_gps(folder, no_fix(in_window(10.0, 11.0)))
     notes = check_problem(folder)
     assert "5 GPS rows without a 3D fix (gpsFix 0) dropped (in the window)" in notes
-    from casrecon.estimation.fitdata import load_fit_data
+    from casrecon.estimation.sixdof.fitdata import load_fit_data
     from casrecon.io.problem import load_problem
     data = load_fit_data(load_problem(folder))
     assert np.abs(data.gps_pos_ned[:, 2]).max() < 1500.0  # no fix 1310 m below the ground (h = 0)

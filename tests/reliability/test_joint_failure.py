@@ -13,10 +13,10 @@ ROOT = Path(__file__).resolve().parents[2]
 
 SCRIPT = textwrap.dedent("""
     import time
-    import casrecon.estimation.joint as joint
+    import casrecon.estimation.sixdof.joint as joint
     from casrecon.cli import main
     from casrecon.cli_guard import exit_process
-    from casrecon.estimation.fit import FitError
+    from casrecon.estimation.sixdof.fit import FitError
 
     def fails(*args, **kwargs):
         time.sleep(1.0)  # the single-drop fits have started by now

@@ -287,7 +287,7 @@ def test_out_in_a_read_only_folder_is_refused(drop_problem, tmp_path, capsys):
 @pytest.mark.parametrize("study", ["fisher", "profile"])
 def test_failed_sensitivity_fit_keeps_the_earlier_result(study, drop_problem, tmp_path, capsys, monkeypatch):
     """It used to return from inside the atomic block: an empty folder replaced the earlier result."""
-    from casrecon.estimation import fit
+    from casrecon.estimation.sixdof import fit
 
     def failing_fit(*args, **kwargs):
         raise fit.FitError("Ipopt did not converge (test)")

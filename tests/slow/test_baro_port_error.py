@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name, with_synthetic_data
 

@@ -9,8 +9,8 @@ import pytest
 from conftest import PROBLEMS
 
 from casrecon.analysis.observability import profile_likelihood
-from casrecon.estimation.diagnostics import imu_residuals, reconciled_simulation
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.diagnostics import imu_residuals, reconciled_simulation
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 
 pytestmark = pytest.mark.slow

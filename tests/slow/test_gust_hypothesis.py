@@ -24,7 +24,7 @@ import pytest
 from conftest import PROBLEMS
 from scipy import stats
 
-from casrecon.estimation.fit import FitError, fit_drop, with_marginal_estimate
+from casrecon.estimation.sixdof.fit import FitError, fit_drop, with_marginal_estimate
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_disturbance, truth_parameters_by_name, with_synthetic_data

@@ -6,7 +6,7 @@ import dataclasses
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.joint import JointConfig, fit_joint
+from casrecon.estimation.sixdof.joint import JointConfig, fit_joint
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.scenario import Scenario
 

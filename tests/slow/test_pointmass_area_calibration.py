@@ -22,7 +22,7 @@ import pytest
 from pointmass_truth import CDA, SIGMA_M2, write_problem
 
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
-from casrecon.estimation.pointmass_fit import fit_point_mass
+from casrecon.estimation.pointmass.fit import fit_point_mass
 from casrecon.io.pointmass_problem import load_point_mass
 from casrecon.physics.sensor_errors import GpsErrorModel
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from casrecon.estimation.joint import load_joint
+from casrecon.estimation.sixdof.joint import load_joint
 from casrecon.io import config_reference as ref
 from casrecon.io.kinematic_problem import load_kinematic
 from casrecon.io.pointmass_problem import load_point_mass

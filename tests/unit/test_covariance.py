@@ -12,9 +12,9 @@ from conftest import PROBLEMS
 
 from casrecon.estimation.engine.covariance import compute_covariance
 from casrecon.estimation.engine.kkt_covariance import KktCovariance
-from casrecon.estimation.fit import fit_drop
-from casrecon.estimation.layout import NS
-from casrecon.estimation.transcription import STATE_SCALE
+from casrecon.estimation.sixdof.fit import fit_drop
+from casrecon.estimation.sixdof.layout import NS
+from casrecon.estimation.sixdof.transcription import STATE_SCALE
 from casrecon.scenario import Scenario
 
 

@@ -11,8 +11,8 @@ import pytest
 from conftest import PROBLEMS
 
 from casrecon.estimation.engine.convergence import gauss_newton_decrement, kkt_decrement
-from casrecon.estimation.fit import fit_drop
-from casrecon.estimation.layout import NS
+from casrecon.estimation.sixdof.fit import fit_drop
+from casrecon.estimation.sixdof.layout import NS
 from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.scenario import Scenario
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import PROBLEMS
 
-from casrecon.estimation.fit import fit_drop
+from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.io.errors import InputError
 from casrecon.io.problem import load_problem
 from casrecon.physics.disturbance import DisturbanceModel
@@ -169,7 +169,7 @@ def test_sparse_kkt_covariance_equals_dense_inverse(short_weak_fit):
 def test_gust_fit_on_a_coarse_mesh_says_its_gust_bands_are_too_narrow(short_weak_fit):
     """A 50 ms mesh (25 samples at 500 Hz) with gust states: the report's notes name the mesh and
     the default interval that the calibration study passed with; at 25 ms no such note."""
-    from casrecon.estimation.fit import GUST_MESH_S, weak_constraint_notes
+    from casrecon.estimation.sixdof.fit import GUST_MESH_S, weak_constraint_notes
 
     notes = [n for n in short_weak_fit.notes if n.startswith("gust states on a")]
     assert len(notes) == 1 and "on a 50 ms mesh" in notes[0] and f"it is then {GUST_MESH_S:g} s" in notes[0]

@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from casrecon.estimation.profile import PROFILE_PARAMETERS, ProfileGrid
+from casrecon.estimation.error_models.profile import PROFILE_PARAMETERS, ProfileGrid
 from casrecon.physics.dynamics import PARAMETER_NAMES
 from casrecon.physics.sensor_errors import GpsErrorModel, innovations
 
@@ -71,8 +71,8 @@ def test_gps_accuracy_scale_sizes_the_fix_errors(problem_copy):
     the fit's GPS rows (a fit's reported GPS sigma) and in the kinematic fit's inputs."""
     from test_problem_config import edit
 
-    from casrecon.estimation.fitdata import load_fit_data
     from casrecon.estimation.kinds.gps import fix_sigma
+    from casrecon.estimation.sixdof.fitdata import load_fit_data
     from casrecon.io.problem import load_problem
 
     edit(problem_copy, "position_error_time_s = 0.0", "position_error_time_s = 0.0\n"
@@ -232,7 +232,7 @@ def test_gps_model_from_estimated_ratios():
     """The refit's GPS error model keeps the estimated white and correlated variances (fraction
     capped at 0.999); a correlated share below 1 % makes a group white; models differing only by a
     white part below the cap do not ask for a refit."""
-    from casrecon.estimation.gps_error_sigma import model_from, models_differ
+    from casrecon.estimation.error_models.gps_error_sigma import model_from, models_differ
 
     fitted = GpsErrorModel(20.0, 2.0, 0.99, 0.99)
     m = model_from(fitted, {"gps position white": 2.0, "gps position correlated": 0.5,

@@ -153,7 +153,7 @@ def test_humidity_false_makes_the_fit_s_air_dry_for_every_problem_kind(problem_c
     import dataclasses
     import shutil
 
-    from casrecon.estimation.pointmass_fit import atmosphere_of
+    from casrecon.estimation.pointmass.fit import atmosphere_of
     from casrecon.io.kinematic_problem import load_kinematic
     from casrecon.io.pointmass_problem import load_point_mass
     from casrecon.io.problem import load_problem

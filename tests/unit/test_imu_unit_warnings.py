@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from casrecon.estimation.precheck import check_problem
+from casrecon.estimation.validation.precheck import check_problem
 from casrecon.io.imu import ImuCsvSpec, read_imu_csv, write_imu_csv
 from casrecon.io.imu_checks import gyro_unit_finding, peak_findings, unit_warnings
 from casrecon.io.inspect import inspect_file
@@ -101,6 +101,6 @@ def test_six_dof_check_logs_a_gyro_spike_and_lets_it_through(drop2, caplog):
     f[5] = "3000"                                    # wy
     lines[k] = ",".join(f) + "\n"
     path.write_text("".join(lines))
-    with caplog.at_level(logging.WARNING, logger="casrecon.estimation.data_checks"):
+    with caplog.at_level(logging.WARNING, logger="casrecon.estimation.validation.data_checks"):
         check_problem(drop2)
     assert f"imu.csv:{k + 1}: field 'wy': gyro reads 3000 deg/s (52.4 rad/s)" in caplog.text

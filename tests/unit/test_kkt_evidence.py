@@ -1,4 +1,4 @@
-"""The KKT evidence (casrecon.estimation.kkt_evidence) against a dense null-space evaluation of the
+"""The KKT evidence (casrecon.estimation.numerics.kkt_evidence) against a dense null-space evaluation of the
 same Laplace evidence, and its gradient against finite differences of that evaluation."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 import scipy.linalg
 import scipy.sparse as sps
 
-from casrecon.estimation.kkt_evidence import KktQuadraticModel, ScaledRows
+from casrecon.estimation.numerics.kkt_evidence import KktQuadraticModel, ScaledRows
 
 N_Z, N_G = 12, 4
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-from casrecon.estimation.pointmass_fit import drag_basis, interval_bases
+from casrecon.estimation.pointmass.fit import drag_basis, interval_bases
 from casrecon.io.pointmass_problem import DragConfig
 
 

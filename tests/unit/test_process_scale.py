@@ -80,7 +80,7 @@ def test_a_refit_without_any_profile_error_the_data_see_is_the_plain_fit():
     group at zero -> the same unknowns with that group's prior at MIN_RATIO of the fitted sigma."""
     from conftest import PROBLEMS
 
-    from casrecon.estimation.profile_sigma import MIN_RATIO, ProfileSigmaEstimate, profile_refit
+    from casrecon.estimation.error_models.profile_sigma import MIN_RATIO, ProfileSigmaEstimate, profile_refit
     from casrecon.scenario import Scenario
 
     cfg = Scenario.load(PROBLEMS / "ees-drop-3-model-error").config
@@ -100,7 +100,7 @@ def test_a_refit_without_any_profile_error_the_data_see_is_the_plain_fit():
 def test_the_estimate_on_a_refit_is_judged_against_the_sigmas_the_refit_was_meant_to_have():
     """differs_from: a group the refit held at its floor because its estimate was 0 agrees only with
     an estimate of 0 again; a group estimated at a size agrees within REFIT_FACTOR of it."""
-    from casrecon.estimation.profile_sigma import MIN_RATIO, REFIT_FACTOR, ProfileSigmaEstimate
+    from casrecon.estimation.error_models.profile_sigma import MIN_RATIO, REFIT_FACTOR, ProfileSigmaEstimate
 
     comps = ("wind_n", "wind_e", "density")
     fitted = {"wind": 1.8e-3, "density": MIN_RATIO * 0.005}  # the refit: wind at its estimate, density at its floor

@@ -1,4 +1,4 @@
-"""casrecon.estimation.savgol gives scipy.signal's Savitzky-Golay numbers bit for bit, without importing it."""
+"""casrecon.estimation.numerics.savgol gives scipy.signal's Savitzky-Golay numbers bit for bit, without importing it."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from casrecon.estimation.savgol import savgol_coeffs, savgol_filter
+from casrecon.estimation.numerics.savgol import savgol_coeffs, savgol_filter
 
 CASES = [(51, 3, 1, 0.002), (51, 3, 0, 0.002), (21, 2, 1, 0.01), (7, 3, 2, 0.5), (101, 3, 1, 0.0025)]
 
@@ -35,7 +35,7 @@ def test_filter_is_scipys_bit_for_bit(window, order, deriv, delta):
 
 
 def test_scipy_signal_is_not_imported():
-    code = ("import sys, numpy as np; from casrecon.estimation.savgol import savgol_filter; "
+    code = ("import sys, numpy as np; from casrecon.estimation.numerics.savgol import savgol_filter; "
             "savgol_filter(np.arange(300.0) ** 2, 51, 3, 1, 0.002, rows=np.arange(300)); "
             "print('scipy.signal' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True).stdout

@@ -1,4 +1,4 @@
-"""Segment rules of the GPS-only fit (casrecon.estimation.segment) on hand-made tracks.
+"""Segment rules of the GPS-only fit (casrecon.estimation.pointmass.segment) on hand-made tracks.
 
 Every track below is a 5 Hz sequence of fixes built from a vertical-speed profile: level flight,
 an exit (vertical speed growing ~9.5 m/s per second), a fast run, and a deployment (vertical speed
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from casrecon.estimation.segment import SegmentError, find_segment
+from casrecon.estimation.pointmass.segment import SegmentError, find_segment
 from casrecon.io.flysight import GpsTrack, read_flysight
 from casrecon.io.gps_rules import good_fixes
 from casrecon.io.pointmass_problem import GpsQuality, SegmentConfig

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sps
 
-from casrecon.estimation.banded_factor import SymmetricFactor, band_arrow_order
-from casrecon.estimation.selected_inverse import BandArrowInverse, OutsideBand
+from casrecon.estimation.numerics.banded_factor import SymmetricFactor, band_arrow_order
+from casrecon.estimation.numerics.selected_inverse import BandArrowInverse, OutsideBand
 
 
 def band_arrow_matrix(n_nodes=120, per_node=6, n_params=5, seed=0):

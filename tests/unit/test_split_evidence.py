@@ -1,4 +1,4 @@
-"""The split evidence (casrecon.estimation.split_evidence) against a dense evaluation of the same
+"""The split evidence (casrecon.estimation.numerics.split_evidence) against a dense evaluation of the same
 Laplace evidence, and its gradient against finite differences."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sps
 
-from casrecon.estimation.split_evidence import RowGroup, SplitQuadraticModel
+from casrecon.estimation.numerics.split_evidence import RowGroup, SplitQuadraticModel
 
 N_C, N_E = 5, 8
 

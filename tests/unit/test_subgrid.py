@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from casrecon.estimation.subgrid import interval_kernels, subgrid_integral_sigma
-from casrecon.estimation.transcription import D_OFFSETS, R_OFFSETS, Mesh, channel_bases, compress_imu
+from casrecon.estimation.sixdof.subgrid import interval_kernels, subgrid_integral_sigma
+from casrecon.estimation.sixdof.transcription import D_OFFSETS, R_OFFSETS, Mesh, channel_bases, compress_imu
 
 H_S, SAMPLES, TAU_S = 0.026, 13, 0.5
 

@@ -12,10 +12,10 @@ from conftest import PROBLEMS
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from casrecon.estimation.drop import build_nlp, parameter_set
-from casrecon.estimation.fitdata import load_fit_data
-from casrecon.estimation.initial_guess import initial_guess
-from casrecon.estimation.transcription import (
+from casrecon.estimation.sixdof.drop import build_nlp, parameter_set
+from casrecon.estimation.sixdof.fitdata import load_fit_data
+from casrecon.estimation.sixdof.initial_guess import initial_guess
+from casrecon.estimation.sixdof.transcription import (
     ACCEL_TAU,
     CHANNEL_BASIS,
     D_OFFSETS,

@@ -3,5 +3,5 @@
 Each kind says which parameters (with priors) it adds, makes its residual blocks as
 :class:`~casrecon.estimation.engine.blocks.Term` objects for the engine, and computes its
 per-sample residuals at the solution for the diagnostics; see :mod:`.base` for the interface and
-:data:`casrecon.estimation.drop.MEASUREMENT_KINDS` for the kinds a drop's fit uses.
+:data:`casrecon.estimation.sixdof.drop.MEASUREMENT_KINDS` for the kinds a drop's fit uses.
 """

@@ -23,12 +23,12 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
-from casrecon.estimation.fitdata import FitData, FitDataError
 from casrecon.estimation.kinds.base import DropContext
 from casrecon.estimation.kinds.gps import CLOCK, clock_offset
-from casrecon.estimation.layout import BlockLocals
-from casrecon.estimation.parameters import ParameterSpec
-from casrecon.estimation.transcription import disturbance_selection, hermite
+from casrecon.estimation.sixdof.fitdata import FitData, FitDataError
+from casrecon.estimation.sixdof.layout import BlockLocals
+from casrecon.estimation.sixdof.parameters import ParameterSpec
+from casrecon.estimation.sixdof.transcription import disturbance_selection, hermite
 from casrecon.io.baro import read_baro
 from casrecon.io.problem import ProblemConfig
 

@@ -9,7 +9,7 @@ A kind is an object with
     prior (or none); empty when it adds none.
 ``load(config, data) -> object | None``
     Its measurements for the drop's fit window (``data`` is the drop's
-    :class:`~casrecon.estimation.fitdata.FitData`: the IMU-defined window and the GPS fixes), or
+    :class:`~casrecon.estimation.sixdof.fitdata.FitData`: the IMU-defined window and the GPS fixes), or
     None when the problem has no such sensor.
 ``terms(context) -> list[Term]``
     Its residual blocks, given the drop's :class:`DropContext`.
@@ -26,9 +26,9 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from casrecon.estimation.engine.blocks import Term
-from casrecon.estimation.fitdata import FitData
-from casrecon.estimation.layout import DropLayout
-from casrecon.estimation.parameters import ParameterSpec
+from casrecon.estimation.sixdof.fitdata import FitData
+from casrecon.estimation.sixdof.layout import DropLayout
+from casrecon.estimation.sixdof.parameters import ParameterSpec
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.dynamics import FlightModel
 

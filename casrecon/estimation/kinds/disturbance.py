@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
-from casrecon.estimation.layout import DropLayout
+from casrecon.estimation.sixdof.layout import DropLayout
 
 
 def gauss_markov_terms(cols: np.ndarray, phi: np.ndarray, start_group: str, step_group: str) -> list[Term]:

@@ -11,7 +11,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
-from casrecon.estimation.transcription import selection_matrix
+from casrecon.estimation.sixdof.transcription import selection_matrix
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.physics.pointmass import PointMassModel
 

@@ -19,12 +19,12 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
-from casrecon.estimation.fitdata import FitData
 from casrecon.estimation.kinds.base import DropContext
 from casrecon.estimation.kinds.disturbance import gauss_markov_terms
-from casrecon.estimation.layout import BlockLocals
-from casrecon.estimation.parameters import ParameterSpec
-from casrecon.estimation.transcription import gps_function, selection_matrix
+from casrecon.estimation.sixdof.fitdata import FitData
+from casrecon.estimation.sixdof.layout import BlockLocals
+from casrecon.estimation.sixdof.parameters import ParameterSpec
+from casrecon.estimation.sixdof.transcription import gps_function, selection_matrix
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.sensor_errors import GpsErrorModel
 

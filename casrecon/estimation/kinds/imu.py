@@ -1,5 +1,5 @@
 """The IMU kind: the collocation interval block, which carries the dynamics defects and the
-residuals of every IMU sample in the interval (see :mod:`casrecon.estimation.transcription`), and
+residuals of every IMU sample in the interval (see :mod:`casrecon.estimation.sixdof.transcription`), and
 the accelerometer and gyro biases (IMU axes) it adds.
 
 The IMU sets the mesh and the fit window, so it is present in every 6-DOF fit; its interval
@@ -12,13 +12,13 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
-from casrecon.estimation.fitdata import FitData
-from casrecon.estimation.initial_guess import initial_guess
 from casrecon.estimation.kinds.base import DropContext
-from casrecon.estimation.layout import BlockLocals
-from casrecon.estimation.parameters import ParameterSpec
-from casrecon.estimation.subgrid import SubgridModel
-from casrecon.estimation.transcription import (
+from casrecon.estimation.sixdof.fitdata import FitData
+from casrecon.estimation.sixdof.initial_guess import initial_guess
+from casrecon.estimation.sixdof.layout import BlockLocals
+from casrecon.estimation.sixdof.parameters import ParameterSpec
+from casrecon.estimation.sixdof.subgrid import SubgridModel
+from casrecon.estimation.sixdof.transcription import (
     D_OFFSETS,
     R_OFFSETS,
     channel_bases,
@@ -112,7 +112,7 @@ class ImuKind:
 
 
 def subgrid_model(context: DropContext) -> SubgridModel | None:
-    """With disturbance states, what they do between the nodes (:mod:`casrecon.estimation.subgrid`),
+    """With disturbance states, what they do between the nodes (:mod:`casrecon.estimation.sixdof.subgrid`),
     its sensitivities taken on the initial guess; None without them."""
     layout, model, cfg = context.layout, context.model, context.config
     if not layout.n_u:

@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
-from casrecon.estimation.parameters import ParameterSet
+from casrecon.estimation.sixdof.parameters import ParameterSet
 
 
 def prior_terms(params: ParameterSet, theta_cols: np.ndarray, group_name=lambda g: f"prior_{g}") -> list[Term]:

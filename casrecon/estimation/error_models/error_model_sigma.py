@@ -1,0 +1,211 @@
+"""The error models' sizes from the data, together: the atmosphere-profile sigmas and correlation
+length (:mod:`.profile_sigma`) and, for a fit with a GPS error model and ``[sensors.gps]
+error_model_from_data`` (default), the GPS errors' white and correlated sizes and correlation times
+(:mod:`.gps_error_sigma`), by one Laplace evidence on the fit's split quadratic model
+(:mod:`casrecon.estimation.numerics.split_evidence`).
+
+The search: L-BFGS-B over the log ratios of every group's sigma to the fit's, at the fit's
+correlation length and GPS correlation times, then at each other profile length
+(``profile_sigma.LENGTH_FACTORS`` times the configured one), then, at the most evident length, at
+each other position and then velocity correlation time (``gps_error_sigma.TIME_FACTORS`` times the
+fit's); the most evident candidate wins each round. A profile group whose estimate explains the
+data better than none of its error by less than ``profile_sigma.ZERO_EVIDENCE_NATS`` is taken as
+zero, as without the GPS groups.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import minimize
+
+from casrecon.estimation.engine.covariance import gauss_newton_system
+from casrecon.estimation.error_models import profile_sigma as ps
+from casrecon.estimation.error_models.gps_error_sigma import (
+    MAX_RATIO,
+    MIN_RATIO,
+    MIN_SHARE,
+    TIME_FACTORS,
+    GpsErrorEstimate,
+    chain_order,
+    gps_row_groups,
+    model_from,
+    variance_parts,
+)
+from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS
+from casrecon.estimation.numerics.split_evidence import RowGroup, SplitQuadraticModel
+from casrecon.parallel import in_threads, single_threaded_blas
+
+#: L-BFGS-B's tolerances on the objective divided by its largest starting gradient entry (see
+#: :func:`maximised`; that scale is 10 to 300 nats): log Z to about 1e-3 nats, ratios to 0.1 %.
+FTOL, GTOL = 1e-6, 1e-4
+
+
+def gps_estimated(result) -> bool:
+    """Whether the GPS error model's sizes are estimated on this fit: a MAP fit whose GPS error
+    model is on, with ``[sensors.gps] error_model_from_data``."""
+    gps = result.scenario.config.gps
+    return bool(gps.error_model_from_data and gps.error_model.enabled and result.part.extra("gps") is not None)
+
+
+@single_threaded_blas()
+def estimate_error_sizes(result, configured_length_m: float | None = None, profile: bool = True,
+                         configured_times_s: tuple[float, float] | None = None,
+                         search: bool = True) -> ps.ProfileSigmaEstimate:
+    """The profile sigmas and length (when ``profile`` and the fit has the profile model) and, when
+    :func:`gps_estimated`, the GPS error model the data say (the estimate's ``gps``) of a
+    converged fit without disturbance states; the GPS correlation times compared are the fit's and
+    TIME_FACTORS times ``configured_times_s`` (position, velocity; default the fit's). ``search``
+    False: the sizes only, at the fit's length and times (a refit's estimate, after the first
+    chose them: each candidate costs 10 to 15 evaluations of 0.1 s on a 1.5 km drop). Raises ValueError as
+    :func:`~casrecon.estimation.error_models.profile_sigma.estimate_profile_sigma`."""
+    if not gps_estimated(result):
+        return ps.estimate_profile_sigma(result, configured_length_m)
+    if not hasattr(result.covariance, "cov_w") or result.covariance.elimination is None:
+        raise ValueError("the error models' sizes are estimated only for a fit without disturbance states")
+    grid = result.part.profile if profile else None
+    configured = None if grid is None else (grid.length_m if configured_length_m is None else configured_length_m)
+    build, own_model, fallback = _builder(result, grid)
+    errors = result.scenario.config.gps.error_model
+    own_times = (errors.position_time_s, errors.velocity_time_s)
+    length = None if grid is None else grid.length_m
+    best = most_evident(build, [(length, own_times)])
+    if search and grid is not None:  # the other lengths, each searched from the sizes at the fit's
+        others = [(f * configured, own_times) for f in ps.LENGTH_FACTORS if f * configured != grid.length_m]
+        challenger = most_evident(build, others, best[4].x) if others else None
+        if challenger is not None and challenger[0] < best[0]:
+            best = challenger
+    if search:
+        base_times = own_times if configured_times_s is None else configured_times_s
+        best = time_search(build, best, errors, own_times, base_times)
+    _, times, length, model, fit, names = best
+    ratio = np.exp(fit.x)
+    value = -fit.fun
+    n_profile = len(names) - len([n for n in names if n.startswith("gps ")])
+    against_zero = {}
+    for k in range(n_profile):
+        none = fit.x.copy()
+        none[k] = np.log(ps.MIN_RATIO)
+        against_zero[names[k]] = float(value - model.log_evidence(none)[0])
+        if against_zero[names[k]] < ps.ZERO_EVIDENCE_NATS:
+            ratio[k] = 0.0
+    base, _ = own_model.log_evidence(np.zeros(len(names)))
+    gps_ratios = {n: float(r) for n, r in zip(names[n_profile:], ratio[n_profile:])}
+    gps = GpsErrorEstimate(errors, model_from(errors, gps_ratios, times), gps_ratios)
+    if grid is None:
+        return ps.ProfileSigmaEstimate({}, {}, max(0.0, value - base), (), {}, fallback, 0.0, 0.0, gps)
+    prior = dict(zip([PROFILE_COMPONENTS[c] for c in grid.components], grid.prior))
+    fitted = {g: float(prior[ps.GROUPS[g][0]]) for g in names[:n_profile]}
+    estimated = {g: fitted[g] * float(r) for g, r in zip(names[:n_profile], ratio[:n_profile])}
+    return ps.ProfileSigmaEstimate(fitted, estimated, max(0.0, value - base), tuple(prior), against_zero,
+                                   fallback, grid.length_m, length, gps)
+
+
+def time_search(build, best, errors, own_times: tuple[float, float], base_times: tuple[float, float]):
+    """The most evident of ``best`` (as :func:`most_evident` returns) and the candidates at each other
+    position and then velocity correlation time (TIME_FACTORS times ``base_times``, at the length and
+    times chosen so far), for each group the fit's model (``errors``, times ``own_times``) has
+    correlated and whose estimated correlated share is at least MIN_SHARE."""
+    for g in (0, 1):
+        ratios = dict(zip(best[5], np.exp(best[4].x)))
+        if own_times[g] > 0 and variance_parts(errors, ratios, g)[1] >= MIN_SHARE:
+            times = {tuple(f * base_times[g] if i == g else best[1][i] for i in (0, 1)) for f in (1.0, *TIME_FACTORS)}
+            times.discard(best[1])
+            challenger = most_evident(build, [(best[2], t) for t in sorted(times)], best[4].x)
+            if challenger[0] < best[0]:
+                best = challenger
+    return best
+
+
+def most_evident(build, candidates, start: np.ndarray | None = None):
+    """(-log Z, times, length, model, optimiser result, group names) of the most evident candidate
+    (length, (position, velocity) correlation times), each searched from ``start`` (log ratios;
+    default the fit's sizes)."""
+
+    def searched(candidate):
+        model, names = build(candidate)
+        return model, names, maximised(model, names, start)
+
+    out = None
+    # side by side on two threads (numpy's products, LAPACK and SuperLU release the GIL; each
+    # candidate's factors are made and dropped in its thread), the winner chosen in order
+    for (length, times), (model, names, fit) in zip(candidates, in_threads(searched, candidates)):
+        if out is None or fit.fun < out[0]:
+            out = (fit.fun, times, length, model, fit, names)
+    return out
+
+
+def maximised(model: SplitQuadraticModel, names: list[str], start: np.ndarray | None = None):
+    """scipy's L-BFGS-B result of minimising -log Z over the groups' log ratios (bounds
+    gps_error_sigma's MIN_RATIO, MAX_RATIO for the GPS groups, profile_sigma's for the others), its
+    ``fun`` -log Z. The objective is divided by its largest gradient entry at the start (at least 1),
+    so that the first step, the gradient itself, moves a ratio by a factor e at most: a full step
+    of gradients in the hundreds left the model not positive definite and the line search stuck."""
+    x0 = np.zeros(len(names)) if start is None else np.asarray(start, float)
+    bounds = [(np.log(MIN_RATIO), np.log(MAX_RATIO)) if n.startswith("gps ") else
+              (np.log(ps.MIN_RATIO), np.log(ps.MAX_RATIO)) for n in names]
+    scale = max(1.0, float(np.max(np.abs(model.log_evidence(x0)[1]))))
+
+    def objective(x):
+        value, grad = model.log_evidence(x)
+        return -value / scale, -grad / scale
+
+    fit = minimize(objective, x0, jac=True, method="L-BFGS-B", bounds=bounds, options={"ftol": FTOL, "gtol": GTOL})
+    fit.fun = float(fit.fun) * scale
+    return fit
+
+
+def _builder(result, grid):
+    """(A function (length, times) -> (SplitQuadraticModel, group names), the model at the fit's
+    own length and times, whether it falls back): on the fit's own curvature, or on the
+    Gauss-Newton one where the held part of the observed information is not positive semidefinite
+    (its evidence would exist only near the fit's sizes)."""
+    nlp, cov = result.nlp, result.covariance
+    jacobian = nlp.derivatives.jacobian_r(result.z).tocsr()
+    residuals = nlp.residual_vector(result.z)
+    elim = chain_order(result)  # H_EE tridiagonal in this order
+    j_e = jacobian[:, elim]
+    h_ee = (j_e.T @ j_e).tocsc()
+    prior = ps.profile_prior_rows(result) if grid is not None else None
+
+    def blocks(basis: np.ndarray, schur: np.ndarray):
+        m = -basis[elim]
+        b = np.asarray(h_ee @ m)
+        return basis, schur + m.T @ b, b
+
+    def make(system, key, own=None):
+        basis, h_cc, b = system
+        length, times = key
+        groups: list[RowGroup] = []
+        names: list[str] = []
+        log_det = 0.0
+        if prior is not None:
+            comp_names = np.array([PROFILE_COMPONENTS[c] for c in grid.components])
+            if length == grid.length_m:
+                w, u, comp, det = prior.jacobian, prior.residuals, prior.component_of_row, 0.0
+            else:
+                w, u, comp, det = ps.prior_rows_at(result, prior, length)
+            a = w @ basis[prior.cols]
+            log_det += det
+            for g, comps in ps.GROUPS.items():
+                mask = np.isin(comp_names[comp], comps)
+                if mask.any():
+                    groups.append(RowGroup(a[mask], None, u[mask], int(mask.sum())))
+                    names.append(g)
+        gps_groups, det = gps_row_groups(result, jacobian, residuals, basis, elim, times)
+        log_det += det
+        groups += list(gps_groups.values())
+        names += list(gps_groups)
+        if own is None:  # the fit's own rows: the held part is the Hessian less them
+            return SplitQuadraticModel(h_cc, b, h_ee, groups), names
+        return own.with_groups(groups, log_det), names
+
+    errors = result.scenario.config.gps.error_model
+    own_key = (None if grid is None else grid.length_m, (errors.position_time_s, errors.velocity_time_s))
+    own_system = blocks(cov.basis, np.linalg.inv(cov.cov_w))
+    own, _ = make(own_system, own_key)
+    fallback = cov.information.startswith("observed") and not own.rest_is_semidefinite
+    if fallback:
+        reduced = result.solver.reduced or gauss_newton_system(nlp, result.z, cov.split)
+        own_system = blocks(reduced.basis, reduced.hessian)
+        own, _ = make(own_system, own_key)
+    return (lambda key: make(own_system, key, own)), own, fallback
