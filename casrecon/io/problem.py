@@ -86,7 +86,8 @@ class GpsConfig:
     time-correlated GPS errors (:class:`~casrecon.physics.sensor_errors.GpsErrorModel`).
     ``velocity_sigma_mps``: [north, east, down] velocity 1-sigma (m/s) replacing the file's sAcc (None: sAcc).
     ``error_model_from_data``: after the fit, estimate the error model's white and correlated sizes
-    and correlation times from the data and refit with them (:mod:`casrecon.estimation.error_models.error_model_sigma`)."""
+    and correlation times from the data and refit with them
+    (:mod:`casrecon.estimation.error_models.error_model_sigma`)."""
 
     file: Path | None
     rate_hz: float = 5.0

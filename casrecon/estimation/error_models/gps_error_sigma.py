@@ -1,7 +1,8 @@
 """The GPS error model's sizes from the data: type-II maximum likelihood of the white and the
 correlated (Gauss-Markov) part of the position and of the velocity errors, and the most evident of a
-few correlation times, by the Laplace evidence of the fit (:mod:`casrecon.estimation.numerics.split_evidence`), made with the
-atmosphere-profile sigmas (:func:`casrecon.estimation.error_models.profile_sigma.estimate_profile_sigma`).
+few correlation times, by the Laplace evidence of the fit
+(:mod:`casrecon.estimation.numerics.split_evidence`), made with the atmosphere-profile sigmas
+(:func:`casrecon.estimation.error_models.profile_sigma.estimate_profile_sigma`).
 
 Why: the fit's bands are honest only if its GPS error model describes the receiver, and no single
 default does. Measured (README, Correlated GPS errors): the acceptance drop's GPS errors

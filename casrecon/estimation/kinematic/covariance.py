@@ -9,8 +9,8 @@ pseudo-inverse H^+ = Z (Z^T H Z)^-1 Z^T over the tangent space. With Q the ortho
 H^+ = P (H + Q Q^T)^-1 P with P = I - Q Q^T: one sparse factorisation of a block-banded matrix with
 an arrow (the IMU parameters; :mod:`casrecon.estimation.numerics.banded_factor`), no KKT matrix and no
 pivoting for the zero block. The blocks the fits read (each node's states, with the IMU parameters)
-come from the selected inverse of :mod:`casrecon.estimation.numerics.selected_inverse` in O(n w^2) for band w; other entries
-from column solves.
+come from the selected inverse of :mod:`casrecon.estimation.numerics.selected_inverse` in O(n w^2)
+for band w; other entries from column solves.
 """
 
 from __future__ import annotations
