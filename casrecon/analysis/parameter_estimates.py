@@ -56,7 +56,8 @@ def parameter_estimate(spec, value: float, sigma: float, chi2_scale: float) -> P
 
 
 def parameter_estimates(result) -> tuple[ParameterEstimate, ...]:
-    """Every estimated parameter of a per-drop fit (:class:`~casrecon.estimation.sixdof.fit.FitResult`), in fit order."""
+    """Every estimated parameter of a per-drop fit (:class:`~casrecon.estimation.sixdof.fit.FitResult`), in
+    fit order."""
     scale = float(np.sqrt(result.reduced_chi2))
     return tuple(parameter_estimate(spec, result.values[i], result.sigma[i], scale)
                  for i, spec in enumerate(result.params.specs))

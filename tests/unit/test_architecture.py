@@ -19,8 +19,7 @@ kinds) imports the generic rooms only, and the problem-kind rooms (``sixdof``, `
 ``pointmass``, ``error_models``, ``validation``) import the generic rooms and ``kinds``; any other
 import across rooms is one of :data:`ALLOWED_CROSS_ROOM`, each measured and with its reason.
 
-No casrecon module is in an import cycle (module-level and function-level imports alike), but for
-:data:`KNOWN_CYCLES`.
+No casrecon module is in an import cycle (module-level and function-level imports alike).
 
 Also: no private name (leading underscore) is imported from, or used as an attribute of, another
 casrecon module (a private module may be imported inside its own package), and no module is longer
@@ -97,16 +96,6 @@ ALLOWED_CROSS_ROOM = frozenset({
     ("validation.precheck", "kinematic.inputs"),
     ("validation.precheck", "pointmass.fit"),
 })
-
-#: Import cycles known and to be broken (sets of modules that import each other), so that the test
-#: finds only new ones. Empty this once the cycle is gone (it is being fixed on main): a listed cycle
-#: that no longer exists fails :func:`test_known_cycles_still_exist`.
-KNOWN_CYCLES = frozenset({
-    # adequacy imports process_scale's estimates (module level) and process_scale imports
-    # adequacy.prior_nees inside a function.
-    frozenset({"casrecon.analysis.adequacy", "casrecon.analysis.process_scale"}),
-})
-
 
 @dataclass(frozen=True)
 class Module:
@@ -380,10 +369,5 @@ def cycle_path(graph: dict[str, set[str]], component: frozenset[str]) -> str:
 
 def test_no_import_cycles():
     graph = import_graph()
-    new = [c for c in import_cycles(graph) if c not in KNOWN_CYCLES]
+    new = list(import_cycles(graph))
     assert not new, "casrecon modules in an import cycle:\n" + "\n".join(cycle_path(graph, c) for c in new)
-
-
-def test_known_cycles_still_exist():
-    gone = [sorted(c) for c in KNOWN_CYCLES if c not in import_cycles(import_graph())]
-    assert not gone, f"KNOWN_CYCLES lists cycles that are gone (remove them): {gone}"
