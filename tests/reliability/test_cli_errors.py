@@ -81,6 +81,11 @@ BROKEN = {
     "estimator one case": (["montecarlo", DROP, "--estimator", "--out", "{OUT}", "--cases", "1"], "--cases"),
     "simulate every zero": (["simulate", DROP, "--out", "{OUT}", "--every", "0"], "--every"),
     "joint one problem": (["joint", DROP, "--out", "{OUT}"], "at least two problems"),
+    # options a problem's kind does not have: refused, not silently ignored
+    "kinematic check of a point-mass problem": (["fit", PROBLEMS / "realdata-skyderby-411", "--out", "{OUT}",
+                                                 "--kinematic-check"], "6-DOF problems only"),
+    "solver of a kinematic problem": (["fit", PROBLEMS / "realdata-fs2-chicago-kinematic", "--out", "{OUT}",
+                                       "--solver", "ipopt"], "6-DOF problems only"),
 }
 
 
