@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.io.problem import ProblemConfig, load_problem
-from casrecon.io.sounding import read_sounding
+from casrecon.io.sounding import Sounding, read_sounding
 from casrecon.io.toml_fields import TomlDocument
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.atmosphere import Atmosphere
@@ -24,11 +24,13 @@ from casrecon.physics.rotations import euler_deg_to_quat
 
 @dataclass(frozen=True)
 class Scenario:
-    """One drop's configuration with its atmosphere and flight model built."""
+    """One drop's configuration with its atmosphere and flight model built; ``sounding`` is the
+    sounding file as read (once: the pre-solve data check reads its levels from here)."""
 
     config: ProblemConfig
     atmosphere: Atmosphere
     model: FlightModel
+    sounding: Sounding | None = None
 
     @classmethod
     def load(cls, source: str | Path | TomlDocument) -> Scenario:
@@ -40,7 +42,7 @@ class Scenario:
         sounding = read_sounding(config.atmosphere.sounding, launch=config.atmosphere.launch)
         atmosphere = Atmosphere.from_sounding(sounding, gradient_ref_alt_msl_m=config.site.ground_alt_msl_m,
                                               humidity=config.atmosphere.humidity)
-        return cls(config, atmosphere, _flight_model(config, atmosphere))
+        return cls(config, atmosphere, _flight_model(config, atmosphere), sounding)
 
     def with_fresh_functions(self) -> Scenario:
         """The same drop with its CasADi interpolants (the sounding's, the aero tables') made anew,
@@ -53,12 +55,12 @@ class Scenario:
         config = dataclasses.replace(self.config, aero=dataclasses.replace(
             aero, coefficients=dataclasses.replace(aero.coefficients)))
         atmosphere = self.atmosphere.copy()
-        return Scenario(config, atmosphere, _flight_model(config, atmosphere))
+        return Scenario(config, atmosphere, _flight_model(config, atmosphere), self.sounding)
 
     def flying(self, atmosphere: Atmosphere) -> Scenario:
         """The same drop through another atmosphere (a new Scenario whose model flies ``atmosphere``;
         this one and its configuration, the sounding file included, are unchanged)."""
-        return Scenario(self.config, atmosphere, _flight_model(self.config, atmosphere))
+        return Scenario(self.config, atmosphere, _flight_model(self.config, atmosphere), self.sounding)
 
     @property
     def release_alt_msl_m(self) -> float:

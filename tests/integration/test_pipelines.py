@@ -107,3 +107,21 @@ def test_a_command_parses_each_problem_file_once(argv, parsed_files, tmp_path):
     problems = [p for p in parsed_files if p.name == "problem.toml"]
     assert problems, "the count must see the problem files"
     assert sorted(problems) == sorted(set(problems)), f"parsed more than once: {problems}"
+
+
+def test_a_six_dof_fit_reads_its_sounding_once(monkeypatch, tmp_path):
+    """The scenario reads the sounding; the pre-solve data check takes it from there."""
+    import casrecon.estimation.validation.data_checks as checks
+    import casrecon.scenario as scenario
+
+    reads: list[Path] = []
+    real = scenario.read_sounding
+
+    def counting(path, **kw):
+        reads.append(Path(path))
+        return real(path, **kw)
+
+    monkeypatch.setattr(scenario, "read_sounding", counting)
+    monkeypatch.setattr(checks, "read_sounding", counting)
+    assert main(["fit", str(PROBLEMS / "ees-drop-2"), "--out", str(tmp_path / "out"), "--no-figures", "--quiet"]) == 0
+    assert len(reads) == 1, reads

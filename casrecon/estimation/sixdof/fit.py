@@ -235,7 +235,7 @@ def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
     """
     cfg = scenario.config
     try:
-        data = load_fit_data(cfg)
+        data = load_fit_data(cfg, scenario.sounding)
         measured_hz = 1.0 / float(np.median(np.diff(data.imu_time_s)))
         if abs(measured_hz - cfg.imu.rate_hz) > RATE_TOLERANCE * cfg.imu.rate_hz:
             raise FitError(f"{cfg.imu.file}: the IMU samples are {measured_hz:.2f} Hz apart (median spacing) but "

@@ -18,6 +18,7 @@ from casrecon.io.flysight import GpsTrack, no_fix_mask, read_flysight
 from casrecon.io.gps_rules import fixes_ned, good_fixes, no_fix_note
 from casrecon.io.imu import ImuLog, read_imu_csv
 from casrecon.io.problem import ProblemConfig
+from casrecon.io.sounding import Sounding
 
 #: Release is the first sample whose specific force magnitude falls below this fraction of g.
 RELEASE_FORCE_FRACTION = 0.5
@@ -110,9 +111,11 @@ def patch_saturated(time: np.ndarray, values: np.ndarray, valid: np.ndarray, spa
     return out, np.ones_like(valid)
 
 
-def load_fit_data(cfg: ProblemConfig) -> FitData:
+def load_fit_data(cfg: ProblemConfig, sounding: Sounding | None = None) -> FitData:
     """Read the problem's IMU and GPS files, check them (:mod:`casrecon.estimation.validation.data_checks`: a
-    failure is a located :class:`~casrecon.io.errors.InputError`) and prepare them for the fit."""
+    failure is a located :class:`~casrecon.io.errors.InputError`) and prepare them for the fit.
+    ``sounding``: the problem's sounding file as already read (:attr:`casrecon.scenario.Scenario.sounding`),
+    else the check reads it."""
     if cfg.imu.file is None or cfg.gps.file is None:
         raise FitDataError(f"{cfg.path}: [sensors.imu] file and [sensors.gps] file are needed for a fit")
     imu = read_imu_csv(cfg.imu.file, cfg.imu.spec)
@@ -122,7 +125,7 @@ def load_fit_data(cfg: ProblemConfig) -> FitData:
     window = (release + cfg.estimation.start_after_release_s, impact - cfg.estimation.end_before_impact_s)
     if window[1] - window[0] < 1.0:
         raise FitDataError(f"{cfg.path}: fit window {window[0]:.2f} to {window[1]:.2f} s is shorter than 1 s")
-    check_drop_data(cfg, imu, track, release, impact, window)
+    check_drop_data(cfg, imu, track, release, impact, window, sounding)
     r_ib = np.asarray(cfg.vehicle.imu_to_body)
     accel_valid, gyro_valid = ~imu.accel_saturated, ~imu.gyro_saturated
     sel = (imu.time_s >= window[0] - 1e-9) & (imu.time_s <= window[1] + 1e-9)

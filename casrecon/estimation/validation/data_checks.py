@@ -44,7 +44,7 @@ from casrecon.io.imu import ImuLog
 from casrecon.io.imu_checks import accel_unit_finding, imu_findings, unit_warnings
 from casrecon.io.pointmass_problem import PointMassConfig
 from casrecon.io.problem import ProblemConfig
-from casrecon.io.sounding import read_sounding
+from casrecon.io.sounding import Sounding, read_sounding
 
 logger = logging.getLogger(__name__)
 
@@ -62,7 +62,7 @@ def check_accel_unit(cfg: ProblemConfig, imu: ImuLog) -> None:
 
 
 def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: float, impact: float,
-                    window: tuple[float, float]) -> None:
+                    window: tuple[float, float], sounding: Sounding | None = None) -> None:
     """Every check of a 6-DOF drop (see the module docstring); raises the first failure.
 
     Parameters
@@ -75,6 +75,8 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
         Release and impact on the IMU clock, s.
     window : (float, float)
         The fit window on the IMU clock, s.
+    sounding : Sounding, optional
+        The problem's sounding file as already read (read here when not given).
     """
     span = slice(int(np.searchsorted(imu.time_s, window[0] - 1e-9)),
                  int(np.searchsorted(imu.time_s, window[1] + 1e-9, side="right")))
@@ -102,7 +104,7 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
                          "(check [release] h_agl_m and [site] ground_alt_msl_m)", field="release.h_agl_m")
     in_window = good & (t_gps >= window[0]) & (t_gps <= window[1])
     top_needed = max(ground + cfg.release.h_agl_m, float(track.h_msl_m[in_window].max(initial=-np.inf)))
-    check_sounding_top(cfg.atmosphere.sounding, cfg.atmosphere.launch, top_needed, "the release altitude")
+    check_sounding_top(cfg.atmosphere.sounding, cfg.atmosphere.launch, top_needed, "the release altitude", sounding)
 
 
 def _check_release_time(cfg: ProblemConfig, release_utc: float) -> None:
@@ -152,9 +154,10 @@ def check_coverage(track: GpsTrack, good: np.ndarray, t: np.ndarray, span: tuple
                      field=field)
 
 
-def check_sounding_top(path, launch: int, altitude_msl_m: float, what: str) -> None:
-    """Refuse a sounding whose top level is below ``altitude_msl_m`` (``what``, for the message)."""
-    sounding = read_sounding(path, launch=launch)
+def check_sounding_top(path, launch: int, altitude_msl_m: float, what: str, sounding: Sounding | None = None) -> None:
+    """Refuse a sounding whose top level is below ``altitude_msl_m`` (``what``, for the message);
+    ``sounding``: the file ``path`` as already read (else it is read here)."""
+    sounding = read_sounding(path, launch=launch) if sounding is None else sounding
     top = float(sounding.altitude_msl_m[-1])
     if top < altitude_msl_m:
         raise InputError(path, f"the sounding stops at {top:.0f} m MSL ({sounding.pressure_pa[-1] / 100:.1f} hPa), "
