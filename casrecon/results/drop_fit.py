@@ -122,6 +122,37 @@ class FolderViews:
         """The text report of ``casrecon fit``."""
         return self.report_text
 
+    def problem_paths(self) -> list[Path]:
+        """The problem files a fresh fit read (protected from being overwritten by :meth:`save`); none
+        for a loaded result. Subclasses that hold a fit say which."""
+        return []
+
+    def holds_fit(self) -> bool:
+        """Whether this result holds the fit itself (fresh) rather than only its folder's files (loaded)."""
+        return False
+
+    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False,
+             formats: Sequence[str] | None = None) -> Path:
+        """Write the results folder ``casrecon fit --out folder`` writes, atomically (an earlier folder
+        is replaced only once the new one is complete); figures only if ``figures``, in ``formats``.
+
+        A loaded result is saved as a copy of the files it was loaded from (without ``figures/``
+        unless ``figures``). An existing folder that casrecon did not write (no
+        ``.casrecon-results.json``), or a file, is replaced only with ``force``; a folder holding the
+        problem's inputs never (:class:`~casrecon.output.out_folder.OutFolderError`). Returns the folder.
+        """
+        return save_results_folder(folder, self.name, self.write if self.holds_fit() else None, self.source,
+                                   (lambda out: self.draw(out, formats)) if figures else None,
+                                   kind="fit", force=force, inputs=input_paths(self.problem_paths()))
+
+    def write(self, out: Path) -> None:
+        """Write the results files into the folder ``out`` being made (subclasses)."""
+        raise NotImplementedError
+
+    def draw(self, out: Path, formats: Sequence[str] | None = None, notes: list[str] | None = None) -> None:
+        """Draw the figures of the folder ``out`` (subclasses)."""
+        raise NotImplementedError
+
 
 @dataclass(frozen=True, eq=False, repr=False)
 class DropFit(FolderViews):
@@ -304,21 +335,11 @@ class DropFit(FolderViews):
 
             plot_kinematic_check(out, formats)
 
-    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False,
-             formats: Sequence[str] | None = None) -> Path:
-        """Write the results folder ``casrecon fit --out folder`` writes, atomically (an earlier folder
-        is replaced only once the new one is complete); figures only if ``figures``, in ``formats``.
+    def holds_fit(self) -> bool:
+        return self.fit is not None and self.products is not None
 
-        A loaded result is saved as a copy of the files it was loaded from (without ``figures/``
-        unless ``figures``). An existing folder that casrecon did not write (no
-        ``.casrecon-results.json``), or a file, is replaced only with ``force``; a folder holding the
-        problem's inputs never (:class:`~casrecon.output.out_folder.OutFolderError`). Returns the folder.
-        """
-        write = self.write if self.fit is not None and self.products is not None else None
-        inputs = input_paths([self.fit.scenario.config.path] if self.fit is not None else [])
-        return save_results_folder(folder, self.name, write, self.source,
-                                   (lambda out: self.draw(out, formats)) if figures else None,
-                                   kind="fit", force=force, inputs=inputs)
+    def problem_paths(self) -> list[Path]:
+        return [self.fit.scenario.config.path] if self.fit is not None else []
 
 
 def history_columns(frame: pd.DataFrame, time_columns: Sequence[str]) -> tuple[str, ...]:

@@ -17,8 +17,6 @@ import numpy as np
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
 from casrecon.output.kinematic_results import write_kinematic_results
-from casrecon.output.out_folder import input_paths
-from casrecon.output.results import save_results_folder
 from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
 from casrecon.results.parameters import from_document
 
@@ -139,13 +137,8 @@ class KinematicFit(FolderViews):
 
         plot_kinematic(out, tuple(formats or DEFAULT_FORMATS))
 
-    def save(self, folder: str | Path, *, figures: bool = False, force: bool = False,
-             formats: Sequence[str] | None = None) -> Path:
-        """Write the folder ``casrecon fit --out folder`` writes for a kinematic problem, atomically;
-        a foreign existing folder or a file is replaced only with ``force``, a folder holding inputs
-        never."""
-        write = self.write if self.fit is not None and self.site is not None else None
-        inputs = input_paths([self.problem_path] if self.problem_path is not None else [])
-        return save_results_folder(folder, self.name, write, self.source,
-                                   (lambda out: self.draw(out, formats)) if figures else None,
-                                   kind="fit", force=force, inputs=inputs)
+    def holds_fit(self) -> bool:
+        return self.fit is not None and self.site is not None
+
+    def problem_paths(self) -> list[Path]:
+        return [self.problem_path] if self.problem_path is not None else []
