@@ -1,0 +1,158 @@
+"""A new measurement kind written once, in this file, and fitted by both the 6-DOF and the kinematic
+fit (issue 48): a second GPS antenna giving positions only, at a lever arm of its own, with a
+constant 3-vector bias estimated under a 1 m prior and 5 cm white noise.
+
+The kind is a :class:`~casrecon.estimation.kinds.samples.SampleKind`: its samples on the receiver's
+clock, its parameters and a prediction from the body's state. It is passed to
+``fit_drop(..., sample_kinds=...)`` and ``fit_kinematic(..., sample_kinds=...)``; nothing else is
+needed. A kind shipped with casrecon and configured from ``problem.toml`` would touch four files
+outside the tests, none in the engine (``casrecon/estimation/engine``):
+
+1. the kind's module (``casrecon/estimation/kinds/<kind>.py``: this file's ``SecondAntenna``);
+2. its reader in ``casrecon/io/`` (the sample file to a
+   :class:`~casrecon.estimation.kinds.samples.SampleSet`);
+3. its table's lines in the configuration (``[sensors.<kind>]`` in ``casrecon/io/problem.py``, and
+   ``[<kind>]`` in ``casrecon/io/kinematic_problem.py``: one file each; with both, four files,
+   which is why the registration below must share a file with one of them);
+4. its registration: the list of sample kinds a problem's configuration makes, passed as
+   ``sample_kinds`` by the pipelines.
+
+The truth is problems/ees-drop-1's (its shipped synthetic IMU and GPS data and truth trajectory);
+the antenna-2 samples are made here from the truth trajectory with a known bias and noise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+
+import casadi as ca
+import numpy as np
+import pytest
+from conftest import PROBLEMS
+
+from casrecon.analysis.kinematic_truth import decimated
+from casrecon.estimation.kinds.samples import BodyState, SampleSet
+from casrecon.estimation.sixdof.fit import fit_drop
+from casrecon.estimation.sixdof.parameters import ParameterSpec
+from casrecon.physics.rotations import dcm_body_to_ned, dcm_body_to_ned_array
+from casrecon.scenario import Scenario
+
+#: Antenna 2's position on the vehicle (vehicle coordinates, as ``[gps] position_m``), m.
+ANTENNA2_M = np.array([-0.55, 0.45, -0.20])
+#: Its true constant bias (NED, m), prior 1-sigma and white noise 1-sigma (m).
+BIAS_TRUE = np.array([0.40, -0.30, 0.25])
+BIAS_PRIOR_M = 1.0
+NOISE_M = 0.05
+RATE_HZ = 5.0
+AXES = ("n", "e", "d")
+
+
+class SecondAntenna:
+    """A second GPS antenna's positions: reference point + C(q) lever + bias (NED, m).
+
+    Parameters
+    ----------
+    samples : SampleSet
+        (N, 3) antenna positions, NED m, on the receiver's clock.
+    lever_m : (3,) array
+        The antenna minus the fit's reference point, in the fit's axes (6-DOF: from the centre of
+        mass, body axes; kinematic: from the IMU, IMU axes), m.
+    """
+
+    name = "antenna2"
+    columns = ("pos_n_m", "pos_e_m", "pos_d_m")
+
+    def __init__(self, samples: SampleSet, lever_m: np.ndarray) -> None:
+        self.samples = samples
+        self.lever_m = np.asarray(lever_m, float)
+
+    def parameters(self) -> tuple[ParameterSpec, ...]:
+        return tuple(ParameterSpec(f"antenna2_bias_{a}_m", "antenna2", BIAS_PRIOR_M, BIAS_PRIOR_M, "m") for a in AXES)
+
+    def predict(self, state: BodyState, theta: Mapping[str, ca.SX]) -> ca.SX:
+        bias = ca.vertcat(*[theta[f"antenna2_bias_{a}_m"] for a in AXES])
+        return state.position_ned_m + dcm_body_to_ned(state.quaternion) @ ca.DM(self.lever_m) + bias
+
+
+def truth_samples(lever_body_m: np.ndarray, seed: int = 48) -> SampleSet:
+    """Antenna-2 positions at RATE_HZ over ees-drop-1's flight from its truth trajectory (centre of
+    mass, body to NED), stamped on the receiver's clock, with BIAS_TRUE and white noise."""
+    import pandas as pd
+
+    tr = pd.read_csv(PROBLEMS / "ees-drop-1" / "data" / "trajectory.csv")
+    t_rel, t_end = float(tr["time_unix_s"].iloc[0]), float(tr["time_s"].iloc[-1])
+    t = np.arange(0.1, t_end - 0.1, 1.0 / RATE_HZ)  # flight time, s (between the GPS fixes)
+    pos = np.column_stack([np.interp(t, tr["time_s"], tr[f"pos_{a}_m"]) for a in AXES])
+    q = np.column_stack([np.interp(t, tr["time_s"], tr[f"q{i}"]) for i in range(4)])
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    c = dcm_body_to_ned_array(q)
+    rng = np.random.default_rng(seed)
+    y = pos + c @ lever_body_m + BIAS_TRUE + NOISE_M * rng.normal(size=pos.shape)
+    return SampleSet(t_rel + t, y, np.full(y.shape, NOISE_M), SecondAntenna.name)
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return Scenario.load(PROBLEMS / "ees-drop-1")
+
+
+@pytest.fixture(scope="module")
+def samples(scenario):
+    return truth_samples(scenario.config.vehicle.lever(ANTENNA2_M))
+
+
+@pytest.fixture(scope="module")
+def sixdof(scenario, samples):
+    kind = SecondAntenna(samples, scenario.config.vehicle.lever(ANTENNA2_M))
+    return fit_drop(scenario, sample_kinds=(kind,)), fit_drop(scenario)
+
+
+def bias_z(result) -> np.ndarray:
+    """(estimate - truth) / sigma of the three bias components."""
+    est = [result.parameter(f"antenna2_bias_{a}_m") for a in AXES]
+    return np.array([(v - b) / s for (v, s), b in zip(est, BIAS_TRUE)])
+
+
+def test_sixdof_fit_estimates_the_antenna2_bias(sixdof):
+    with_kind, without = sixdof
+    assert with_kind.converged and "antenna2" in with_kind.chi2
+    n = with_kind.n_measurements["antenna2"]
+    assert n > 500
+    assert with_kind.chi2["antenna2"] / n == pytest.approx(1.0, abs=4 * np.sqrt(2.0 / n))
+    z = bias_z(with_kind)
+    print("6-DOF antenna-2 bias:", [with_kind.parameter(f"antenna2_bias_{a}_m") for a in AXES], "z", z)
+    assert np.all(np.abs(z) < 3.0), z
+    # the problem's own parameters come first, in the order of the fit without the kind
+    assert with_kind.params.names[:without.params.n] == without.params.names
+    for name in without.params.names:
+        (v1, s1), (v0, s0) = with_kind.parameter(name), without.parameter(name)
+        print(name, v1, s1, v0, s0, (v1 - v0) / s0)
+
+
+@pytest.fixture(scope="module")
+def kinematic(scenario, samples):
+    from casrecon.estimation.kinematic.fit import fit_kinematic
+    from casrecon.estimation.kinematic.inputs import data_from_problem, options_from_problem
+
+    cfg = scenario.config
+    vehicle = cfg.vehicle
+    # the 6-DOF problem's data are on the IMU clock: time 0 is the IMU clock's UTC at zero
+    data = replace(decimated(data_from_problem(cfg), 5), time_ref_s=cfg.imu.clock_utc_at_zero.timestamp())
+    lever_imu = np.asarray(vehicle.imu_to_body, float).T @ (ANTENNA2_M - np.asarray(vehicle.imu_position_m, float))
+    options = options_from_problem(cfg)
+    return fit_kinematic(data, options, sample_kinds=(SecondAntenna(samples, lever_imu),)), fit_kinematic(data, options)
+
+
+def test_kinematic_fit_estimates_the_antenna2_bias(kinematic):
+    with_kind, without = kinematic
+    assert "antenna2" in with_kind.chi2
+    n = with_kind.n_measurements["antenna2"]
+    print(with_kind.chi2["antenna2"] / n, n)
+    z = bias_z(with_kind)
+    print("kinematic antenna-2 bias:", [with_kind.parameter(f"antenna2_bias_{a}_m") for a in AXES], "z", z)
+    assert np.all(np.abs(z) < 3.0), z
+    assert with_kind.params.names[:without.params.n] == without.params.names
+    for name in without.params.names:
+        (v1, s1), (v0, s0) = with_kind.parameter(name), without.parameter(name)
+        print(name, v1, s1, v0, s0, (v1 - v0) / s0)
