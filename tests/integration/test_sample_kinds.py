@@ -32,7 +32,7 @@ import pytest
 from conftest import PROBLEMS
 
 from casrecon.analysis.kinematic_truth import decimated
-from casrecon.estimation.kinds.samples import BodyState, SampleSet
+from casrecon.estimation.kinds.samples import BodyState, SampleSet, air_velocity
 from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.estimation.sixdof.parameters import ParameterSpec
 from casrecon.physics.rotations import dcm_body_to_ned, dcm_body_to_ned_array
@@ -174,3 +174,46 @@ def test_kinematic_fit_estimates_the_antenna2_bias(kinematic):
 def test_a_sample_set_refuses_bad_sigmas():
     with pytest.raises(ValueError, match="antenna2"):
         SampleSet(np.arange(3.0), np.zeros((3, 3)), np.zeros((3, 3)), "antenna2")
+
+
+class Pitot:
+    """Airspeed samples (m/s): a kind that needs the air velocity."""
+
+    name = "pitot"
+    columns = ("airspeed_mps",)
+
+    def __init__(self, samples: SampleSet) -> None:
+        self.samples = samples
+
+    def parameters(self) -> tuple[ParameterSpec, ...]:
+        return ()
+
+    def predict(self, state: BodyState, theta: Mapping[str, ca.SX]) -> ca.SX:
+        return ca.norm_2(air_velocity(state, self.name))
+
+
+def test_a_kind_needing_the_air_velocity_refuses_the_kinematic_fit(scenario):
+    from casrecon.estimation.kinematic.fit import fit_kinematic
+    from casrecon.estimation.kinematic.inputs import data_from_problem, options_from_problem
+
+    cfg = scenario.config
+    data = replace(decimated(data_from_problem(cfg), 10), time_ref_s=cfg.imu.clock_utc_at_zero.timestamp())
+    t = data.time_ref_s + np.arange(5.0, 30.0, 1.0)
+    kind = Pitot(SampleSet(t, np.full((t.size, 1), 50.0), np.ones((t.size, 1)), "pitot"))
+    with pytest.raises(ValueError, match="pitot.*air velocity.*kinematic"):
+        fit_kinematic(data, options_from_problem(cfg), sample_kinds=(kind,))
+
+
+def test_a_kind_needing_the_air_velocity_fits_in_the_sixdof_fit(scenario):
+    """The airspeed kind in the 6-DOF fit, its samples the truth's airspeed with 0.3 m/s noise: the
+    air velocity the flight model gives at the samples whitens them to unit variance."""
+    import pandas as pd
+
+    tr = pd.read_csv(PROBLEMS / "ees-drop-1" / "data" / "trajectory.csv")
+    t = np.arange(0.15, float(tr["time_s"].iloc[-1]) - 0.1, 0.2)
+    speed = np.interp(t, tr["time_s"], tr["airspeed_mps"]) + 0.3 * np.random.default_rng(5).normal(size=t.size)
+    kind = Pitot(SampleSet(float(tr["time_unix_s"].iloc[0]) + t, speed[:, None], np.full((t.size, 1), 0.3), "pitot"))
+    result = fit_drop(scenario, sample_kinds=(kind,))
+    n = result.n_measurements["pitot"]
+    assert n > 150
+    assert result.chi2["pitot"] / n == pytest.approx(1.0, abs=4 * np.sqrt(2.0 / n))

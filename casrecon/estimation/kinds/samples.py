@@ -12,8 +12,8 @@ Frames and units: SI throughout, positions and velocities in the site's NED fram
 ground below the site point), quaternions scalar first. The *reference point* is the 6-DOF fit's
 centre of mass with body axes, the kinematic fit's IMU with IMU axes: a kind that needs a lever arm
 is given the one of the fit it is used in. A kind needing the air velocity
-(``air_velocity_body_mps``) cannot be used in a kinematic fit, which has no wind: it must raise
-a ValueError saying so when it finds it None.
+(``air_velocity_body_mps``) cannot be used in a kinematic fit, which has no wind: it reads it with
+:func:`air_velocity`, which raises a ValueError saying so.
 """
 
 from __future__ import annotations
@@ -139,6 +139,15 @@ class SampleKind(Protocol):
         """The predicted sample (m,) at ``state``; ``theta`` maps the kind's parameter names to their
         SI symbols."""
         ...
+
+
+def air_velocity(state: BodyState, kind: str) -> ca.SX:
+    """The state's air velocity (body axes, m/s) for the kind named ``kind``; ValueError in a fit
+    without one (the kinematic fit has no wind)."""
+    if state.air_velocity_body_mps is None:
+        raise ValueError(f"sample kind {kind!r} needs the air velocity, which this fit does not model (the kinematic "
+                         "fit has no wind): use it in a 6-DOF fit")
+    return state.air_velocity_body_mps
 
 
 def check_kinds(kinds, taken: tuple[str, ...] = ()) -> tuple:

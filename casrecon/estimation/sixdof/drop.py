@@ -6,7 +6,9 @@ settings, data). Its residual groups come from the measurement kinds of :data:`M
 (the IMU kind's interval blocks also carry the collocation defects), then the priors, then the
 disturbance process when the weak constraint is on; one unit-norm constraint per drop keeps its
 first quaternion normalised (the defects carry the norm along the mesh). Adding a kind of
-measurement means adding a module under :mod:`casrecon.estimation.kinds` and listing it here.
+measurement means adding a module under :mod:`casrecon.estimation.kinds` and listing it here, or,
+for a sample kind (:mod:`casrecon.estimation.kinds.samples`), passing it to ``fit_drop``, which
+appends its adapter to these kinds (every function here takes the kinds as ``kinds``).
 """
 
 from __future__ import annotations
