@@ -23,8 +23,9 @@ the antenna-2 samples are made here from the truth trajectory with a known bias 
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -32,9 +33,14 @@ import pytest
 from conftest import PROBLEMS
 
 from casrecon.analysis.kinematic_truth import decimated
+from casrecon.estimation.kinds.sample_registry import SAMPLE_KIND_MAKERS, SampleKindMaker, kinematic_sample_kinds
 from casrecon.estimation.kinds.samples import BodyState, SampleSet, air_velocity
 from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.estimation.sixdof.parameters import ParameterSpec
+from casrecon.io.errors import InputError
+from casrecon.io.kinematic_problem import load_kinematic
+from casrecon.io.sample_sensors import SampleSensor
+from casrecon.io.toml_fields import Fields, read_toml
 from casrecon.physics.rotations import dcm_body_to_ned, dcm_body_to_ned_array
 from casrecon.scenario import Scenario
 
@@ -102,10 +108,62 @@ def samples(scenario):
     return truth_samples(scenario.config.vehicle.lever(ANTENNA2_M))
 
 
+@dataclass(frozen=True)
+class AntennaSettings:
+    """The test antenna's ``[sensors.antenna2]`` (6-DOF) or ``[antenna2]`` (kinematic) table."""
+
+    samples: SampleSet
+    position_m: tuple | None  # on the vehicle (vehicle coordinates), 6-DOF problems
+    lever_arm_m: tuple | None  # from the IMU, IMU axes, kinematic problems
+
+
+def parse_antenna(t: Fields) -> AntennaSettings:
+    """The table: ``file`` (CSV of time_unix_s, pos_n_m, pos_e_m, pos_d_m), ``noise_m``, and
+    ``position_m`` or ``lever_arm_m``."""
+    table = np.loadtxt(t.path_of("file", required=True), delimiter=",", skiprows=1, ndmin=2)
+    noise = t.number("noise_m", NOISE_M, positive=True)
+    settings = AntennaSettings(SampleSet(table[:, 0], table[:, 1:4], np.full((len(table), 3), noise), "antenna2"),
+                               t.vector("position_m", 3), t.vector("lever_arm_m", 3))
+    t.reject_unknown()
+    return settings
+
+
+#: The test antenna's registration, as a shipped kind would be registered.
+SENSOR = SampleSensor("antenna2", parse_antenna)
+MAKER = SampleKindMaker(
+    sixdof=lambda s, cfg: SecondAntenna(s.samples, cfg.vehicle.lever(s.position_m)),
+    kinematic=lambda s, cfg: SecondAntenna(s.samples, np.asarray(s.lever_arm_m, float)))
+
+
 @pytest.fixture(scope="module")
-def sixdof(scenario, samples):
-    kind = SecondAntenna(samples, scenario.config.vehicle.lever(ANTENNA2_M))
-    return fit_drop(scenario, sample_kinds=(kind,)), fit_drop(scenario)
+def registered():
+    """The test antenna registered for the module's tests."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("casrecon.io.sample_sensors.SAMPLE_SENSORS", (SENSOR,))
+        mp.setitem(SAMPLE_KIND_MAKERS, "antenna2", MAKER)
+        yield
+
+
+@pytest.fixture(scope="module")
+def samples_file(samples, tmp_path_factory):
+    path = tmp_path_factory.mktemp("antenna2") / "antenna2.csv"
+    np.savetxt(path, np.column_stack([samples.time_unix_s, samples.values]), delimiter=",", fmt="%.6f",
+               header="time_unix_s,pos_n_m,pos_e_m,pos_d_m", comments="")
+    return path
+
+
+@pytest.fixture(scope="module")
+def sixdof(scenario, registered, samples_file):
+    """ees-drop-1 through the 6-DOF pipeline with ``[sensors.antenna2]`` added to its problem.toml,
+    and the plain fit."""
+    from casrecon.pipelines.sixdof import fit_sixdof
+
+    document = read_toml(PROBLEMS / "ees-drop-1" / "problem.toml")
+    data = copy.deepcopy(document.data)
+    data["sensors"]["antenna2"] = {"file": str(samples_file), "position_m": ANTENNA2_M.tolist(), "noise_m": NOISE_M}
+    configured = fit_sixdof(replace(document, data=data))
+    assert configured.fit.measurements["antenna2"].values.shape[1] == 3
+    return configured.fit, fit_drop(scenario)
 
 
 def bias_z(result) -> np.ndarray:
@@ -217,3 +275,15 @@ def test_a_kind_needing_the_air_velocity_fits_in_the_sixdof_fit(scenario):
     n = result.n_measurements["pitot"]
     assert n > 150
     assert result.chi2["pitot"] / n == pytest.approx(1.0, abs=4 * np.sqrt(2.0 / n))
+
+
+def test_a_kinematic_problem_configures_the_registered_kind(registered, samples_file):
+    """``[antenna2]`` in a kinematic problem.toml makes the kind the kinematic pipeline fits."""
+    document = read_toml(PROBLEMS / "realdata-fs2-chicago-kinematic" / "problem.toml")
+    data = copy.deepcopy(document.data)
+    data["antenna2"] = {"file": str(samples_file), "lever_arm_m": [0.1, 0.2, 0.3]}
+    (kind,) = kinematic_sample_kinds(load_kinematic(replace(document, data=data)))
+    assert isinstance(kind, SecondAntenna) and np.allclose(kind.lever_m, [0.1, 0.2, 0.3])
+    data["antenna2"]["unknown_key"] = 1.0
+    with pytest.raises(InputError, match="unknown_key"):
+        load_kinematic(replace(document, data=data))
