@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from casrecon.io.config_records import Key, Table
 from casrecon.io.toml_fields import Fields
 
 
@@ -30,10 +31,16 @@ class SampleSensor:
         ``parse(fields) -> settings``: the table (a :class:`~casrecon.io.toml_fields.Fields`; paths
         relative to the problem file) to the sensor's settings, reading every key it knows and
         rejecting the others (``fields.reject_unknown()``), raising InputError on a bad value.
+    keys : tuple of Key
+        Its keys for the TOML reference (``docs/problem-toml.md``, :mod:`casrecon.io.config_reference`).
+    note : str
+        What the table is, for the reference.
     """
 
     table: str
     parse: Callable[[Fields], object]
+    keys: tuple[Key, ...] = ()
+    note: str = ""
 
 
 #: The registered sample sensors (none is shipped yet): one entry per sensor.
@@ -49,3 +56,10 @@ def parse_sample_sensors(tables: Fields) -> tuple[tuple[str, object], ...]:
         if table is not None:
             out.append((sensor.table, sensor.parse(table)))
     return tuple(out)
+
+
+def sample_sensor_tables(prefix: str) -> tuple[Table, ...]:
+    """The reference tables of the registered sample sensors, named ``prefix + table`` (``"sensors."``
+    in a 6-DOF problem, ``""`` in a kinematic one)."""
+    return tuple(Table(prefix + s.table, s.keys, note=s.note or "Optional: a registered sample sensor.")
+                 for s in SAMPLE_SENSORS)

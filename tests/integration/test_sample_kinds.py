@@ -3,19 +3,24 @@ fit (issue 48): a second GPS antenna giving positions only, at a lever arm of it
 constant 3-vector bias estimated under a 1 m prior and 5 cm white noise.
 
 The kind is a :class:`~casrecon.estimation.kinds.samples.SampleKind`: its samples on the receiver's
-clock, its parameters and a prediction from the body's state. It is passed to
-``fit_drop(..., sample_kinds=...)`` and ``fit_kinematic(..., sample_kinds=...)``; nothing else is
-needed. A kind shipped with casrecon and configured from ``problem.toml`` would touch four files
-outside the tests, none in the engine (``casrecon/estimation/engine``):
+clock, its parameters and a prediction from the body's state. Passed to ``fit_drop(...,
+sample_kinds=...)`` and ``fit_kinematic(..., sample_kinds=...)`` it needs nothing else; registered
+(this file registers it for its tests, as a shipped kind would be), a ``[sensors.antenna2]`` table
+in a 6-DOF problem.toml or ``[antenna2]`` in a kinematic one configures it, and the pipelines fit
+it. A kind shipped with casrecon touches four files outside the tests, none in the engine
+(``casrecon/estimation/engine``):
 
-1. the kind's module (``casrecon/estimation/kinds/<kind>.py``: this file's ``SecondAntenna``);
-2. its reader in ``casrecon/io/`` (the sample file to a
-   :class:`~casrecon.estimation.kinds.samples.SampleSet`);
-3. its table's lines in the configuration (``[sensors.<kind>]`` in ``casrecon/io/problem.py``, and
-   ``[<kind>]`` in ``casrecon/io/kinematic_problem.py``: one file each; with both, four files,
-   which is why the registration below must share a file with one of them);
-4. its registration: the list of sample kinds a problem's configuration makes, passed as
-   ``sample_kinds`` by the pipelines.
+1. its module, ``casrecon/estimation/kinds/<kind>.py``: the kind (this file's ``SecondAntenna``) and
+   how its settings make it for each fit (``MAKER``);
+2. its reader and table parser, ``casrecon/io/<kind>.py`` (``parse_antenna``, ``AntennaSettings``),
+   with its keys for the TOML reference;
+3. its table's registration, one entry of ``SAMPLE_SENSORS`` in ``casrecon/io/sample_sensors.py``
+   (``SENSOR``): ``io/problem.py`` and ``io/kinematic_problem.py`` read every registered table, and
+   the TOML reference lists it;
+4. its kind's registration, one entry of ``SAMPLE_KIND_MAKERS`` in
+   ``casrecon/estimation/kinds/sample_registry.py``.
+
+(``docs/problem-toml.md`` is then regenerated.)
 
 The truth is problems/ees-drop-1's (its shipped synthetic IMU and GPS data and truth trajectory);
 the antenna-2 samples are made here from the truth trajectory with a known bias and noise.
