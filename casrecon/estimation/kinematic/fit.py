@@ -4,8 +4,9 @@ noise is the process noise, and fixes and barometer samples observe the states. 
 model is needed (docs/design.md: Kinematic reconstruction).
 
 Unknowns: the IMU's position, velocity and attitude at every node, the IMU error parameters
-(biases and scale factors with priors), optionally the clock offset of the fixes and the barometer
-bias, and with a GPS error model the correlated part of each fix's error. Nodes sit on the fixes
+(biases and scale factors with priors), optionally the clock offset of the fixes, the barometer
+bias and the parameters of sample kinds (:mod:`.samples`, after the others), and with a GPS error
+model the correlated part of each fix's error. Nodes sit on the fixes
 (plus the window's ends, and more where fixes are further apart than ``max_node_spacing_s``).
 A unit-norm constraint per node fixes each quaternion's scale; everything else is least squares,
 solved by Levenberg-Marquardt on the unit quaternions (:mod:`.solve`: Gauss-Newton steps
