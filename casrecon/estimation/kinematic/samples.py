@@ -1,12 +1,13 @@
 """Sample kinds (:mod:`casrecon.estimation.kinds.samples`) in the kinematic fit: one residual term per
 kind, its parameters appended after the fit's own.
 
-Time: a kind's samples are stamped on the receiver's clock (UTC); the kinematic data's time 0 is
-``data.time_ref_s`` on that clock (a kinematic problem's data: :func:`~.inputs.inputs_from_config`;
-for a 6-DOF problem's data, :func:`~.inputs.data_from_problem`, whose ``time_ref_s`` is 0, replace
-it by the IMU clock's UTC at zero). Like the fixes, a sample is placed with the guessed clock
-offset (``options.clock_guess_s``) on the interval that holds it, and moved within it by the
-estimated offset when the fit estimates one (``t + guess - clock`` on the IMU clock; the fit
+Time: a kind's samples (``time_unix_s``) must be stamped on the clock of the fixes, and the
+kinematic data's time 0 is ``data.time_ref_s`` on that clock: a kinematic problem's common clock
+(:func:`~.inputs.inputs_from_config`: UTC, or the flight computer's own seconds when its files share
+that clock); for a 6-DOF problem's data (:func:`~.inputs.data_from_problem`, whose ``time_ref_s`` is
+0) replace ``time_ref_s`` by the IMU clock's UTC at zero before the fit. Like the fixes, a sample
+is placed with the guessed clock offset (``options.clock_guess_s``) on the interval that holds it,
+and moved within it by the estimated offset when the fit estimates one (``t + guess - clock`` on the IMU clock; the fit
 places the samples again with the fixes when the estimate moves far from the guess).
 
 State at a sample's fraction tau of the interval between nodes k and k+1 (length T): per axis the
