@@ -7,8 +7,9 @@ kinematic data's time 0 is ``data.time_ref_s`` on that clock: a kinematic proble
 that clock); for a 6-DOF problem's data (:func:`~.inputs.data_from_problem`, whose ``time_ref_s`` is
 0) replace ``time_ref_s`` by the IMU clock's UTC at zero before the fit. Like the fixes, a sample
 is placed with the guessed clock offset (``options.clock_guess_s``) on the interval that holds it,
-and moved within it by the estimated offset when the fit estimates one (``t + guess - clock`` on the IMU clock; the fit
-places the samples again with the fixes when the estimate moves far from the guess).
+and moved within it by the estimated offset when the fit estimates one (``t + guess - clock`` on
+the IMU clock; the fit places the samples again with the fixes when the estimate moves far from
+the guess).
 
 State at a sample's fraction tau of the interval between nodes k and k+1 (length T): per axis the
 cubic Hermite of position through (p, v) at the two nodes, its derivative for the velocity, the
