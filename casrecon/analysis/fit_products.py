@@ -16,6 +16,7 @@ from casrecon.analysis.adequacy import Adequacy
 from casrecon.analysis.aero_coefficients import aero_coefficients
 from casrecon.analysis.fit_adequacy import drop_adequacy
 from casrecon.estimation.kinds.gps import clock_offset
+from casrecon.estimation.kinds.sample_terms import placed_kinds
 from casrecon.estimation.sixdof import diagnostics as dg
 from casrecon.estimation.sixdof.drop import MEASUREMENT_KINDS
 from casrecon.io.units import (
@@ -199,10 +200,10 @@ def result_adequacy(result) -> Adequacy:
 
 
 def other_kind_residuals(result) -> dict[str, Columns]:
-    """Residual columns of the measurement kinds other than the IMU and GPS that the fit used, with
-    ``time_unix_s`` (:func:`unix_time`) after ``time_imu_s``."""
+    """Residual columns of the measurement kinds other than the IMU and GPS that the fit used (its
+    sample kinds' too), with ``time_unix_s`` (:func:`unix_time`) after ``time_imu_s``."""
     out = {}
-    for kind in MEASUREMENT_KINDS:
+    for kind in MEASUREMENT_KINDS + placed_kinds(result.measurements):
         if kind.name not in ("imu", "gps") and kind.name in result.measurements:
             columns = kind.residuals(result)
             if columns is not None:

@@ -35,6 +35,7 @@ from casrecon.io.problem import (
     SimulationConfig,
     TruthConfig,
 )
+from casrecon.io.sample_sensors import sample_sensor_tables
 from casrecon.io.truth_errors import TruthErrors
 from casrecon.physics.aero import DISPERSION_NAMES, AnalyticCoefficients, DispersionSizes, SpinVanes
 
@@ -257,7 +258,7 @@ SIX_DOF = FileKind(
             note="Optional: the dispersed Monte Carlo of `casrecon montecarlo` (not `--estimator`), each "
                  "dispersion a zero-mean Gaussian of this 1-sigma about the centre; `--cases`, `--seed` and "
                  "`--center` override the table."),
-    ),
+    ) + sample_sensor_tables("sensors."),
 )
 
 VEHICLE = FileKind(

@@ -7,6 +7,7 @@ from casrecon.io.config_records import REQUIRED, FileKind, Table
 from casrecon.io.config_reference_shared import DYNAMICS_TABLE, SITE_TABLE, gps_error_keys, key
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.pointmass_problem import DragConfig, GpsQuality, ModelErrorConfig, PointMassConfig, SegmentConfig
+from casrecon.io.sample_sensors import sample_sensor_tables
 
 #: The fix-quality and GPS error-model keys of the [gps] table of both problems.
 _QUALITY_KEYS = (
@@ -194,5 +195,5 @@ KINEMATIC = FileKind(
             key("max_iter", "int", "", "Ipopt iteration limit", 100, attr="max_iter"),
             key("tol", "float", "", "Ipopt tolerance", 1e-8, attr="tol"),
         )),
-    ),
+    ) + sample_sensor_tables(""),
 )

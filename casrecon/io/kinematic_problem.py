@@ -35,6 +35,7 @@ from casrecon.io.gps_rules import GpsQuality, gps_date, gps_error_model, velocit
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.problem import parse_dynamics, parse_site
 from casrecon.io.problem_file import problem_document
+from casrecon.io.sample_sensors import parse_sample_sensors
 from casrecon.io.toml_fields import Fields, TomlDocument
 from casrecon.physics.dynamics import DynamicsOptions, Site
 from casrecon.physics.sensor_errors import GpsErrorModel
@@ -108,6 +109,7 @@ class KinematicConfig:
     max_iter: int
     tol: float
     humidity: bool = True  # the sounding's dewpoints in its density (false: dry air)
+    sample_sensors: tuple[tuple[str, object], ...] = ()  # registered [X] tables: io.sample_sensors
 
 
 def _imu_spec(t: Fields) -> ImuCsvSpec | None:
@@ -177,7 +179,8 @@ def load_kinematic(source: str | Path | TomlDocument) -> KinematicConfig:
         start_s=start, end_s=end, max_node_spacing_s=est.number("max_node_spacing_s", 0.5, positive=True),
         clock_sigma_s=est.number("clock_sigma_s", 0.0, minimum=0.0),
         linear_solver=est.string("linear_solver", "mumps", choices=("mumps", "spral")),
-        max_iter=est.integer("max_iter", 100, 1), tol=est.number("tol", 1e-8, positive=True))
+        max_iter=est.integer("max_iter", 100, 1), tol=est.number("tol", 1e-8, positive=True),
+        sample_sensors=parse_sample_sensors(f))
     for t in (head, atm, imu, gps, seg, est, f, *([baro] if baro is not None else [])):
         t.reject_unknown()
     return cfg

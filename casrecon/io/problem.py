@@ -35,6 +35,7 @@ from casrecon.io.gps_rules import gps_error_model, velocity_sigma
 from casrecon.io.imu import ImuCsvSpec
 from casrecon.io.montecarlo_config import MonteCarloConfig, parse_montecarlo
 from casrecon.io.problem_file import problem_document
+from casrecon.io.sample_sensors import parse_sample_sensors
 from casrecon.io.toml_fields import Fields, TomlDocument
 from casrecon.io.truth_errors import TruthErrors, read_truth_errors
 from casrecon.io.vehicle_files import load_aero, load_vehicle
@@ -149,6 +150,7 @@ class ProblemConfig:
     sources: dict[str, str] = field(default_factory=dict)
     baro: BaroConfig | None = None
     montecarlo: MonteCarloConfig = field(default_factory=MonteCarloConfig)
+    sample_sensors: tuple[tuple[str, object], ...] = ()  # registered [sensors.X] tables: io.sample_sensors
 
     @property
     def folder(self) -> Path:
@@ -180,6 +182,7 @@ def load_problem(source: str | Path | TomlDocument) -> ProblemConfig:
         sources={"problem": str(path.resolve()), "vehicle": str(vehicle_path), "aero": str(aero_path)},
         baro=parse_baro(sensors.table("baro")),
         montecarlo=parse_montecarlo(f.table("montecarlo") or Fields({}, path, "montecarlo.")),
+        sample_sensors=parse_sample_sensors(sensors),
     )
     for t in (head, sensors, f):
         t.reject_unknown()

@@ -20,6 +20,7 @@ def fit_kinematic_problem(problem: str | Path | TomlDocument, options: FitOption
         The fit failed, or the data cannot be fitted (the message says why).
     """
     from casrecon.analysis.fit_adequacy import kinematic_adequacy
+    from casrecon.estimation.kinds.sample_registry import kinematic_sample_kinds
     from casrecon.estimation.kinematic.fit import fit_kinematic
     from casrecon.estimation.kinematic.inputs import inputs_from_config
     from casrecon.io.kinematic_problem import load_kinematic
@@ -27,7 +28,8 @@ def fit_kinematic_problem(problem: str | Path | TomlDocument, options: FitOption
 
     cfg = load_kinematic(problem)
     data, fit_options = inputs_from_config(cfg)
-    result = fit_kinematic(data, fit_options, print_level=options.print_level)
+    result = fit_kinematic(data, fit_options, print_level=options.print_level,
+                           sample_kinds=kinematic_sample_kinds(cfg))
     adequacy = kinematic_adequacy(result)
     report = kinematic_report(result, cfg.name, adequacy)
     return KinematicFit.from_fit(result, report, cfg.site, cfg.path, cfg.name, adequacy.to_dict())

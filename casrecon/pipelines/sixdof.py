@@ -33,12 +33,13 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
         The fit (or the kinematic check's reconstruction) failed; the message says why.
     """
     from casrecon.analysis.fit_products import fit_products
+    from casrecon.estimation.kinds.sample_registry import sixdof_sample_kinds
     from casrecon.estimation.sixdof.fit import FitError, fit_drop
     from casrecon.report.fit_report import fit_report
 
     t0 = time.perf_counter()
     scenario = problem if isinstance(problem, Scenario) else Scenario.load(problem)
-    result = fit_drop(scenario, **options.solver_overrides)
+    result = fit_drop(scenario, **options.solver_overrides, sample_kinds=sixdof_sample_kinds(scenario.config))
     products = fit_products(result, concurrent=options.concurrent)
     report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
     check = None

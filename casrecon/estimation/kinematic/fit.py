@@ -4,8 +4,9 @@ noise is the process noise, and fixes and barometer samples observe the states. 
 model is needed (docs/design.md: Kinematic reconstruction).
 
 Unknowns: the IMU's position, velocity and attitude at every node, the IMU error parameters
-(biases and scale factors with priors), optionally the clock offset of the fixes and the barometer
-bias, and with a GPS error model the correlated part of each fix's error. Nodes sit on the fixes
+(biases and scale factors with priors), optionally the clock offset of the fixes, the barometer
+bias and the parameters of sample kinds (:mod:`.samples`, after the others), and with a GPS error
+model the correlated part of each fix's error. Nodes sit on the fixes
 (plus the window's ends, and more where fixes are further apart than ``max_node_spacing_s``).
 A unit-norm constraint per node fixes each quaternion's scale; everything else is least squares,
 solved by Levenberg-Marquardt on the unit quaternions (:mod:`.solve`: Gauss-Newton steps
@@ -21,6 +22,7 @@ covariance is the z-block of the inverse KKT matrix, computed without it
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import casadi as ca
@@ -35,8 +37,10 @@ from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.kinds.priors import prior_terms
+from casrecon.estimation.kinds.samples import SampleKind, check_kinds
 from casrecon.estimation.kinematic.covariance import GaugeCovariance
 from casrecon.estimation.kinematic.data import KinematicData, KinematicOptions, local_line
+from casrecon.estimation.kinematic.samples import CLOCK, sample_parameters, sample_terms
 from casrecon.estimation.kinematic.solve import LmResult, levenberg_marquardt
 from casrecon.estimation.kinematic.terms import (
     KINEMATIC_SCALE,
@@ -65,7 +69,6 @@ HEADING_SPAN_S = 10.0
 LEVEL_WINDOW_S = 1.0
 #: Nodes closer than this to the previous one are merged into it, s.
 MIN_NODE_SPACING_S = 1e-3
-CLOCK = "clock_offset_s"
 #: A clock offset estimated further than this from the guess the fixes were placed with (s) becomes
 #: the new guess, and the fit is repeated with the nodes on the fixes' times under it: the fix
 #: model carries a node's state over the difference with the IMU values at the node, which over
@@ -157,7 +160,7 @@ def node_times(data: KinematicData, max_spacing_s: float) -> np.ndarray:
     return np.concatenate(filled)
 
 
-def _parameters(options: KinematicOptions, has_baro: bool) -> tuple[ParameterSet, np.ndarray]:
+def _parameters(options: KinematicOptions, has_baro: bool, extra=()) -> tuple[ParameterSet, np.ndarray]:
     sig = options.imu_prior_sigmas
     estimated = np.flatnonzero(sig > 0)
     units = ["rad/s"] * 3 + ["m/s^2"] * 3 + ["-"] * 6 + ["rad"] * 12
@@ -169,7 +172,7 @@ def _parameters(options: KinematicOptions, has_baro: bool) -> tuple[ParameterSet
         specs.append(ParameterSpec(BARO_BIAS, "baro", s, s, "Pa"))
         s = options.baro_height_scale_sigma
         specs.append(ParameterSpec(BARO_SCALE, "baro", s, s, "-"))
-    return ParameterSet(tuple(specs)), estimated
+    return ParameterSet(tuple(specs) + tuple(extra)), estimated
 
 
 def _dm(arrays) -> list:
@@ -265,10 +268,12 @@ def _smooth_derivative(t: np.ndarray, x: np.ndarray, span_s: float = 1.0) -> np.
     return out
 
 
-def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: int = 0) -> KinematicResult:
+def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: int = 0,
+                  sample_kinds: Sequence[SampleKind] = ()) -> KinematicResult:
     """Reconstruct position, velocity and attitude with 3-sigma bands from the IMU record driving
-    the states and the fixes (and barometer) observing them; with a clock offset estimated, the
-    nodes end on the fixes' times under the estimated offset (:data:`CLOCK_REPLACE_S`).
+    the states and the fixes (and barometer, and ``sample_kinds``: :mod:`.samples`, lever arms from
+    the IMU in IMU axes) observing them; with a clock offset estimated, the nodes end on the fixes'
+    times under the estimated offset (:data:`CLOCK_REPLACE_S`).
 
     Raises
     ------
@@ -276,7 +281,9 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
         No convergence, or a singular KKT matrix.
     """
     t_start = time.perf_counter()
-    result = _fit_placed(data, options, print_level)
+    kinds = check_kinds(sample_kinds, ("imu", "gps", "gps_error", "gps_error_start", "baro", "quaternion_norm",
+                                       *_parameters(options, data.baro_time_s is not None)[0].names))
+    result = _fit_placed(data, options, print_level, kinds=kinds)
     for placement in range(1, CLOCK_REPLACEMENTS + 1):
         if CLOCK not in result.params.names:
             break
@@ -286,7 +293,7 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
         earlier = result.timings["earlier_iterations"] + result.solver.iterations
         data = replace(data, fix_time_s=data.fix_time_s + options.clock_guess_s - clock)
         options = replace(options, clock_guess_s=clock)
-        result = _fit_placed(data, options, print_level, previous=result)
+        result = _fit_placed(data, options, print_level, previous=result, kinds=kinds)
         result.timings["earlier_iterations"] += earlier
         result.notes = result.notes + (f"fixes placed again at the estimated clock offset {clock:+.4f} s "
                                        f"(placement {placement + 1})",)
@@ -295,7 +302,7 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
 
 
 def _fit_placed(data: KinematicData, options: KinematicOptions, print_level: int,
-                previous: KinematicResult | None = None) -> KinematicResult:
+                previous: KinematicResult | None = None, kinds: tuple[SampleKind, ...] = ()) -> KinematicResult:
     """:func:`fit_kinematic` with the fixes where ``data`` and ``options.clock_guess_s`` put them;
     from ``previous`` (its states interpolated to the new nodes, its parameters), without the
     inflated-noise starts, when given."""
@@ -306,7 +313,7 @@ def _fit_placed(data: KinematicData, options: KinematicOptions, print_level: int
     pre = preintegrate(data.imu_time_s, gyro, accel, nodes, gyro_sigma, accel_sigma)
     _check_piece_rotation(data, gyro)
     has_baro = data.baro_time_s is not None and data.baro_time_s.size > 0
-    params, estimated = _parameters(options, has_baro)
+    params, estimated = _parameters(options, has_baro, sample_parameters(kinds))
     k, n_int = nodes.size, nodes.size - 1
     theta_cols = N_STATE * k + np.arange(params.n)
     imu_cols = theta_cols[:estimated.size]
@@ -318,6 +325,7 @@ def _fit_placed(data: KinematicData, options: KinematicOptions, print_level: int
     fix_terms, n_z, e_cols = _fix_terms(data, options, nodes, params, estimated, theta_cols, state_cols, gyro, accel,
                                               n_z)
     other_terms = fix_terms + ([_baro_term(data, options, nodes, params, theta_cols, state_cols)] if has_baro else [])
+    other_terms += sample_terms(kinds, data, options, nodes, params, theta_cols, state_cols)
     other_terms += prior_terms(params, theta_cols) + [unit_norm_term(state_cols[:, 6:10], "quaternion_norm")]
 
     def assemble(inflation: float, pre: Preintegrated) -> Nlp:

@@ -6,7 +6,9 @@ settings, data). Its residual groups come from the measurement kinds of :data:`M
 (the IMU kind's interval blocks also carry the collocation defects), then the priors, then the
 disturbance process when the weak constraint is on; one unit-norm constraint per drop keeps its
 first quaternion normalised (the defects carry the norm along the mesh). Adding a kind of
-measurement means adding a module under :mod:`casrecon.estimation.kinds` and listing it here.
+measurement means adding a module under :mod:`casrecon.estimation.kinds` and listing it here, or,
+for a sample kind (:mod:`casrecon.estimation.kinds.samples`), passing it to ``fit_drop``, which
+appends its adapter to these kinds (every function here takes the kinds as ``kinds``).
 """
 
 from __future__ import annotations
@@ -151,12 +153,14 @@ def parameter_names(layouts: list[DropLayout]) -> dict[int, str]:
     return dict(sorted(out.items()))
 
 
-def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-newton") -> FitNlp:
-    """The NLP of every drop's terms, plus one unit-norm constraint on each drop's first quaternion."""
+def assemble_drops(contexts: list[DropContext], n_z: int, hessian: str = "gauss-newton",
+                   kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> FitNlp:
+    """The NLP of every drop's terms (from ``kinds``), plus one unit-norm constraint on each drop's
+    first quaternion."""
     layouts = [c.layout for c in contexts]
     # one drop after the other: CasADi's symbolic constructions are not thread-safe (casadi#1355,
     # #3518; two drops' ca.jacobian on two threads aborted a test run)
-    terms = [t for context in contexts for t in drop_terms(context)]
+    terms = [t for context in contexts for t in drop_terms(context, kinds)]
     terms.append(unit_norm_term(np.array([lay.node_offset + QUATERNION for lay in layouts])))
     nlp = assemble_nlp(terms, n_z, dependent=np.concatenate([lay.dependent_cols for lay in layouts]),
                        parameter_names=parameter_names(layouts), hessian=hessian,
@@ -179,18 +183,20 @@ def node_stages(layouts: list[DropLayout], n_z: int) -> np.ndarray:
 def build_nlp(model: FlightModel, data: FitData, mesh: Mesh, params: ParameterSet, cfg: ProblemConfig,
               hessian: str = "gauss-newton", guess_clock_s: float | None = None,
               measurements: dict[str, object] | None = None, node_alt_msl_m: np.ndarray | None = None,
-              profile_prior_sigma: np.ndarray | None = None) -> FitNlp:
-    """The NLP of one drop. GPS fixes are put on collocation intervals for the clock offset
-    ``guess_clock_s`` (default: the configured guess). ``measurements`` are the kinds' data from
-    :func:`load_measurements` (read here when not given); ``node_alt_msl_m`` places the
-    atmosphere-profile grid and ``profile_prior_sigma`` sets its prior (see :func:`with_extra_columns`)."""
+              profile_prior_sigma: np.ndarray | None = None,
+              kinds: tuple[MeasurementKind, ...] = MEASUREMENT_KINDS) -> FitNlp:
+    """The NLP of one drop, of the measurement kinds ``kinds``. GPS fixes are put on collocation
+    intervals for the clock offset ``guess_clock_s`` (default: the configured guess).
+    ``measurements`` are the kinds' data from :func:`load_measurements` (read here when not given);
+    ``node_alt_msl_m`` places the atmosphere-profile grid and ``profile_prior_sigma`` sets its
+    prior (see :func:`with_extra_columns`)."""
     n_sv = NS * mesh.t_nodes.size
     guess = cfg.estimation.clock_offset_guess_s if guess_clock_s is None else guess_clock_s
     layout = DropLayout(cfg.name, mesh, params, 0, n_sv + np.arange(params.n), guess_clock_s=guess,
                         disturbance=cfg.estimation.disturbance, u_offset=n_sv + params.n)
     if measurements is None:
-        measurements = load_measurements(cfg, data)
-    layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.n_u_values,
+        measurements = load_measurements(cfg, data, kinds)
+    layout, n_z = with_extra_columns(layout, cfg, measurements, n_sv + params.n + layout.n_u_values, kinds,
                                      node_alt_msl_m=node_alt_msl_m, profile_prior_sigma=profile_prior_sigma)
     context = DropContext(model, cfg, layout, data, measurements)
-    return assemble_drops([context], n_z, hessian)
+    return assemble_drops([context], n_z, hessian, kinds)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,9 +26,12 @@ from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult
 from casrecon.estimation.error_models.error_model_sigma import estimate_error_sizes, gps_estimated
 from casrecon.estimation.error_models.profile_sigma import MAX_REFITS, profile_refit, refit_text
+from casrecon.estimation.kinds.base import MeasurementKind
+from casrecon.estimation.kinds.sample_terms import SampleTerms
+from casrecon.estimation.kinds.samples import SampleKind, check_kinds
 from casrecon.estimation.sixdof.bands import MAX_BAND_NODES, columns_of, trajectory_with_bands
 from casrecon.estimation.sixdof.continuation import clock_bounds, solve_fit, transferred
-from casrecon.estimation.sixdof.drop import FitNlp, build_nlp, load_measurements, parameter_set
+from casrecon.estimation.sixdof.drop import MEASUREMENT_KINDS, FitNlp, build_nlp, load_measurements, parameter_set
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.sixdof.initial_guess import initial_guess
 from casrecon.estimation.sixdof.layout import DropLayout
@@ -249,7 +252,7 @@ def prepare_drop(scenario: Scenario) -> tuple[FitData, Mesh]:
 
 def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: str | None = None,
              print_level: int = 0, solver: str | None = None, method: str | None = None,
-             information: str | None = None) -> FitResult:
+             information: str | None = None, sample_kinds: Sequence[SampleKind] = ()) -> FitResult:
     """Reconstruct one drop (see docs/design.md). Raises FitError when the result is not usable.
 
     ``linear_solver``, ``hessian``, ``solver``, ``method`` ("map" or "marginal") and
@@ -257,15 +260,18 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     With the atmosphere-profile model and ``[atmosphere] profile_sigma_from_data`` (the default), a
     MAP fit without disturbance states is made again with the profile sigmas the data say when they
     differ from the configured ones (:mod:`casrecon.estimation.error_models.profile_sigma`; the notes say so).
+    ``sample_kinds`` (:class:`~casrecon.estimation.kinds.samples.SampleKind`, centre of mass and body
+    axes) are fitted after the problem's own measurement kinds, their parameters after its own.
     """
     cfg = scenario.config
+    kinds = drop_kinds(cfg, sample_kinds)
     settings = FitSettings.from_estimation(cfg.estimation, linear_solver=linear_solver, hessian=hessian,
                                            print_level=print_level, solver=solver, method=method,
                                            information=information)
     t0 = time.perf_counter()
     data, mesh = prepare_drop(scenario)
-    params = parameter_set(cfg)
-    measurements = load_measurements(cfg, data)  # read once, not at every clock shift
+    params = parameter_set(cfg, kinds)
+    measurements = load_measurements(cfg, data, kinds)  # read once, not at every clock shift
     t_data = time.perf_counter()
     x0 = initial_guess(data, mesh, cfg.vehicle, scenario.atmosphere, cfg.site.ground_alt_msl_m)
     t1 = time.perf_counter()
@@ -276,7 +282,7 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
 
         def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
             return build_nlp(sc.model, data, mesh, params, sc.config, settings.hessian, guesses[cfg.name],
-                             measurements, altitudes.get(cfg.name), profile_prior_sigma=prior_sigma)
+                             measurements, altitudes.get(cfg.name), profile_prior_sigma=prior_sigma, kinds=kinds)
 
         t2 = time.perf_counter()
         fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: guess_clock_s}, settings)
@@ -296,6 +302,17 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     if not sizes_estimated(result) or result.part.n_u or settings.method == "marginal":
         return with_bands(result)
     return with_bands(with_profile_sigma_from_data(result, cfg, t0, fitted))
+
+
+def drop_kinds(cfg: ProblemConfig, sample_kinds: Sequence[SampleKind] = ()) -> tuple[MeasurementKind, ...]:
+    """The measurement kinds of a per-drop fit: :data:`~casrecon.estimation.sixdof.drop.MEASUREMENT_KINDS`,
+    then each sample kind's adapter (:class:`~casrecon.estimation.kinds.sample_terms.SampleTerms`);
+    ValueError when a sample kind's name or parameter names are taken."""
+    if not sample_kinds:
+        return MEASUREMENT_KINDS
+    taken = (tuple(k.name for k in MEASUREMENT_KINDS) + parameter_set(cfg).names
+             + ("gps_error", "gps_error_start", "unit_norm", "disturbance", "profile"))
+    return MEASUREMENT_KINDS + tuple(SampleTerms(k) for k in check_kinds(sample_kinds, taken))
 
 
 def sizes_estimated(result: FitResult) -> bool:
