@@ -261,7 +261,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 #: Commands whose ``problem`` argument ``_run`` reads once, as ``args.document``.
-_READS_ITS_PROBLEM = (_simulate, _fit, _sensitivity)
+_READS_ITS_PROBLEM = (_simulate, _fit, _sensitivity, montecarlo_command)
 
 OUT_HELP = "results folder: written atomically, kept on failure; an existing one only if casrecon wrote it"
 FORCE_HELP = ("replace an existing --out that casrecon did not write (or a file); never a folder holding "

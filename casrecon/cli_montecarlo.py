@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from casrecon.io.errors import InputError
+from casrecon.io.toml_fields import TomlDocument
 
 #: ``--cases`` of the estimator Monte Carlo when not given (the ``[montecarlo]`` table is the
 #: dispersed run's), and ``--seed``.
@@ -32,18 +33,19 @@ def montecarlo_command(args: argparse.Namespace) -> int:
         print("casrecon montecarlo: --method applies to the estimator Monte Carlo only (add --estimator)",
               file=sys.stderr)
         return 2
-    return run_montecarlo_command(Path(args.problem), Path(args.out), args.cases, args.seed, args.workers,
+    return run_montecarlo_command(args.document, Path(args.out), args.cases, args.seed, args.workers,
                                   args.scheduler, dt_s=args.dt, center=args.center, figures=not args.no_figures,
                                   formats=args.formats, force=args.force, progress=not args.quiet)
 
 
-def run_montecarlo_command(problem: Path, out: Path, cases: int | None, seed: int | None, workers: int,
-                           scheduler: str | None, *, dt_s: float = 0.02, chunk_size: int | None = None,
+def run_montecarlo_command(problem: Path | TomlDocument, out: Path, cases: int | None, seed: int | None,
+                           workers: int, scheduler: str | None, *, dt_s: float = 0.02, chunk_size: int | None = None,
                            center: str | None = None, figures: bool = True, progress: bool = True,
                            backend: str = "auto", formats: Sequence[str] = ("png",), force: bool = False) -> int:
     """``casrecon montecarlo``: run and write ``out/`` atomically (``cases.csv``, ``envelopes.csv``,
     ``statistics.json``, ``figures/*`` in each of ``formats``); ``dt_s`` is the RK4 step, s (the Monte
-    Carlo default, :data:`casrecon.simulation.batch.DEFAULT_DT_S`); ``force`` as ``--force``.
+    Carlo default, :data:`casrecon.simulation.batch.DEFAULT_DT_S`); ``force`` as ``--force``. ``problem``:
+    its folder or ``problem.toml``, or the file as the command read it (not read again here).
     ``cases``, ``seed`` and ``center`` None take the problem's ``[montecarlo]`` table (its defaults
     without one), as do the dispersions. Returns 0, or 2 after printing one located line on bad
     input, an ``--out`` that may not be written, a scheduler that is malformed or unreachable, or
@@ -74,15 +76,16 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int | None, seed: in
         return bad(f"--center: must be 'truth' or 'nominal', got {center!r}")
     if scheduler is not None and (why := scheduler_problem(scheduler)) is not None:
         return bad(f"--scheduler {scheduler}: {why}")
+    where = problem.path if isinstance(problem, TomlDocument) else problem
     try:
         sc = Scenario.load(problem)
     except InputError as err:
         print(f"casrecon: {err}", file=sys.stderr)
         return 2
     except FileNotFoundError as err:
-        return bad(f"{problem}: {err.strerror or err}")
+        return bad(f"{where}: {err.strerror or err}")
     if sc.config.release.h_agl_m <= 0:
-        return bad(f"{problem}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
+        return bad(f"{where}: field 'release.h_agl_m': must be above ground to fly, got {sc.config.release.h_agl_m}")
     table = sc.config.montecarlo
     cases = table.cases if cases is None else cases
     seed = table.seed if seed is None else seed
@@ -99,7 +102,7 @@ def run_montecarlo_command(problem: Path, out: Path, cases: int | None, seed: in
         print(f"casrecon: {err}", file=sys.stderr)
         return 2
     try:
-        result = run_montecarlo(problem, cases, seed, disp, workers=workers, scheduler=scheduler,
+        result = run_montecarlo(sc, cases, seed, disp, workers=workers, scheduler=scheduler,
                                 chunk_size=chunk_size, dt_s=dt_s, backend=backend, progress=progress)
     except OSError as err:
         if scheduler is not None:
@@ -139,7 +142,7 @@ def estimator_montecarlo_command(args: argparse.Namespace) -> int:
     if args.scheduler is not None and (why := scheduler_problem(args.scheduler)) is not None:
         print(f"casrecon montecarlo --estimator: --scheduler {args.scheduler}: {why}", file=sys.stderr)
         return 2
-    Scenario.load(Path(args.problem))  # a bad problem fails here, located, before any worker starts
+    Scenario.load(args.document)  # a bad problem fails here, located, before any worker starts
     t0 = time.perf_counter()
     try:
         res = estimator_montecarlo(Path(args.problem), cases, seed, args.workers, args.scheduler,

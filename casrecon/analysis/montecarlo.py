@@ -38,11 +38,13 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from casrecon.analysis.mc_envelopes import HISTORY_DT_S, HISTORY_MAX_CASES, Histories
 from casrecon.io.montecarlo_config import Dispersions
+from casrecon.io.toml_fields import TomlDocument
 from casrecon.parallel import parallel_map, report_progress
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import PARAMETER_NAMES
@@ -53,6 +55,9 @@ from casrecon.simulation.batch import (
     pad_histories,
     quats_from_euler_deg,
 )
+
+if TYPE_CHECKING:
+    from casrecon.scenario import Scenario
 
 LOG = logging.getLogger(__name__)
 
@@ -111,6 +116,19 @@ class ChunkTask:
 
 _CACHE: dict = {}
 _CACHE_LOCK = threading.Lock()
+#: The scenario this process loaded last for each problem file (resolved path): a run hands in the
+#: one it read, so that its in-process chunks do not read the file again.
+_SCENARIOS: dict = {}
+
+
+def use_scenario(problem: str, scenario) -> None:
+    """Let this process's chunks of ``problem`` (a resolved path) fly ``scenario`` (already loaded by the
+    caller) instead of reading the file again; simulators of an earlier scenario of it are dropped."""
+    with _CACHE_LOCK:
+        if _SCENARIOS.get(problem) is not scenario:
+            _SCENARIOS[problem] = scenario
+            for key in [k for k in _CACHE if k[0] == problem]:
+                del _CACHE[key]
 
 
 def _scenario_and_simulator(problem: str, dt_s: float, batch: int, backend: str):
@@ -119,7 +137,9 @@ def _scenario_and_simulator(problem: str, dt_s: float, batch: int, backend: str)
     key = (problem, dt_s, batch, backend)
     with _CACHE_LOCK:
         if key not in _CACHE:
-            sc = Scenario.load(problem)
+            sc = _SCENARIOS.get(problem)
+            if sc is None:
+                sc = _SCENARIOS[problem] = Scenario.load(problem)
             _CACHE[key] = (sc, BatchSimulator(sc.model, dt_s=dt_s, batch=batch, backend=backend))
         return _CACHE[key]
 
@@ -285,12 +305,15 @@ def memory_estimate_bytes(n_cases: int) -> int:
     return int(0.3e9 + max(int(n_cases), 0) * (3 * 8 * n_columns + 150))
 
 
-def run_montecarlo(problem: str | Path, n_cases: int | None = None, seed: int | None = None,
-                   dispersions: Dispersions | None = None, *, workers: int = 1, scheduler: str | None = None,
-                   chunk_size: int | None = None, dt_s: float = DEFAULT_DT_S, t_max_s: float = 300.0,
-                   backend: str = "auto", progress: bool = False, history_dt_s: float | None = HISTORY_DT_S,
-                   history_cases: int = HISTORY_MAX_CASES) -> MonteCarloResult:
-    """Cases 0 .. ``n_cases`` - 1 of ``seed``, plus the nominal (undispersed) flight.
+def run_montecarlo(problem: str | Path | TomlDocument | Scenario, n_cases: int | None = None,
+                   seed: int | None = None, dispersions: Dispersions | None = None, *, workers: int = 1,
+                   scheduler: str | None = None, chunk_size: int | None = None, dt_s: float = DEFAULT_DT_S,
+                   t_max_s: float = 300.0, backend: str = "auto", progress: bool = False,
+                   history_dt_s: float | None = HISTORY_DT_S, history_cases: int = HISTORY_MAX_CASES
+                   ) -> MonteCarloResult:
+    """Cases 0 .. ``n_cases`` - 1 of ``seed``, plus the nominal (undispersed) flight, of ``problem`` (its
+    folder or ``problem.toml``, parsed or not, or its loaded Scenario: read once in this process;
+    worker processes read it once each).
 
     ``n_cases``, ``seed`` and ``dispersions`` default to the problem's ``[montecarlo]`` table
     (:class:`~casrecon.io.montecarlo_config.MonteCarloConfig`; without it 1000 cases, seed 0 and
@@ -304,7 +327,9 @@ def run_montecarlo(problem: str | Path, n_cases: int | None = None, seed: int | 
     """
     from casrecon.scenario import Scenario
 
-    sc = Scenario.load(problem)
+    sc = problem if isinstance(problem, Scenario) else Scenario.load(problem)  # the one read in this process
+    problem = str(sc.config.path)
+    use_scenario(problem, sc)
     table = sc.config.montecarlo
     n_cases = table.cases if n_cases is None else n_cases
     seed = table.seed if seed is None else seed

@@ -99,11 +99,14 @@ def parsed_files(monkeypatch):
     ["fit", "{P}/realdata-fs2-chicago-kinematic"],
     ["joint", "{P}/ees-drop-1", "{P}/ees-drop-2", "--no-single"],
     ["simulate", "{P}/ees-drop-2"],
+    ["sensitivity", "fisher", "{P}/ees-drop-2"],
+    ["montecarlo", "{P}/ees-drop-2", "--cases", "4", "--workers", "1"],
 ])
 def test_a_command_parses_each_problem_file_once(argv, parsed_files, tmp_path):
     args = [a.replace("{P}", str(PROBLEMS)) for a in argv]
-    assert main([*args, "--out", str(tmp_path / "out"), *(["--no-figures", "--quiet"] if argv[0] != "simulate"
-                                                          else [])]) == 0
+    quiet = {"fit": ["--no-figures", "--quiet"], "joint": ["--no-figures", "--quiet"],
+             "montecarlo": ["--no-figures", "--quiet"]}.get(argv[0], [])
+    assert main([*args, "--out", str(tmp_path / "out"), *quiet]) == 0
     problems = [p for p in parsed_files if p.name == "problem.toml"]
     assert problems, "the count must see the problem files"
     assert sorted(problems) == sorted(set(problems)), f"parsed more than once: {problems}"
