@@ -15,7 +15,6 @@ import shutil
 from pathlib import Path
 
 from casrecon.analysis.adequacy import Adequacy
-from casrecon.analysis.fit_adequacy import pointmass_adequacy
 from casrecon.io.gps_rules import ned_to_geodetic
 from casrecon.io.units import GEODETIC, GPS_COMPONENT_UNITS, TIME_UNIX, UTC, utc_text
 from casrecon.output.columns import write_table
@@ -33,7 +32,7 @@ def _model_summary(r) -> dict:
             "timings": r.timings}
 
 
-def write_pointmass_results(out: Path, main, constant, report_text: str, adequacy: Adequacy | None = None) -> None:
+def write_pointmass_results(out: Path, main, constant, report_text: str, adequacy: Adequacy) -> None:
     """Write the folder into ``out`` (an atomic temporary folder).
 
     Parameters
@@ -44,9 +43,9 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
         The fitted model and the constant-drag model (the same object when the model is constant).
     report_text : str
         Written as ``report.txt`` (:func:`casrecon.report.pointmass_report.pointmass_report`).
-    adequacy : Adequacy, optional
-        The model-adequacy verdict of ``main`` for ``summary.json`` (``adequacy``); the
-        deterministic :func:`~casrecon.analysis.fit_adequacy.pointmass_adequacy` of ``main`` when None.
+    adequacy : Adequacy
+        The model-adequacy verdict of ``main`` (:func:`~casrecon.analysis.fit_adequacy.pointmass_adequacy`)
+        for ``summary.json`` (``adequacy``).
     """
     out = Path(out)
     t0 = main.t_unix[0]
@@ -79,7 +78,7 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
         "fit": _model_summary(main), "constant_drag": _model_summary(constant),
         "segment_utc_unix_s": [float(main.t_unix[0]), float(main.t_unix[-1])], "notes": list(main.notes),
         "mass_kg": main.config.mass_kg, "total_s": main.timings["total_s"] + constant.timings["total_s"],
-        "adequacy": (adequacy if adequacy is not None else pointmass_adequacy(main)).to_dict()})
+        "adequacy": adequacy.to_dict()})
     (out / "report.txt").write_text(report_text + "\n")
     config_dir = out / "config"
     config_dir.mkdir()

@@ -19,9 +19,11 @@ def fit_point_mass(problem: str | Path | TomlDocument, options: FitOptions = DEF
     FitError, FitDataError
         The fit failed, or the data cannot be fitted (the message says why).
     """
+    from casrecon.analysis.fit_adequacy import pointmass_adequacy
     from casrecon.estimation.pointmass.fit import fit_with_comparison
     from casrecon.io.pointmass_problem import load_point_mass
     from casrecon.report.pointmass_report import pointmass_report
 
     main, constant = fit_with_comparison(load_point_mass(problem), print_level=options.print_level)
-    return PointMassFit.from_fit(main, constant, pointmass_report(main, constant))
+    adequacy = pointmass_adequacy(main)  # once: the report and summary.json read this verdict
+    return PointMassFit.from_fit(main, constant, pointmass_report(main, constant, adequacy), adequacy)

@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from casrecon.analysis.adequacy import Adequacy
+from casrecon.analysis.fit_adequacy import pointmass_adequacy
 from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
 from casrecon.output.pointmass_results import write_pointmass_results
@@ -57,6 +59,9 @@ class PointMassFit(FolderViews):
     report_text : str
     fit, constant : PointMassResult or None
         The estimator's results (None when loaded).
+    fit_verdict : Adequacy or None
+        The verdict of a fresh fit as computed (what :attr:`adequacy` reads back from ``summary``);
+        None when loaded.
     source : Path or None
         The folder a loaded result came from.
     """
@@ -64,17 +69,21 @@ class PointMassFit(FolderViews):
     fit: PointMassResult | None = None
     constant: PointMassResult | None = None
     source: Path | None = None
+    fit_verdict: Adequacy | None = None
 
     @classmethod
-    def from_fit(cls, main: PointMassResult, constant: PointMassResult, report_text: str) -> PointMassFit:
+    def from_fit(cls, main: PointMassResult, constant: PointMassResult, report_text: str,
+                 adequacy: Adequacy | None = None) -> PointMassFit:
         """Wrap the fitted and the constant-drag results (through their results files, so a fresh
-        and a loaded result hold the same tables)."""
+        and a loaded result hold the same tables) and the fitted model's verdict (computed here from
+        ``main`` when not given)."""
+        adequacy = pointmass_adequacy(main) if adequacy is None else adequacy
         with tempfile.TemporaryDirectory(prefix="casrecon-pm-") as tmp:
-            write_pointmass_results(Path(tmp), main, constant, report_text)
+            write_pointmass_results(Path(tmp), main, constant, report_text, adequacy)
             loaded = cls.load(tmp)
         return cls(name=loaded.name, params=loaded.params, trajectory=loaded.trajectory,
                    residuals=loaded.residuals, summary=loaded.summary, report_text=loaded.report_text,
-                   fit=main, constant=constant)
+                   fit=main, constant=constant, fit_verdict=adequacy)
 
     @classmethod
     def load(cls, folder: str | Path) -> PointMassFit:
@@ -127,7 +136,7 @@ class PointMassFit(FolderViews):
         ``casrecon fit`` inside its atomic folder). ValueError for a loaded result."""
         if self.fit is None or self.constant is None:
             raise ValueError(f"{self.name}: a loaded result has no fit to write; save() copies its folder")
-        write_pointmass_results(out, self.fit, self.constant, self.report_text)
+        write_pointmass_results(out, self.fit, self.constant, self.report_text, self.fit_verdict)
 
     def draw(self, out: Path, formats: Sequence[str] | None = None, notes: list[str] | None = None) -> None:
         """Draw the track-fit figure of the folder ``out`` into ``out/figures``, in each of ``formats``
