@@ -55,6 +55,23 @@ def test_the_api_and_the_command_line_write_the_same_folder(problem, options, fl
         assert (api / "kinematic_check.json").is_file() and "kinematic check" in (api / "report.txt").read_text()
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("problem", sorted(p.parent.name for p in PROBLEMS.glob("*/problem.toml")))
+def test_every_shipped_problem_writes_the_same_folder_through_the_api_and_the_command_line(problem, tmp_path):
+    """Every shipped problem (the default suite does one of each kind above): about 5 minutes in all."""
+    api = casrecon.fit(PROBLEMS / problem).save(tmp_path / "api")
+    assert main(["fit", str(PROBLEMS / problem), "--out", str(tmp_path / "cli"), "--no-figures", "--quiet"]) == 0
+    assert differing_files(api, tmp_path / "cli") == []
+
+
+@pytest.mark.slow
+def test_the_shipped_joint_file_writes_the_same_folder_through_the_api_and_the_command_line(tmp_path):
+    joint = PROBLEMS / "ees-joint.toml"
+    api = casrecon.fit_joint(joint).save(tmp_path / "api")
+    assert main(["joint", str(joint), "--out", str(tmp_path / "cli"), "--no-figures", "--quiet"]) == 0
+    assert differing_files(api, tmp_path / "cli") == []
+
+
 def test_the_joint_api_and_the_command_line_write_the_same_folder(tmp_path):
     drops = [str(PROBLEMS / "ees-drop-1"), str(PROBLEMS / "ees-drop-2")]
     api = casrecon.fit_joint(drops, name="pair", single=False, solver="auto").save(tmp_path / "api")
