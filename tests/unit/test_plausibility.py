@@ -32,6 +32,9 @@ def test_the_shipped_estimate_is_plausible():
     part) included, is within the limits: it is refitted with as before."""
     assert implausible(estimate(), 300.0, (20.0, 2.0)) == ()
     assert implausible(estimate(wind=1.0, density=0.01, length=900.0), 300.0, (20.0, 2.0)) == ()
+    # a smooth error smaller than the configured one (a sounding's temperature off by a share growing
+    # with height) is what the longest length is searched for
+    assert implausible(estimate(wind=0.0, density=0.003, length=3000.0), 300.0, (20.0, 2.0)) == ()
 
 
 def test_a_gps_accuracy_scale_beyond_a_receiver_names_the_clock():
