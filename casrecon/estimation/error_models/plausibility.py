@@ -15,10 +15,11 @@ Limits:
 
 - GPS accuracy scale (the estimated model's position or velocity 1-sigma over the receiver's own
   hAcc / vAcc / sAcc) outside [1 / :data:`MAX_ACCURACY_SCALE`, :data:`MAX_ACCURACY_SCALE`]: a
-  receiver's accuracy figures are its own 1-sigma-class estimates, and the shipped real FlySight
-  tracks' innovations lie within a factor 2 of them (realdata problems, ``[gps]`` comments); a
-  factor 3 either way is a clock, a datum or a unit, not a receiver (1 s of clock error at 40 m/s
-  of descent is 40 m against vAcc 2.5 m; hAcc in mm read as m is 1000).
+  receiver's accuracy figures are its own 1-sigma-class estimates, and on the shipped real FlySight
+  tracks every velocity channel's innovation reduced chi-square lies in [0.5, 2] under their error
+  description (realdata problems, ``[gps]`` comments), a scale of 0.7 to 1.4; a factor 3 either
+  way is a clock, a datum or a unit, not a receiver (1 s of clock error at 40 m/s of descent is
+  40 m against vAcc 2.5 m; hAcc in mm read as m is 1000).
 - A GPS correlation time at the longest searched (``gps_error_sigma.TIME_FACTORS`` times the
   configured one): an error that holds over the whole drop.
 - A profile group's sigma at the top of its search (``profile_sigma.MAX_RATIO`` times the fit's),
