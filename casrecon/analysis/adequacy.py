@@ -169,7 +169,8 @@ HINTS = {
                  "does not describe this receiver ([sensors.gps] / [gps] *_error_time_s, *_correlated_fraction)",
     "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
              "moved parameters far to make up for it",
-    "ground": "the site's ground altitude or the GPS height is wrong",
+    "ground": "the site's ground altitude or the GPS height is wrong, or the IMU clock ([sensors.imu.clock] "
+              "utc_at_zero): a clock error moves the impact along the descent",
     "pessimistic": "those sigmas are pessimistic for these data (a receiver's accuracy estimate, a noise figure "
                    "given as an upper bound, a GPS error model whose white part is larger than the receiver's), so "
                    "these channels weigh too little and the bands are wider than the data need",
@@ -238,7 +239,8 @@ def _small_scale(tests: list[ChannelTest]) -> tuple[list[str], str]:
 def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.ndarray, prior_sigma: np.ndarray,
            posterior_cov: np.ndarray, units: list[str] | None = None, ground: GroundCheck | None = None,
            alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = (), gps_model: bool = False,
-           prior_hint: str = HINTS["prior"], processes: tuple[ProcessPrior, ...] = ()) -> Adequacy:
+           prior_hint: str = HINTS["prior"], processes: tuple[ProcessPrior, ...] = (),
+           gross: tuple[str, ...] = ()) -> Adequacy:
     """The verdict of one fit.
 
     Parameters
@@ -267,6 +269,10 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
         fit's inputs).
     processes : tuple of ProcessPrior
         Prior processes whose size is tested (:mod:`casrecon.analysis.process_scale`).
+    gross : tuple of str
+        Gross errors found before the verdict, each with its likely cause (an error-model estimate
+        beyond :mod:`casrecon.estimation.error_models.plausibility`'s limits): each fails it, first
+        in the line. Not counted among the tests (a limit, not a probability).
 
     Returns
     -------
@@ -289,6 +295,8 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     cautions, small = _small_scale(tests)
     process_reasons, process_items, process_cautions, process_small = process_findings(scales)
     reasons, items, cautions = reasons + process_reasons, items + process_items, cautions + process_cautions
+    if gross:
+        reasons, items = list(gross) + reasons, ["gross input error: " + "; ".join(gross)] + items
     small = "; ".join(([small] if small else []) + process_small)
     if not reasons:
         named = [f"{d.name} {d.z:+.1f} sigma" for d in deviations]

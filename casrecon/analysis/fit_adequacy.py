@@ -59,6 +59,9 @@ def impact_check(result) -> tuple[GroundCheck | None, tuple[str, ...]]:
     text = (f"height above the site's ground at the detected impact {at_impact:+.1f} m (last node {h[-1]:.1f} m, "
             f"{dt:.2f} s earlier, descending {vel_d:.1f} m/s); accepted within {limit:.1f} m "
             f"(3-sigma {3 * h_sigma[-1]:.1f} m + {GROUND_TOLERANCE_M:g} m)")
+    if abs(at_impact) > limit and abs(vel_d) > 1.0:  # a clock error moves the impact along the descent
+        text += (f"; the miss is also what an IMU clock error of {abs(at_impact / vel_d):.2f} s would make "
+                 "([sensors.imu.clock] utc_at_zero)")
     return GroundCheck("impact", at_impact, limit, text), ()
 
 
@@ -107,7 +110,7 @@ def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAM
         notes += ("the Gauss-Markov priors of the disturbance states are not tested",)
     gps_model = result.scenario.config.gps.error_model.enabled
     return assess(drop_channels(imu, gps, others), names, values, prior_sigma, post, units, ground, alpha, notes,
-                  gps_model, processes=profile_priors(result))
+                  gps_model, processes=profile_priors(result), gross=getattr(result, "gross_errors", ()))
 
 
 def profile_priors(result) -> tuple[ProcessPrior, ...]:

@@ -114,7 +114,9 @@ SIX_DOF = FileKind(
             key("profile_sigma_from_data", "bool", "", "Estimate the two profile sigmas and their correlation length "
                "(1/3 to 10 times profile_length_m) from the data after the fit (type-II maximum likelihood) and fit "
                "again with them where they differ from the configured ones by more than 25 % (without the profile "
-               "model when the data show none); per-drop MAP fits without disturbance states",
+               "model when the data show none); per-drop MAP fits without disturbance states. An estimate at the "
+               "longest length searched or at the top of a sigma's search is a gross input error (a sounding of "
+               "another day or place, a datum, the IMU clock): not fitted again with, the verdict not trusted",
                source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
             key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them (levels "
                "without one take the mixing ratio interpolated in altitude); false: dry air, p / (R_d T), as a "
@@ -181,7 +183,10 @@ SIX_DOF = FileKind(
             key("error_model_from_data", "bool", "", "After a MAP fit with a GPS error model, estimate its white "
                "and correlated sizes (position and velocity) and correlation times from the data (type-II maximum "
                "likelihood, with the atmosphere-profile sigmas) and refit with them while they change by more "
-               "than 25 %; false: the model as configured", source=GpsConfig, attr="gps.error_model_from_data"),
+               "than 25 %; false: the model as configured. An accuracy scale outside 1/3 to 3 times the receiver's "
+               "accuracies or a correlation time at the longest searched is a gross input error (the IMU clock, a "
+               "datum, units): not refitted with, the verdict not trusted", source=GpsConfig,
+               attr="gps.error_model_from_data"),
         ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc); the "
                 "error-model keys split that variance into a white and a time-correlated part.",
             required=True),

@@ -90,6 +90,8 @@ ALLOWED_CROSS_ROOM = frozenset({
     ("sixdof", "error_models.profile"),
     ("sixdof", "error_models.profile_sigma"),
     ("sixdof", "error_models.error_model_sigma"),
+    # ... and refuses to refit with sizes beyond the plausibility limits (a gross input error).
+    ("sixdof", "error_models.plausibility"),
     ("sixdof", "validation.data_checks"),
     # precheck (not data_checks) prepares each kind of problem's data as its fit would.
     ("validation.precheck", "sixdof.fitdata"),

@@ -25,6 +25,7 @@ from casrecon.estimation.engine.laplace import marginal_solution
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult
 from casrecon.estimation.error_models.error_model_sigma import estimate_error_sizes, gps_estimated
+from casrecon.estimation.error_models.plausibility import implausible, not_refitted_text
 from casrecon.estimation.error_models.profile_sigma import MAX_REFITS, profile_refit, refit_text
 from casrecon.estimation.kinds.base import MeasurementKind
 from casrecon.estimation.kinds.sample_terms import SampleTerms
@@ -76,6 +77,7 @@ class FitResult:
     residuals: np.ndarray              # whitened residual vector of ``nlp`` at ``z``
     notes: tuple[str, ...] = ()
     fit_nlp: FitNlp | None = None      # the NLP with its drops (joint fits: shared by every drop)
+    gross_errors: tuple[str, ...] = ()  # error-model estimates beyond the plausibility limits (verdict findings)
 
     @property
     def converged(self) -> bool:
@@ -327,7 +329,9 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
                                  fitted: Callable[..., FitResult]) -> FitResult:
     """The profile fit ``result`` made again with the profile sigmas the data say, until the estimate
     made on a fit agrees with the sigmas it was made with (at most MAX_REFITS refits; see
-    :mod:`casrecon.estimation.error_models.profile_sigma`); ``cfg`` is the problem's configuration, ``t0`` the
+    :mod:`casrecon.estimation.error_models.profile_sigma`). An estimate beyond the plausibility limits
+    (:mod:`casrecon.estimation.error_models.plausibility`) is not refitted with: the fit it was made
+    on stands, its ``gross_errors`` say why (a not-trusted verdict); ``cfg`` is the problem's configuration, ``t0`` the
     ``perf_counter`` at which the fit began, and ``fitted(scenario, start, guess_clock_s, prior,
     notes)`` makes one fit. The result's timings ``first_fit_s`` is the time of the fits before
     the last. A refit that fails leaves the fit before it, whose notes say why."""
@@ -345,6 +349,11 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
                 f"{'configured' if intended is None else 'last estimated'} ones",))
         if not estimate.differs_from(estimate.fitted if intended is None else intended):
             return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
+        findings = implausible(estimate, cfg.atmosphere.profile_length_m,
+                               (errors.position_time_s, errors.velocity_time_s))
+        if findings:  # a gross error in the inputs, not a model to refit with: this fit stands, flagged
+            return dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
+                                       gross_errors=result.gross_errors + findings)
         # from this fit's configuration: the problem's with the error models the refits before set
         refit_cfg, prior = profile_refit(result.scenario.config, estimate)
         before = result.fit_nlp
