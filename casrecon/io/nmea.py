@@ -63,10 +63,16 @@ KNOT_MPS = 1852.0 / 3600.0
 _SENTENCE = re.compile(r"\$([A-Z]{2})([A-Z]{3}),(.*)\*([0-9A-Fa-f]{2})")
 
 
+#: The start of an NMEA 0183 line: a standard sentence (talker and type, ``$GPGGA,``) or a proprietary
+#: one (``$P`` and the maker's code, ``$PVER,``, ``$PTH,``, ``$PUBX,``), which the reader skips.
+_NMEA_HEAD = re.compile(r"\$(?:[A-Z]{5}|P[A-Z0-9]{2,})[,*]")
+
+
 def is_nmea(lines: list[str]) -> bool:
-    """Whether the first non-blank lines look like NMEA 0183 (``$GPGGA,...``, ``$GNRMC,...``)."""
+    """Whether the first non-blank lines look like NMEA 0183 (``$GPGGA,...``, ``$GNRMC,...``, or a
+    logger's proprietary ``$P...`` sentences)."""
     heads = [ln.strip() for ln in lines[:20] if ln.strip()][:5]
-    return bool(heads) and sum(re.match(r"\$[A-Z]{5},", h) is not None for h in heads) >= max(1, len(heads) // 2)
+    return bool(heads) and sum(_NMEA_HEAD.match(h) is not None for h in heads) >= max(1, len(heads) // 2)
 
 
 @dataclass
@@ -107,6 +113,13 @@ class _Fields:
             raise self.error(name, f"expected a number, got {text[:20]!r}") from None
         if not math.isfinite(value):
             raise self.error(name, f"expected a finite number, got {text[:20]!r}")
+        return value
+
+    def dop(self, k: int, name: str) -> float:
+        """Field k as a dilution of precision (a ratio >= 0), NaN when blank."""
+        value = self.number(k, name)
+        if value < 0:
+            raise self.error(name, f"expected a dilution of precision >= 0, got {self.cell(k)[:20]!r}")
         return value
 
     def time_of_day(self, k: int) -> float | None:
@@ -153,7 +166,7 @@ def _parse(f: _Fields, sentence: str, v: dict) -> None:
         quality = f.number(5, "quality")
         v.setdefault("gga_quality", quality)
         v.setdefault("num_sv", f.number(6, "satellites"))
-        v.setdefault("hdop", f.number(7, "HDOP"))
+        v.setdefault("hdop", f.dop(7, "HDOP"))
         v.setdefault("h_msl", f.number(8, "altitude"))
     elif sentence == "RMC":
         v.setdefault("rmc_valid", f.cell(1) == "A" and f.cell(11)[:1] not in ("N", "E"))
@@ -171,7 +184,7 @@ def _parse(f: _Fields, sentence: str, v: dict) -> None:
             raise f.error("fix mode", f"expected 1, 2 or 3, got {f.cell(1)[:5]!r}")
         v.setdefault("gsa_mode", mode)
         for name, k in (("pdop", 14), ("hdop_gsa", 15), ("vdop", 16)):
-            v.setdefault(name, f.number(k, name.upper().split("_")[0]))
+            v.setdefault(name, f.dop(k, name.upper().split("_")[0]))
 
 
 def _date(f: _Fields) -> dt.date | None:

@@ -11,9 +11,9 @@ import pytest
 
 from casrecon.cli import main
 from casrecon.io.errors import InputError
-from casrecon.io.gps_files import read_gps_track
+from casrecon.io.gps_files import gps_file_kind, read_gps_track
 from casrecon.io.input_kind import input_kind
-from casrecon.io.nmea import FALLBACK_HDOP, SPEED_SIGMA_MPS, UERE_M, VDOP_PER_HDOP, read_nmea
+from casrecon.io.nmea import FALLBACK_HDOP, SPEED_SIGMA_MPS, UERE_M, VDOP_PER_HDOP, is_nmea, read_nmea
 
 
 def sentence(body: str) -> str:
@@ -128,6 +128,8 @@ def test_read_gps_track_and_input_kind(tmp_path):
     ([sentence("GPRMC,126519,A,4807.038,N,01131.000,E,022.4,084.4,230394,003.1,W")], 1, "GPRMC time", "hhmmss"),
     ([sentence("GPRMC,123519,A,4807.038,N,01131.000,E,022.4,084.4,320394,003.1,W")], 1, "GPRMC date", "ddmmyy"),
     ([sentence("GPRMC,123519,A,4807.038,N,01131.000,E,-2,084.4,230394,,")], 1, "GPRMC speed", "negative"),
+    ([sentence("GPGGA,123519,4807.038,N,01131.000,E,1,08,-2.83,545.4,M,46.9,M,,")], 1, "GPGGA HDOP", ">= 0"),
+    ([RMC, sentence("GPGSA,A,3,04,05,,09,12,,,24,,,,,2.5,1.3,-2.1")], 2, "GPGSA VDOP", ">= 0"),
     (epoch("120000.20") + epoch("120000.00"), 3, "time", "backwards"),
     (epoch("120000.20") + epoch("120000.40") + epoch("120000.20"), 5, "time", "backwards"),
 ])
@@ -140,3 +142,21 @@ def test_broken_files_located(tmp_path, capsys, lines, line, field, what):
     out = capsys.readouterr()
     assert out.err.strip().count("\n") == 0 and out.err.startswith(f"casrecon: {f}")
     assert "Traceback" not in out.err
+
+
+def test_a_log_whose_first_lines_are_proprietary_is_nmea(tmp_path, capsys):
+    """A logger's own ``$P...`` sentences (version, IMU, temperature) ahead of the fixes: recognised
+    as NMEA by inspect and the GPS readers, the proprietary lines skipped and counted."""
+    head = [sentence("PVER,logger 2.1"), sentence("PIMU,123519.00,0.01,-0.02,9.81,0.1,0.2,0.3"),
+            sentence("PTH,21.5,45.0"), sentence("PIMU,123519.10,0.01,-0.02,9.81,0.1,0.2,0.3")]
+    f = write(tmp_path, head + epoch("123519") + epoch("123520"))
+    assert gps_file_kind(f.read_text().splitlines()) == "nmea" and input_kind(f)[0] == "nmea"
+    track = read_nmea(f)
+    assert track.time_unix_s.size == 2 and any("other sentences" in n or "not NMEA" in n for n in track.notes)
+    assert main(["inspect", str(f)]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def test_a_file_of_other_dollar_lines_is_not_nmea():
+    assert not is_nmea(["$FLYS,1", "$VAR,FIRMWARE_VER,v2023.09.22", "$COL,GNSS,time,lat,lon"])
+    assert not is_nmea(["$P,1,2", "$PX,3"])  # a bare $P is no maker's code
