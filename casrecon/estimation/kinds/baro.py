@@ -24,11 +24,10 @@ import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
 from casrecon.estimation.kinds.base import DropContext
-from casrecon.estimation.kinds.gps import CLOCK, clock_offset
+from casrecon.estimation.kinds.gps import clock_offset, state_at_sample
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError
 from casrecon.estimation.sixdof.layout import BlockLocals
 from casrecon.estimation.sixdof.parameters import ParameterSpec
-from casrecon.estimation.sixdof.transcription import disturbance_selection, hermite
 from casrecon.io.baro import read_baro
 from casrecon.io.problem import ProblemConfig
 
@@ -91,18 +90,11 @@ class BaroKind:
         return BaroData(t[keep], log.pressure_pa[keep], baro.noise_pa, receiver)
 
     def terms(self, context: DropContext) -> list[Term]:
-        layout, model = context.layout, context.model
+        layout = context.layout
         samples: BaroData = context.measurements[self.name]
         loc = BlockLocals(layout)
         tau0, y = ca.SX.sym("tau0"), ca.SX.sym("p")
-        xk, xk1, theta, uk, uk1 = loc.split()
-        pk, pk1 = loc.point_params(theta, xk), loc.point_params(theta, xk1)
-        clock = loc.theta_of(theta, CLOCK, layout.guess_clock_s) if samples.receiver_clock else 0.0
-        tau = tau0 - clock / layout.mesh.h
-        sel = disturbance_selection(layout.active)
-        x = hermite(tau, layout.mesh.h, xk, model.rhs_d(xk, pk, sel @ uk), xk1, model.rhs_d(xk1, pk1, sel @ uk1))
-        p = loc.point_params(theta, x)
-        terms = model.terms(x, p, sel @ (uk + tau * (uk1 - uk)) if layout.n_u else None)
+        theta, _, terms = state_at_sample(context, loc, tau0, samples.receiver_clock)
         air = terms["air"]
         qbar = 0.5 * air.density * ca.sumsqr(terms["v_air_body"])
         r = (y - air.pressure - loc.theta_of(theta, BIAS) - loc.theta_of(theta, PORT) * qbar) / samples.noise_pa

@@ -24,7 +24,12 @@ from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.sixdof.fitdata import FitData
 from casrecon.estimation.sixdof.layout import BlockLocals
 from casrecon.estimation.sixdof.parameters import ParameterSpec
-from casrecon.estimation.sixdof.transcription import gps_function, selection_matrix
+from casrecon.estimation.sixdof.transcription import (
+    collocated_state,
+    disturbance_selection,
+    gps_function,
+    selection_matrix,
+)
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.sensor_errors import GpsErrorModel
 
@@ -113,6 +118,23 @@ def fix_sigma(data: FitData, errors: GpsErrorModel) -> np.ndarray:
     """(M, 6) 1-sigma of each fix's error the fit assumes: the reported accuracies times the error
     model's accuracy scales (inf where the file gives no such component)."""
     return data.gps_sigma * errors.scale[None, :]
+
+
+def state_at_sample(context: DropContext, loc: BlockLocals, tau0: ca.SX, receiver_clock: bool):
+    """What a two-node block sees at a sample's time: ``(theta, x, terms)``, the drop's parameters
+    (SI), its state (SI) on the collocation polynomial at fraction ``tau0`` of the interval (less the
+    clock offset over the interval length for a sample stamped on the receiver's clock, like a fix),
+    and the flight model's terms there (``air``, ``v_air_body``...), with the disturbances
+    interpolated to that time."""
+    layout, model = context.layout, context.model
+    xk, xk1, theta, uk, uk1 = loc.split()
+    pk, pk1 = loc.point_params(theta, xk), loc.point_params(theta, xk1)
+    clock = loc.theta_of(theta, CLOCK, layout.guess_clock_s) if receiver_clock else 0.0
+    tau = tau0 - clock / layout.mesh.h
+    sel = disturbance_selection(layout.active)
+    x = collocated_state(model, tau, layout.mesh.h, xk, xk1, pk, pk1, sel, uk, uk1)
+    p = loc.point_params(theta, x)
+    return theta, x, model.terms(x, p, sel @ (uk + tau * (uk1 - uk)) if layout.n_u else None)
 
 
 def clock_offset(result) -> float:

@@ -20,12 +20,11 @@ import numpy as np
 
 from casrecon.estimation.engine.blocks import BlockKind, BlockSet, Term
 from casrecon.estimation.kinds.base import DropContext
-from casrecon.estimation.kinds.gps import CLOCK, clock_offset
+from casrecon.estimation.kinds.gps import clock_offset, state_at_sample
 from casrecon.estimation.kinds.samples import BodyState, SampleKind
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError
 from casrecon.estimation.sixdof.layout import BlockLocals
 from casrecon.estimation.sixdof.parameters import ParameterSpec
-from casrecon.estimation.sixdof.transcription import disturbance_selection, hermite
 from casrecon.io.problem import ProblemConfig
 
 #: Samples closer than this to the fit window's ends are not used, s.
@@ -78,17 +77,12 @@ class SampleTerms:
         return PlacedSamples(t[keep], samples.values[keep], samples.sigma[keep], self)
 
     def terms(self, context: DropContext) -> list[Term]:
-        layout, model = context.layout, context.model
+        layout = context.layout
         placed: PlacedSamples = context.measurements[self.name]
         width = placed.values.shape[1]
         loc = BlockLocals(layout)
         tau0, y, inv = ca.SX.sym("tau0"), ca.SX.sym("y", width), ca.SX.sym("inv", width)
-        xk, xk1, theta, uk, uk1 = loc.split()
-        pk, pk1 = loc.point_params(theta, xk), loc.point_params(theta, xk1)
-        tau = tau0 - loc.theta_of(theta, CLOCK, layout.guess_clock_s) / layout.mesh.h
-        sel = disturbance_selection(layout.active)
-        x = hermite(tau, layout.mesh.h, xk, model.rhs_d(xk, pk, sel @ uk), xk1, model.rhs_d(xk1, pk1, sel @ uk1))
-        terms = model.terms(x, loc.point_params(theta, x), sel @ (uk + tau * (uk1 - uk)) if layout.n_u else None)
+        theta, x, terms = state_at_sample(context, loc, tau0, receiver_clock=True)
         air = terms["air"]
         state = BodyState(x[0:3], x[3:6], x[6:10], loc.layout_altitude(x), air.pressure, air.density,
                           terms["v_air_body"])

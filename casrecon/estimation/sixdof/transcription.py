@@ -75,6 +75,13 @@ def make_mesh(imu_time_s: np.ndarray, samples_per_interval: int) -> Mesh:
     return Mesh(t_nodes, dt * samples_per_interval, samples_per_interval)
 
 
+def collocated_state(model: FlightModel, tau, h, xk, xk1, pk, pk1, sel, uk, uk1):
+    """The state (SI) at fraction ``tau`` of an interval of length ``h`` on its collocation polynomial:
+    the cubic Hermite through the node states ``xk``, ``xk1`` and the model's derivatives there
+    (parameters ``pk``, ``pk1``; disturbances ``sel @ uk``, ``sel @ uk1``)."""
+    return hermite(tau, h, xk, model.rhs_d(xk, pk, sel @ uk), xk1, model.rhs_d(xk1, pk1, sel @ uk1))
+
+
 def hermite(tau, h, xk, fk, xk1, fk1):
     """Cubic Hermite state at fraction ``tau`` of an interval of length ``h``."""
     t2, t3 = tau * tau, tau * tau * tau
@@ -182,7 +189,7 @@ def gps_function(model: FlightModel, h: float, active=()) -> ca.Function:
     y, w = ca.SX.sym("y", 6), ca.SX.sym("w", 6)
     uk, uk1 = ca.SX.sym("uk", len(active)), ca.SX.sym("uk1", len(active))
     sel = disturbance_selection(active)
-    x = hermite(tau, h, xk, model.rhs_d(xk, pk, sel @ uk), xk1, model.rhs_d(xk1, pk1, sel @ uk1))
+    x = collocated_state(model, tau, h, xk, xk1, pk, pk1, sel, uk, uk1)
     pos, vel = gps_antenna_ned(model.vehicle, x[0:3], x[3:6], x[6:10], x[10:13])
     return ca.Function("gps", [xk, xk1, pk, pk1, tau, y, w, uk, uk1], [(y - ca.vertcat(pos, vel)) * w])
 
