@@ -67,7 +67,7 @@ def _strip(doc):
     return doc
 
 
-def _same_but_timings(a: Path, b: Path, roots: tuple[list[str], list[str]]) -> bool:
+def same_but_timings(a: Path, b: Path, roots: tuple[list[str], list[str]]) -> bool:
     """Whether two files agree once their source and output roots read ``<ROOT>``/``<OUT>`` and their
     timings are left out."""
     try:
@@ -87,23 +87,30 @@ def _same_but_timings(a: Path, b: Path, roots: tuple[list[str], list[str]]) -> b
     return text_a == text_b
 
 
-def compare(old: Path, new: Path) -> int:
-    roots = tuple((tree / ROOT_FILE).read_text().split() if (tree / ROOT_FILE).is_file() else []
-                  for tree in (old, new))
+def verdicts(old: Path, new: Path, roots: tuple[list[str], list[str]] = ([], [])) -> dict[Path, str]:
+    """Every results file of two trees (relative path) with its verdict: "identical", "timings only",
+    "different" or "missing" (in one tree only); ``roots``: each tree's source and output roots, read
+    as ``<ROOT>`` and ``<OUT>`` (:data:`ROOT_FILE`). The commands' logs and the root files are left out."""
     names = sorted(p for p in ({p.relative_to(old) for p in old.rglob("*") if p.is_file()}
                                | {p.relative_to(new) for p in new.rglob("*") if p.is_file()})
                    if p != Path(ROOT_FILE) and p.suffix != ".log")  # the logs are the commands' stdout
-    counts = {"identical": 0, "timings only": 0, "different": 0, "missing": 0}
+    out = {}
     for rel in names:
         a, b = old / rel, new / rel
         if not a.is_file() or not b.is_file():
-            verdict = "missing"
+            out[rel] = "missing"
         elif a.read_bytes() == b.read_bytes():
-            verdict = "identical"
-        elif _same_but_timings(a, b, roots):
-            verdict = "timings only"
+            out[rel] = "identical"
         else:
-            verdict = "different"
+            out[rel] = "timings only" if same_but_timings(a, b, roots) else "different"
+    return out
+
+
+def compare(old: Path, new: Path) -> int:
+    roots = tuple((tree / ROOT_FILE).read_text().split() if (tree / ROOT_FILE).is_file() else []
+                  for tree in (old, new))
+    counts = {"identical": 0, "timings only": 0, "different": 0, "missing": 0}
+    for rel, verdict in verdicts(old, new, roots).items():
         counts[verdict] += 1
         if verdict in ("different", "missing"):
             print(f"{verdict}: {rel}")

@@ -23,20 +23,10 @@ _spec.loader.exec_module(results_identity)
 
 
 def differing_files(api: Path, cli: Path) -> list[str]:
-    """Results files of two folders that differ other than in timings (both written from this tree)."""
-    names = sorted({p.relative_to(api) for p in api.rglob("*") if p.is_file()}
-                   | {p.relative_to(cli) for p in cli.rglob("*") if p.is_file()})
-    out = []
-    for rel in names:
-        a, b = api / rel, cli / rel
-        if not (a.is_file() and b.is_file()):
-            out.append(f"{rel} (only in one)")
-        elif a.read_bytes() != b.read_bytes() and (
-                rel.name == ".casrecon-results.json"  # its stamp, checked apart
-                or not results_identity._same_but_timings(a, b, ([str(api)], [str(cli)]))):
-            if rel.name != ".casrecon-results.json":
-                out.append(str(rel))
-    return out
+    """Results files of two folders (both written from this tree) that differ other than in timings,
+    or that only one has (:func:`results_identity.verdicts`)."""
+    found = results_identity.verdicts(api, cli, ([str(api)], [str(cli)]))
+    return [f"{rel} ({verdict})" for rel, verdict in found.items() if verdict in ("different", "missing")]
 
 
 @pytest.mark.parametrize("problem, options, flags", [
