@@ -7,12 +7,16 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from casrecon.io.errors import InputError
 from casrecon.io.problem_file import problem_document
 from casrecon.io.toml_fields import TomlDocument, read_toml
 from casrecon.pipelines.options import DEFAULT_OPTIONS, FitOptions
 from casrecon.results.joint_fit import JointFit
+
+if TYPE_CHECKING:
+    from casrecon.estimation.sixdof.joint import JointConfig
 
 
 @dataclass(frozen=True)
@@ -30,7 +34,7 @@ class JointProblem:
         Each drop's ``problem.toml``, in the order of ``config.drops``.
     """
 
-    config: object
+    config: JointConfig
     documents: tuple[TomlDocument, ...]
     drops: tuple[TomlDocument, ...]
 
