@@ -45,6 +45,7 @@ from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.physics.dynamics import OUTPUT_NAMES
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.scenario import Scenario
+from casrecon.simulation.error_families import Span, SyntheticWorld
 from casrecon.simulation.model_errors import (
     ProfileError,
     draw_profile_error,
@@ -122,7 +123,7 @@ def simulate_truth(scenario: Scenario, seed: int | None = None) -> tuple[Traject
     return _fly(flown_scenario(scenario, truth_profile_error(scenario, seed)), seed)
 
 
-def _fly(scenario: Scenario, seed: int | None) -> tuple[Trajectory, float]:
+def _fly(scenario: Scenario, seed: int | None, world: SyntheticWorld | None = None) -> tuple[Trajectory, float]:
     cfg = scenario.config
     dt_s = 1.0 / cfg.imu.rate_hz
     clock = cfg.truth.clock_offset_s if cfg.truth else 0.0
@@ -130,7 +131,7 @@ def _fly(scenario: Scenario, seed: int | None) -> tuple[Trajectory, float]:
     first = dt_s - (t_zero % dt_s) if t_zero % dt_s > 1e-12 else dt_s
     sim = Simulator(scenario.model, dt_s=dt_s, substeps=max(1, round(dt_s / cfg.simulation.dt_s)))
     traj = sim.run(scenario.release_state(), scenario.truth_parameters(), cfg.simulation.t_max_s, first,
-                   disturbance=truth_disturbance(scenario, seed))
+                   disturbance=with_world_gusts(truth_disturbance(scenario, seed), world))
     if not traj.impacted:
         raise RuntimeError(f"{cfg.name}: no ground impact within t_max_s = {cfg.simulation.t_max_s} s")
     return traj, t_zero
@@ -191,7 +192,8 @@ def _noisy_imu(scenario: Scenario, traj: Trajectory, t_zero: float, rng: np.rand
     return time, accel, gyro
 
 
-def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator, seed: int) -> GpsTrack:
+def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator, seed: int,
+               world: SyntheticWorld | None = None) -> GpsTrack:
     cfg = scenario.config
     period = 1.0 / cfg.gps.rate_hz
     t_rel = _unix(cfg.release.time_utc)
@@ -208,7 +210,12 @@ def _gps_track(scenario: Scenario, traj: Trajectory, rng: np.random.Generator, s
     pos[after, :3], pos[after, 3:] = ant[-1, :3], 0.0
     h_acc, v_acc, s_acc, num_sv = _accuracies(cfg.gps, t, traj.flight_time_s, rng)
     sigma = np.column_stack([h_acc, h_acc, v_acc, s_acc, s_acc, s_acc])
-    meas = pos + gps_error_factors(utc, cfg.truth.errors, rng.normal(size=pos.shape), seed) * sigma
+    white = rng.normal(size=pos.shape)
+    if world is not None and world.gps_factors is not None:
+        factors = world.gps_factors(utc, white, sigma)
+    else:
+        factors = gps_error_factors(utc, cfg.truth.errors, white, seed)
+    meas = pos + factors * sigma
     site = cfg.site
     lat, lon, alt = pymap3d.ned2geodetic(meas[:, 0], meas[:, 1], meas[:, 2], site.lat_deg, site.lon_deg,
                                          site.ground_alt_msl_m)
@@ -283,24 +290,54 @@ def truth_parameters_by_name(scenario: Scenario) -> dict[str, float]:
     return out
 
 
-def make_synthetic(scenario: Scenario, seed: int | None = None) -> SyntheticData:
-    """Simulate the truth and make IMU and GPS data; ``seed`` overrides ``[truth] seed``."""
+def with_world_gusts(disturbance, world: SyntheticWorld | None):
+    """The disturbance function (flight time s -> (n, 9)) with ``world``'s gusts added to its
+    first three entries (``disturbance`` itself without them; a zero disturbance when it is None)."""
+    if world is None or world.gusts is None:
+        return disturbance
+
+    def total(t: np.ndarray) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, float))
+        out = np.zeros((t.size, 9)) if disturbance is None else np.array(disturbance(t), float)
+        out[:, :3] += world.gusts(t)
+        return out
+
+    return total
+
+
+def world_span(scenario: Scenario) -> Span:
+    """Where a drop of ``scenario`` flies, for :func:`~.error_families.family_world`: the extents of
+    the profile grid, the ground and release altitudes (m MSL) and ``[simulation] t_max_s``."""
+    cfg = scenario.config
+    grid = profile_grid(scenario.atmosphere.altitude_range_m, cfg.site.ground_alt_msl_m, scenario.release_alt_msl_m)
+    return Span(float(grid[0]), float(grid[-1]), cfg.site.ground_alt_msl_m, scenario.release_alt_msl_m,
+                cfg.simulation.t_max_s)
+
+
+def make_synthetic(scenario: Scenario, seed: int | None = None, world: SyntheticWorld | None = None) -> SyntheticData:
+    """Simulate the truth and make IMU and GPS data; ``seed`` overrides ``[truth] seed``; ``world``
+    (:mod:`~.error_families`) replaces the ``[truth]`` profile error and GPS errors where it has its
+    own and adds its gusts."""
     cfg = scenario.config
     if cfg.truth is None:
         raise ValueError(f"{cfg.path}: synthetic data need a [truth] table")
     seed = cfg.truth.seed if seed is None else seed
     rng = np.random.default_rng(seed)
     profile = truth_profile_error(scenario, seed)
+    if world is not None and world.profile_error is not None:
+        profile = world.profile_error
     flown = flown_scenario(scenario, profile)
-    traj, t_zero = _fly(flown, seed)
+    traj, t_zero = _fly(flown, seed, world)
     imu_t, accel, gyro = _noisy_imu(scenario, traj, t_zero, rng)
-    gps = _gps_track(scenario, traj, rng, seed)
+    gps = _gps_track(scenario, traj, rng, seed, world)
     parameters, units = truth_document_parameters(truth_parameters_by_name(scenario))
     truth = {"problem": cfg.name, "seed": seed, "parameters": parameters, "units": units,
              "release_imu_time_s": t_zero, "release_utc": cfg.release.time_utc.isoformat(),
              "summary": traj.summary()}
     if profile is not None or cfg.truth.errors.coloured_gps:
         truth["model_errors"] = dataclasses.asdict(cfg.truth.errors)
+    if world is not None:
+        truth["error_family"] = world.name
     baro = _baro_samples(flown, traj, seed) if cfg.baro is not None else (None, None)
     return SyntheticData(traj, imu_t, accel, gyro, gps, truth, *baro, profile_error=profile)
 
@@ -327,11 +364,12 @@ def with_synthetic_data(scenario: Scenario, folder: Path, seed: int = 0) -> Scen
     return synthetic_scenario(scenario, folder, seed)[0]
 
 
-def synthetic_scenario(scenario: Scenario, folder: Path, seed: int = 0) -> tuple[Scenario, SyntheticData]:
+def synthetic_scenario(scenario: Scenario, folder: Path, seed: int = 0,
+                       world: SyntheticWorld | None = None) -> tuple[Scenario, SyntheticData]:
     """:func:`with_synthetic_data` that also returns the :class:`SyntheticData` written (the truth
-    trajectory and the drawn profile error)."""
+    trajectory and the drawn profile error); ``world`` as :func:`make_synthetic`'s."""
     cfg = scenario.config
-    data = make_synthetic(scenario, seed=seed)
+    data = make_synthetic(scenario, seed=seed, world=world)
     write_imu_csv(folder / "imu.csv", data.imu_time_s, data.imu_accel_mps2, data.imu_gyro_radps, cfg.imu.spec)
     write_flysight1(folder / "gps.csv", data.gps)
     baro = cfg.baro

@@ -1,0 +1,76 @@
+"""The error families the fit's models do not contain (issue 49): each draws what its docstring
+says, from its own seeded stream."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from casrecon.simulation.error_families import FAMILIES, Span, family_world, von_karman_series
+
+SPAN = Span(lo_msl_m=1210.0, hi_msl_m=3000.0, ground_msl_m=1310.0, release_msl_m=2900.0, flight_s=40.0)
+
+
+def test_von_karman_series_has_unit_variance_and_the_kolmogorov_structure_function():
+    x = np.concatenate([von_karman_series(1.0, 100_000, 300.0, np.random.default_rng(i), 1) for i in range(8)], 1)
+    assert abs(x.var() - 1.0) < 0.1
+    # D(r) ~ r^(2/3) well inside the scale L (a Gauss-Markov process would give r^1)
+    d = {lag: np.mean((x[lag:] - x[:-lag]) ** 2) for lag in (4, 16)}
+    slope = np.log(d[16] / d[4]) / np.log(4)
+    assert 0.6 < slope < 0.8, slope
+
+
+@pytest.mark.parametrize("name", list(FAMILIES))
+def test_family_worlds_are_seeded_and_differ_between_seeds(name):
+    a, b, c = family_world(name, SPAN, 1), family_world(name, SPAN, 1), family_world(name, SPAN, 2)
+    assert a.name == name
+    utc = 1.7e9 + 0.2 * np.arange(300)
+    white = np.random.default_rng(0).normal(size=(300, 6))
+    sigma = np.tile([1.5, 1.5, 2.5, 0.25, 0.25, 0.25], (300, 1))
+    for world in (a, b, c):
+        if world.profile_error is not None:
+            p = world.profile_error
+            assert p.altitude_msl_m[0] <= SPAN.ground_msl_m and p.altitude_msl_m[-1] >= SPAN.release_msl_m
+            assert np.all(np.diff(p.altitude_msl_m) > 0)
+    if a.profile_error is not None and name != "density-ramp":
+        assert np.array_equal(a.profile_error.wind_north_mps, b.profile_error.wind_north_mps)
+        assert not np.array_equal(a.profile_error.wind_north_mps, c.profile_error.wind_north_mps)
+    if a.gps_factors is not None and name != "none":
+        fa, fb, fc = (w.gps_factors(utc, white, sigma) for w in (a, b, c))
+        assert fa.shape == (300, 6) and np.array_equal(fa, fb) and not np.array_equal(fa, fc)
+
+
+def test_gps_families_have_their_shapes():
+    utc = 1.7e9 + 0.2 * np.arange(2000)
+    zero = np.zeros((2000, 6))
+    sigma = np.tile([1.5, 1.5, 2.5, 0.25, 0.25, 0.25], (2000, 1))
+    steps = family_world("gps-steps", SPAN, 3).gps_factors(utc, zero, sigma)
+    jumps = np.flatnonzero(np.any(np.diff(steps[:, :3], axis=0) != 0, axis=1))
+    assert 25 < jumps.size < 100  # 400 s at one change per 8 s on average
+    assert np.all(steps[:, 3:] == 0)  # velocity errors white (here zero)
+    walk = family_world("gps-random-walk", SPAN, 3).gps_factors(utc, zero, sigma)[:, 0] * 1.5  # metres
+    increments = np.diff(walk)
+    assert abs(increments.std() / (0.15 * np.sqrt(0.2)) - 1) < 0.1
+    long = family_world("gps-long-time", SPAN, 3).gps_factors(utc, zero, sigma)
+    lag1 = np.corrcoef(long[:-1, 0], long[1:, 0])[0, 1]
+    assert lag1 > 0.95
+
+
+def test_atmosphere_families_have_their_shapes():
+    ramp = family_world("density-ramp", SPAN, 0).profile_error
+    at = np.interp([SPAN.ground_msl_m, SPAN.release_msl_m], ramp.altitude_msl_m, ramp.density)
+    assert np.allclose(at, [-0.015, 0.015]) and not ramp.wind_north_mps.any()
+    jet = family_world("wind-jet", SPAN, 0).profile_error
+    speed = np.hypot(jet.wind_north_mps, jet.wind_east_mps)
+    assert abs(speed.max() - 2.5) < 0.01 and speed[0] < 0.01
+    coarse = family_world("coarse-grid", SPAN, 0).profile_error
+    assert np.unique(coarse.wind_north_mps).size <= int((SPAN.hi_msl_m - SPAN.lo_msl_m) / 250) + 2
+    turbulence = family_world("turbulence", SPAN, 0)
+    assert np.median(np.diff(turbulence.profile_error.altitude_msl_m)) == pytest.approx(1.0)
+    gust = turbulence.gusts(np.linspace(0, 40, 4001))
+    assert gust.shape == (4001, 3) and 0.1 < gust[:, 0].std() < 0.6
+
+
+def test_unknown_family_is_refused():
+    with pytest.raises(ValueError, match="unknown error family 'gusty'"):
+        family_world("gusty", SPAN, 0)
