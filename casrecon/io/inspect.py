@@ -294,7 +294,8 @@ def _report_sensor(s: SensorLog) -> str:
     if s.imu_accel_mps2.size:
         out.append(f"IMU |accel| max {np.linalg.norm(s.imu_accel_mps2, axis=1).max():.2f} m/s^2, "
                    f"|gyro| max {np.degrees(np.linalg.norm(s.imu_gyro_radps, axis=1)).max():.1f} "
-                   "deg/s")
+                   f"deg/s (the logged rates times {s.gyro_scale_applied:.5g}: the IMU's datasheet "
+                   "sensitivity over the firmware's count * full scale / 32768)")
     return "\n".join(out)
 
 

@@ -22,6 +22,16 @@ Rules kept by :func:`read_flysight2_sensor` (violations raise a located
   timestamp is an error with its line; gaps are kept (no sample is invented);
   ``casrecon inspect`` reports the sample rates;
 - pressure must be positive and temperature above 0 K;
+- the gyro's scale: the FlySight 2 firmware (``FlySight/imu.c``, every version to 2026-02) writes
+  ``count * FS / 32768`` (FS the full scale, +-2000 deg/s by default), but the IMU (ST LSM6DSO)
+  has a sensitivity of 8.75, 17.5, 35 and 70 mdps per count at +-250, 500, 1000 and 2000 deg/s,
+  ``FLYSIGHT2_GYRO_SCALE`` (= 70 / (2e6 / 32768) = 1.14688) times the firmware's, at every full
+  scale. The rates read are multiplied by it (``SensorLog.gyro_scale_applied``; pass
+  ``gyro_scale=1.0`` for a firmware that converts by the datasheet). Measured without the fit
+  (``benchmarks/fs2_gyro_scale.py``, docs/studies/kinematic.md): the accelerometer's gravity
+  direction between still spells on the ground against the integrated logged rates asks for
+  1.152 +- 0.016 times them, and canopy turns against the GNSS course 1.16 +- 0.07. The
+  accelerometer's counts (0.488 mg at +-16 g) match the datasheet and are read as written;
 - the clock: GPS time ``week * 604800 + tow`` is fitted to the sensor time of the ``$TIME``
   rows by least squares, ``gps = offset + (1 + drift) * sensor`` (:class:`ClockFit`). At
   least 2 ``$TIME`` rows are needed; GPS time must be strictly increasing, ``tow`` in
@@ -72,6 +82,9 @@ GPS_UTC_LEAP_TABLE = (
     (1230768000, 15), (1341100800, 16), (1435708800, 17), (1483228800, GPS_UTC_LEAP_SECONDS),
 )
 CLOCK_RESIDUAL_LIMIT_S = 0.05
+#: LSM6DSO gyro sensitivity over the FlySight 2 firmware's count * full-scale / 32768:
+#: 70 mdps per count at +-2000 deg/s against 2e6 / 32768 (the same ratio at every full scale).
+FLYSIGHT2_GYRO_SCALE = 70.0 * 32768.0 / 2.0e6
 MAX_DRIFT_PPM = 1000.0
 ZERO_C_K = 273.15
 
@@ -180,6 +193,9 @@ class SensorLog:
         Data rows per kind, every kind of the file.
     skipped_rows : dict
         Rows of the kinds not read (``MAG``, ``HUM``, ``VBAT``, ...), per kind.
+    gyro_scale_applied : float
+        Factor the logged rates were multiplied by (``FLYSIGHT2_GYRO_SCALE`` by default; module
+        docstring).
     """
 
     path: str
@@ -194,6 +210,7 @@ class SensorLog:
     baro_time_sensor_s: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     row_counts: dict = field(default_factory=dict)
     skipped_rows: dict = field(default_factory=dict)
+    gyro_scale_applied: float = 1.0
 
 
 def is_flysight2_sensor(lines: list[str]) -> bool:
@@ -211,7 +228,8 @@ def is_flysight2_sensor(lines: list[str]) -> bool:
     return bool({"IMU", "BARO"} & kinds) and "GNSS" not in kinds
 
 
-def read_flysight2_sensor(path: str | Path, time_base: str = "utc") -> SensorLog:
+def read_flysight2_sensor(path: str | Path, time_base: str = "utc",
+                          gyro_scale: float = FLYSIGHT2_GYRO_SCALE) -> SensorLog:
     """Read a FlySight 2 ``SENSOR.CSV``: IMU and barometer on UTC time via the ``$TIME`` rows.
 
     Parameters
@@ -221,6 +239,9 @@ def read_flysight2_sensor(path: str | Path, time_base: str = "utc") -> SensorLog
     time_base : str
         ``"utc"`` (default, what FlySight 2 writes) or ``"gps"``: the time scale of the
         ``$TIME`` rows' week and tow (see the module docstring).
+    gyro_scale : float
+        Factor applied to the logged angular rates (default ``FLYSIGHT2_GYRO_SCALE``: the IMU's
+        datasheet sensitivity over the firmware's conversion; 1.0 reads them as written).
 
     Returns
     -------
@@ -237,6 +258,8 @@ def read_flysight2_sensor(path: str | Path, time_base: str = "utc") -> SensorLog
     """
     if time_base not in ("utc", "gps"):
         raise ValueError(f"time_base must be 'utc' or 'gps', got {time_base!r}")
+    if not (np.isfinite(gyro_scale) and gyro_scale > 0):
+        raise ValueError(f"gyro_scale must be a positive number, got {gyro_scale!r}")
     lines = read_lines(path, require_final_newline=True)
     while lines and not lines[-1].strip():
         lines.pop()
@@ -289,12 +312,12 @@ def read_flysight2_sensor(path: str | Path, time_base: str = "utc") -> SensorLog
         k = int(np.argmax(baro["temperature"] <= 0))
         raise InputError(path, f"temperature below absolute zero ({baro['temperature'][k]:g} K)",
                          line=rows["BARO"][1][k], field="temperature")
-    gyro = np.column_stack([imu["wx"], imu["wy"], imu["wz"]]).reshape(-1, 3)
+    gyro = gyro_scale * np.column_stack([imu["wx"], imu["wy"], imu["wz"]]).reshape(-1, 3)
     accel = np.column_stack([imu["ax"], imu["ay"], imu["az"]]).reshape(-1, 3)
     return SensorLog(str(path), fit.unix_utc(imu["time"]), gyro, accel,
                      fit.unix_utc(baro["time"]), baro["pressure"], baro["temperature"], fit,
                      imu["time"], baro["time"], counts,
-                     {k: n for k, n in counts.items() if k not in _KINDS})
+                     {k: n for k, n in counts.items() if k not in _KINDS}, float(gyro_scale))
 
 
 def _read_kind(path: str | Path, kind: str, cols: dict, units: dict, body: list[str],

@@ -35,7 +35,10 @@ def test_real_file_rows_units_and_clock(log):
     assert log.imu_gyro_radps.shape == (29745, 3) and log.baro_pressure_pa.shape == (22937,)
     assert log.skipped_rows == {"MAG": 23682, "HUM": 2265, "VBAT": 2265}
     # $IMU,26998.266,-1.403,-1.953,-1.831,-0.09033,-0.94921,0.11230,25.53
-    np.testing.assert_allclose(log.imu_gyro_radps[0], np.radians([-1.403, -1.953, -1.831]))
+    # the firmware logs count * 2000 / 32768 deg/s; the LSM6DSO's sensitivity is 70 mdps per count
+    np.testing.assert_allclose(log.imu_gyro_radps[0],
+                               np.radians([-1.403, -1.953, -1.831]) * 0.070 / (2000 / 32768))
+    assert log.gyro_scale_applied == pytest.approx(1.14688)
     np.testing.assert_allclose(log.imu_accel_mps2[0], np.array([-0.09033, -0.94921, 0.11230]) * G0)
     # $BARO,26998.221,99319.20,25.51
     assert log.baro_pressure_pa[0] == 99319.20 and log.baro_temperature_k[0] == pytest.approx(298.66)
@@ -47,6 +50,18 @@ def test_real_file_rows_units_and_clock(log):
     t = c.unix_utc(27008.122)
     assert t == pytest.approx(315964800 + 2332 * 604800 + 240996, abs=2e-3)
     assert np.all(np.diff(log.imu_time_unix_s) > 0) and np.all(np.diff(log.baro_time_unix_s) > 0)
+
+
+def test_logged_rates_are_the_firmwares_counts_and_can_be_read_as_written():
+    as_logged = read_flysight2_sensor(SENSOR, gyro_scale=1.0)
+    mdps = np.round(np.degrees(as_logged.imu_gyro_radps) * 1000).astype(np.int64).ravel()
+    counts = np.arange(-32768, 32768, dtype=np.int64)
+    on_grid = np.isin(mdps, np.trunc(counts * 2_000_000 / 32768).astype(np.int64))
+    # all but the two rates the old firmware's 32-bit product wrapped (line 82420 and 82424)
+    assert mdps.size - on_grid.sum() == 2 and as_logged.gyro_scale_applied == 1.0
+    assert np.isin(mdps, counts * 70).mean() < 0.05
+    with pytest.raises(ValueError, match="gyro_scale"):
+        read_flysight2_sensor(SENSOR, gyro_scale=0.0)
 
 
 def test_overlaps_track_and_baro_matches_gnss_in_the_dive(log):
