@@ -76,6 +76,11 @@ class GaugeCovariance:
         self.reduced_chi2 = chi2 / max(dof, 1)
         self.condition = float("nan")
 
+    @property
+    def gauge_columns(self) -> np.ndarray:
+        """(K, 4) z columns of each node's quaternion (the gauge directions)."""
+        return self._cols
+
     def _project(self, x: np.ndarray) -> np.ndarray:
         """P x for the columns of x (n_z, m)."""
         out = x.copy()
