@@ -7,11 +7,12 @@ default, so a worker never inherits CasADi or thread state); a ``scheduler`` add
 (``"tcp://host:8786"``) sends the work to a Dask distributed cluster, whose workers must see the
 same file system. ``fn`` and the items must be picklable for the last two.
 
-Progress is a one-line bar on stderr (:class:`Progress`): a dozen lines of our own rather than a
-new dependency. An item may count its own units as they finish (:func:`report_progress`, e.g. each
-case of a chunk of Monte Carlo cases as it lands) so the bar moves before the whole item returns:
-in this process directly, from local processes through a queue a thread of the parent reads (on a
-Dask cluster only whole items count). ``on_done`` is called in the parent with each item and its
+Progress is a :mod:`tqdm` bar on a terminal and plain lines in a redirected log (:class:`Progress`;
+tqdm rather than a bar of our own: it handles terminal widths, rates and unit formats). An item
+may count its own units as they finish (:func:`report_progress`, e.g. each case of a chunk of Monte
+Carlo cases as it lands) so the bar moves before the whole item returns: in this process directly,
+from local processes through a queue a thread of the parent reads (on a Dask cluster only whole
+items count). ``on_done`` is called in the parent with each item and its
 result as the item finishes (e.g. to log one line per finished case).
 """
 
@@ -30,9 +31,26 @@ from contextlib import contextmanager
 from functools import partial
 from typing import Any
 
+#: Seconds between the plain progress lines written where stderr is not a terminal (a log file).
+PLAIN_INTERVAL_S = 10.0
+
+
+def is_terminal(stream: Any) -> bool:
+    """Whether ``stream`` is an interactive terminal (where a bar may rewrite its line with ``\\r``)."""
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):  # no isatty, or a closed stream
+        return False
+
 
 class Progress:
-    """A one-line stderr progress bar, rewritten as work finishes.
+    """Progress of a count of work units on stderr: a :mod:`tqdm` bar on a terminal; elsewhere (a
+    redirected log) plain lines without ``\\r``, at most one every :data:`PLAIN_INTERVAL_S` seconds
+    and one at the end.
+
+    Nothing is written before the first unit finishes, and no ETA before a second one has: the rate
+    is that since the first finished unit, so a pool's start-up (spawning workers, compiling) does
+    not make the first estimate absurd (a 200-case Monte Carlo's first bar said "ETA 3471 s").
 
     Parameters
     ----------
@@ -41,41 +59,85 @@ class Progress:
     enabled : bool
         False counts silently (nothing is written).
     label : str
-        Text before the bar.
+        Text before the bar or at the start of each line.
     unit : str
         Name of the units after the count.
+    stream : file-like or None
+        Where to write; None: whatever ``sys.stderr`` is at each write.
     """
 
-    #: A bar is on screen without its newline (a message printed now would run into it).
-    line_open = False
+    #: The progress bar on screen without its newline (:func:`end_progress_line` closes it).
+    active: Progress | None = None
 
-    def __init__(self, total: int, enabled: bool = True, label: str = "", unit: str = "cases") -> None:
+    def __init__(self, total: int, enabled: bool = True, label: str = "", unit: str = "cases",
+                 stream: Any = None) -> None:
         self.total, self.done, self.enabled, self.label, self.unit = total, 0, enabled, label, unit
+        self.stream = stream
         self.t0 = time.perf_counter()
+        self.first: tuple[float, int] | None = None  # (time, units done) when the first unit finished
+        self.last_line = -float("inf")
+        self.bar: Any = None
+
+    def out(self) -> Any:
+        """The stream written to now."""
+        return self.stream if self.stream is not None else sys.stderr
+
+    def eta_s(self, now: float) -> float | None:
+        """Seconds left at the rate since the first finished unit; None before a second one finished."""
+        if self.first is None or self.done <= self.first[1] or now <= self.first[0]:
+            return None
+        rate = (self.done - self.first[1]) / (now - self.first[0])
+        return (self.total - self.done) / rate
+
+    def line(self, now: float) -> str:
+        """The plain progress line at ``now`` (``perf_counter`` s)."""
+        eta = self.eta_s(now)
+        left = "" if eta is None or self.done >= self.total else f", about {eta:.0f} s left"
+        return f"{self.label}: {self.done}/{self.total} {self.unit}, {now - self.t0:.0f} s{left}"
 
     def update(self, n: int) -> None:
-        """Count ``n`` more units done and redraw the bar (elapsed time and ETA in s)."""
+        """Count ``n`` more units done and show it (a bar's redraw, or a plain line when due)."""
         self.done += n
-        if not self.enabled:
+        if not self.enabled or n <= 0:
             return
-        el = time.perf_counter() - self.t0
-        frac = self.done / max(self.total, 1)
-        eta = el * (1 - frac) / frac if frac > 0 else float("nan")
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r{self.label} [{bar:<30s}] {self.done}/{self.total} {self.unit}  {el:6.1f} s  "
-                         f"ETA {eta:5.1f} s")
-        Progress.line_open = self.done < self.total
-        if not Progress.line_open:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+        now = time.perf_counter()
+        if self.first is None:
+            self.first = (now, self.done)
+        out = self.out()
+        if not is_terminal(out):
+            if self.done >= self.total or now - self.last_line >= PLAIN_INTERVAL_S:
+                self.last_line = now
+                out.write(self.line(now) + "\n")
+                out.flush()
+            return
+        if self.bar is None:  # made at the first finished unit: its rate (and ETA) counts from here
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=self.total, initial=self.done, desc=self.label, unit=f" {self.unit}",
+                            file=out, leave=True, dynamic_ncols=True, mininterval=0.2,
+                            bar_format="{desc} {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt}{unit} "
+                                       "[{elapsed}<{remaining}, {rate_fmt}]")
+            self.bar.refresh()
+            Progress.active = self
+        else:
+            self.bar.update(n)
+        if self.done >= self.total:
+            self.close()
+
+    def close(self) -> None:
+        """End the bar's line (a no-op without a bar)."""
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+        if Progress.active is self:
+            Progress.active = None
 
 
 def end_progress_line() -> None:
     """End a progress bar's line cut short (by an error or a signal), so the next message starts a line."""
-    if Progress.line_open:
-        Progress.line_open = False
-        sys.stderr.write("\n")
-        sys.stderr.flush()
+    bar = Progress.active
+    if bar is not None:
+        bar.close()
 
 
 def import_distributed() -> tuple[type, Callable]:

@@ -182,7 +182,7 @@ def build_library(function: ca.Function, cc: str, library: Path) -> None:
         command, out = _generated(function, cc, Path(tmp), library.name)
         subprocess.run(command, check=True, capture_output=True, text=True, timeout=600)
         os.replace(out, library)
-    LOG.info("compiled %s -> %s", function.name(), library)
+    LOG.debug("compiled %s -> %s", function.name(), library)
 
 
 def start_background_build(function: ca.Function, cc: str, library: Path) -> None:
@@ -215,7 +215,7 @@ def start_background_build(function: ca.Function, cc: str, library: Path) -> Non
         shutil.rmtree(folder, ignore_errors=True)
         mark.unlink(missing_ok=True)
         raise
-    LOG.info("building %s in the background -> %s", function.name(), library)
+    LOG.debug("building %s in the background -> %s", function.name(), library)
 
 
 def earlier_failure(function: ca.Function, library: Path) -> bool:

@@ -67,6 +67,17 @@ def test_second_use_loads_the_cached_library_without_compiling(cache, monkeypatc
         np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-15)
 
 
+@pytest.mark.parametrize("in_background", [False, True])
+def test_compile_messages_are_debug_not_info(cache, caplog, in_background):
+    f = block_function(f"blk_quiet_{int(in_background)}")
+    cg.reset()
+    with caplog.at_level(logging.DEBUG, logger=cg.LOG.name):
+        cg.compiled(f, in_background=in_background)
+        cg.wait_for_background_builds(120.0)
+    about_cache = [r for r in caplog.records if str(cache) in r.getMessage()]
+    assert about_cache and all(r.levelno == logging.DEBUG for r in about_cache)  # said, but not at INFO
+
+
 def test_a_different_expression_gets_its_own_library(cache):
     cg.compiled(block_function("blk_a"))
     x = ca.SX.sym("x", 6)

@@ -3,14 +3,29 @@ the items themselves before they return), the per-item callback."""
 
 from __future__ import annotations
 
+import io
 import math
 import os
+import re
 import time
 
 import numpy as np
 import pytest
 
+import casrecon.parallel as parallel
 from casrecon.parallel import Forked, Progress, ProgressCounter, parallel_map, report_progress
+
+
+def line_counts(err: str) -> list[int]:
+    """The unit counts of every plain progress line (``label: done/total units, ...``) in ``err``."""
+    return [int(n) for n in re.findall(r"^\w[\w -]*: (\d+)/\d+ ", err, flags=re.M)]
+
+
+class Terminal(io.StringIO):
+    """A stream that says it is a terminal (as stderr on a console)."""
+
+    def isatty(self) -> bool:
+        return True
 
 
 def test_in_process_keeps_order_and_chunking_changes_nothing():
@@ -32,10 +47,43 @@ def test_one_worker_runs_in_this_process():
 def test_progress_counts_weighted_units(capsys):
     parallel_map(len, [(1, 2), (3,), ()], progress="demo", weight=len)
     err = capsys.readouterr().err
-    assert "demo [" in err and "3/3 cases" in err and err.endswith("\n")
+    assert "demo: 3/3 cases" in err and err.endswith("\n")
     bar = Progress(4, enabled=False)
     bar.update(3)
     assert bar.done == 3 and capsys.readouterr().err == ""
+
+
+def test_a_redirected_log_gets_plain_lines_at_an_interval_without_carriage_returns(capsys, monkeypatch):
+    monkeypatch.setattr(parallel, "PLAIN_INTERVAL_S", 0.1)
+    assert parallel_map(units_slowly, [12], progress="demo", weight=lambda n: n) == [12]  # 30 ms a unit
+    err = capsys.readouterr().err
+    counts = line_counts(err)
+    assert "\r" not in err and err.count("\n") == len(counts)
+    assert counts[0] == 1 and counts[-1] == 12      # the first finished unit, and the end
+    assert 3 <= len(counts) < 12                     # every 0.1 s, not every unit
+    assert "left" not in err.splitlines()[0]         # no ETA from a single unit
+
+
+def test_a_terminal_gets_a_tqdm_bar_and_no_eta_before_the_first_unit():
+    out = Terminal()
+    bar = Progress(200, label="demo", stream=out)
+    time.sleep(0.3)                                  # a slow start (spawning workers) ...
+    bar.update(1)                                    # ... then the first case
+    first = out.getvalue()
+    assert "\r" in first and "demo" in first and "1/200" in first
+    assert "<?" in first                             # ETA unknown from one unit, not 0.3 s x 199
+    for _ in range(199):
+        bar.update(1)
+    assert out.getvalue().endswith("\n") and "200/200" in out.getvalue() and Progress.active is None
+
+
+def test_end_progress_line_closes_a_bar_cut_short():
+    out = Terminal()
+    bar = Progress(10, label="demo", stream=out)
+    bar.update(3)
+    assert Progress.active is bar and not out.getvalue().endswith("\n")
+    parallel.end_progress_line()
+    assert out.getvalue().endswith("\n") and Progress.active is None
 
 
 def test_bad_chunksize_is_rejected():
@@ -52,10 +100,11 @@ def units_slowly(n: int) -> int:
 
 
 @pytest.mark.parametrize("workers", [1, 2])
-def test_items_move_the_bar_before_they_return(capsys, workers):
+def test_items_move_the_bar_before_they_return(capsys, monkeypatch, workers):
+    monkeypatch.setattr(parallel, "PLAIN_INTERVAL_S", 0.0)  # a line at every count
     assert parallel_map(units_slowly, [6, 6], workers=workers, progress="demo", weight=lambda n: n) == [6, 6]
     err = capsys.readouterr().err
-    counts = [int(part.split("/")[0].split()[-1]) for part in err.split("\r")[1:]]
+    counts = line_counts(err)
     assert counts[-1] == 12 and err.endswith("\n")
     assert counts == sorted(counts) and len(set(counts)) > 4  # two chunks, but more than two steps
 
