@@ -70,7 +70,7 @@ def run_command(func: Callable[[object], int], args, *, debug: bool = False) -> 
     swallowed the exception), or at a second signal, :func:`force_exit` ends the process.
     """
     from casrecon.output import results  # loaded now: force_exit may run in another thread
-    from casrecon.parallel import end_progress_line
+    from casrecon.progress import end_progress_line
 
     out = getattr(args, "out", None)
     before = _identity(out)
@@ -201,7 +201,7 @@ def force_exit(signum: int, abandon: Callable[[], object], line: str | None) -> 
     ``line`` (if not None)."""
     import multiprocessing
 
-    from casrecon.parallel import end_progress_line
+    from casrecon.progress import end_progress_line
 
     try:
         abandon()

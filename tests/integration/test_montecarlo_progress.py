@@ -9,7 +9,7 @@ import re
 import pytest
 from conftest import PROBLEMS
 
-import casrecon.parallel as parallel
+import casrecon.progress as progress
 from casrecon.analysis.montecarlo import LOG, run_cases
 
 DROP1 = PROBLEMS / "ees-drop-1"
@@ -22,7 +22,7 @@ def bar_counts(err: str) -> list[int]:
 
 @pytest.mark.parametrize("workers, chunk", [(1, 24), (2, 12)])
 def test_bar_moves_per_case_not_per_chunk(capsys, monkeypatch, workers, chunk):
-    monkeypatch.setattr(parallel, "PLAIN_INTERVAL_S", 0.0)  # a line at every count
+    monkeypatch.setattr(progress, "PLAIN_INTERVAL_S", 0.0)  # a line at every count
     cols = run_cases(DROP1, range(24), 3, workers=workers, chunk_size=chunk, progress=True)
     assert cols["impacted"].all()
     counts = bar_counts(capsys.readouterr().err)

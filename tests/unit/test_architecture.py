@@ -2,7 +2,7 @@
 
 Layers, lowest first; a module may import casrecon modules of its own layer or lower ones only:
 
-0. ``casrecon.physics`` (pure CasADi, SI) and ``casrecon.parallel``;
+0. ``casrecon.physics`` (pure CasADi, SI), ``casrecon.parallel`` and ``casrecon.progress``;
 1. ``casrecon.io`` (readers, configuration) and ``casrecon.scenario``;
 2. ``casrecon.simulation`` (forward simulation, synthetic data);
 3. ``casrecon.estimation`` (the NLP engine);
@@ -35,9 +35,9 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[2] / "casrecon"
 MAX_LINES = 500
-LAYERS = {"physics": 0, "parallel": 0, "io": 1, "scenario": 1, "simulation": 2, "estimation": 3, "analysis": 4,
-          "output": 5, "report": 5, "results": 6, "pipelines": 7, "cli": 8, "cli_guard": 8, "cli_options": 8,
-          "cli_montecarlo": 8, "__main__": 8, "__init__": 8}
+LAYERS = {"physics": 0, "parallel": 0, "progress": 0, "io": 1, "scenario": 1, "simulation": 2, "estimation": 3,
+          "analysis": 4, "output": 5, "report": 5, "results": 6, "pipelines": 7, "cli": 8, "cli_guard": 8,
+          "cli_options": 8, "cli_montecarlo": 8, "__main__": 8, "__init__": 8}
 
 ESTIMATION = "casrecon.estimation"
 #: Rooms that know no problem kind: the NLP engine and the generic numerics.

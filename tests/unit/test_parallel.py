@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-import casrecon.parallel as parallel
+import casrecon.progress as progress
 from casrecon.parallel import Forked, Progress, ProgressCounter, parallel_map, report_progress
 
 
@@ -54,7 +54,7 @@ def test_progress_counts_weighted_units(capsys):
 
 
 def test_a_redirected_log_gets_plain_lines_at_an_interval_without_carriage_returns(capsys, monkeypatch):
-    monkeypatch.setattr(parallel, "PLAIN_INTERVAL_S", 0.1)
+    monkeypatch.setattr(progress, "PLAIN_INTERVAL_S", 0.1)
     assert parallel_map(units_slowly, [12], progress="demo", weight=lambda n: n) == [12]  # 30 ms a unit
     err = capsys.readouterr().err
     counts = line_counts(err)
@@ -82,7 +82,7 @@ def test_end_progress_line_closes_a_bar_cut_short():
     bar = Progress(10, label="demo", stream=out)
     bar.update(3)
     assert Progress.active is bar and not out.getvalue().endswith("\n")
-    parallel.end_progress_line()
+    progress.end_progress_line()
     assert out.getvalue().endswith("\n") and Progress.active is None
 
 
@@ -101,7 +101,7 @@ def units_slowly(n: int) -> int:
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_items_move_the_bar_before_they_return(capsys, monkeypatch, workers):
-    monkeypatch.setattr(parallel, "PLAIN_INTERVAL_S", 0.0)  # a line at every count
+    monkeypatch.setattr(progress, "PLAIN_INTERVAL_S", 0.0)  # a line at every count
     assert parallel_map(units_slowly, [6, 6], workers=workers, progress="demo", weight=lambda n: n) == [6, 6]
     err = capsys.readouterr().err
     counts = line_counts(err)
