@@ -29,6 +29,31 @@ Y_QUANTILES = (0.002, 0.998)
 
 VARIANTS = ((cols.RECONSTRUCTED, "reconstructed from the IMU", style.RECONSTRUCTED_COLOR),
             (cols.BEST_FIT, "best-fit database", style.BEST_FIT_COLOR))
+#: Line style of each variant in the time figure: the reconstruction on top of the best fit.
+LINES = {cols.RECONSTRUCTED: dict(lw=0.9, zorder=3.0), cols.BEST_FIT: dict(lw=2.6, alpha=0.45, zorder=2.5)}
+
+
+def band_width_pt(ax, three_sigma: np.ndarray) -> float:
+    """Median full width (pt, on the page) of a +-3-sigma band ``three_sigma`` (data units) drawn
+    on ``ax`` at its current y limits (the axes' height before the final layout)."""
+    lo, hi = ax.get_ylim()
+    fig = ax.get_figure(root=True)
+    height_pt = ax.get_position().height * fig.get_figheight() * 72.0
+    three = np.asarray(three_sigma, float)
+    three = three[np.isfinite(three)]
+    return float(np.median(2.0 * three)) / abs(hi - lo) * height_pt if three.size and hi != lo else 0.0
+
+
+def note_narrow_bands(ax, tab, coef: str) -> None:
+    """Say in a panel of the time figure which +-3-sigma band is there but narrower than the line
+    drawn over it (mostly hidden under it), so a missing band is not read as no band."""
+    narrow = []
+    for variant, label, _ in VARIANTS:
+        if band_width_pt(ax, tab[cols.sigma_column(coef, variant)]) < LINES[variant]["lw"]:
+            narrow.append(f"{label} {style.PM3SIGMA} band narrower than its line")
+    if narrow:
+        ax.text(0.01, 0.97, "\n".join(narrow), transform=ax.transAxes, va="top", ha="left", fontsize=7.5,
+                bbox=dict(boxstyle="round", fc="white", ec="0.7", alpha=0.85), zorder=5)
 
 
 def _y_range(values: list[np.ndarray]) -> tuple[float, float] | None:
@@ -61,16 +86,19 @@ def aero_coefficients_figure(drop: DropFolder) -> Figure:
             shown = []
             ax.plot(t, tab[cols.column(coef, cols.NOMINAL)], color=style.NOMINAL_COLOR, lw=1.0, ls="--",
                     label="nominal database")
-            # best fit under the reconstruction: where they agree the black line shows red edges
+            # the best fit a wide translucent line under the reconstruction's black one, on top: where
+            # they agree the black line runs inside a light red one (a thin black line under a wide
+            # red one, or on an opaque one, was hidden)
             for variant, label, color in VARIANTS[::-1]:
                 value, three = tab[cols.column(coef, variant)], tab[cols.sigma_column(coef, variant)]
                 ax.fill_between(t, value - three, value + three, color=color, alpha=style.BAND_ALPHA, lw=0,
                                 label=f"{label} {style.PM3SIGMA}")
-                ax.plot(t, value, color=color, lw=0.6 if variant == cols.RECONSTRUCTED else 1.8, label=label)
+                ax.plot(t, value, color=color, label=label, **LINES[variant])
                 shown += [value - three, value + three]
             limits = _y_range(shown)
             if limits is not None:
                 ax.set_ylim(*limits)
+            note_narrow_bands(ax, tab, coef)
             ax.set_ylabel(f"{SYMBOLS[coef]}, -")
     label_time_panels(axes)
     style.figure_legend(fig, ncol=5)

@@ -176,6 +176,7 @@ def reconciled_figure(drop: DropFolder) -> Figure:
         diff = np.interp(t[inside], ts, sim[col]) - y[inside]
         ad.plot(t[inside], diff, color=style.BEST_FIT_COLOR, lw=1.0)
         ad.axhline(0, color="0.4", lw=0.8)
+        ad.ticklabel_format(axis="y", style="plain", useOffset=False)  # no "1e-5" above the axis: plain numbers
         ad.set_ylabel(f"difference, {unit}")
     for ax in axes[-1]:
         ax.set_xlabel(style.FLIGHT_TIME_LABEL)
