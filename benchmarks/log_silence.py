@@ -11,6 +11,7 @@ Run: python benchmarks/log_silence.py [--top 5] [--save LOG] -- fit problems/ees
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import time
@@ -19,9 +20,10 @@ from pathlib import Path
 
 def timed_lines(cmd: list[str]) -> tuple[list[tuple[float, str]], float, int, bool]:
     """``([(seconds since start, line)], total seconds, exit code, any \\r seen)`` of ``cmd``'s stderr
-    (its stdout is read in the same stream, as ``2>&1`` would)."""
+    (its stdout is read in the same stream, as ``2>&1`` would, unbuffered)."""
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    env = dict(os.environ, PYTHONUNBUFFERED="1")  # stdout lines when printed, as on a terminal
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
     lines: list[tuple[float, str]] = []
     carriage = False
     buf = b""

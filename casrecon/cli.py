@@ -22,6 +22,7 @@ results kept). See :mod:`casrecon.cli_guard`.
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 import time
 from collections.abc import Sequence
@@ -156,15 +157,19 @@ def _save(result, args: argparse.Namespace, pool=None) -> None:
     """Write ``result`` into ``--out`` atomically, with its figures unless ``--no-figures``; skipped
     figures are said on stderr."""
     from casrecon.output.results import atomic_folder
+    from casrecon.progress import stage
 
+    log = logging.getLogger(__name__)
     with atomic_folder(args.out, **args.where) as out:
-        result.write(out)
+        with stage(log, f"writing the results -> {args.out}"):
+            result.write(out)
         if not args.no_figures:
             notes: list[str] = []
-            if pool is not None:
-                result.draw(out, args.formats, notes, pool=pool)
-            else:
-                result.draw(out, args.formats, notes)
+            with stage(log, "figures"):
+                if pool is not None:
+                    result.draw(out, args.formats, notes, pool=pool)
+                else:
+                    result.draw(out, args.formats, notes)
             for note in notes:
                 print(f"casrecon: figure skipped: {note}", file=sys.stderr)
 

@@ -57,8 +57,11 @@ def configure_logging(level: int, stream=None) -> logging.Logger:
     logger = logging.getLogger(LOGGER)
     for handler in [h for h in logger.handlers if getattr(h, "casrecon_cli", False)]:
         logger.removeHandler(handler)
+    from casrecon.progress import note_line
+
     handler = logging.StreamHandler(stream) if stream is not None else StderrHandler()
     handler.casrecon_cli = True
+    handler.addFilter(lambda record: note_line() or True)  # a line written: no heartbeat due (casrecon.progress)
     handler.setFormatter(logging.Formatter("%(message)s"))
     logger.addHandler(handler)
     logger.setLevel(level)

@@ -4,12 +4,19 @@ On a terminal :class:`Progress` draws a :mod:`tqdm` bar (tqdm rather than a bar 
 handles terminal widths, rates and unit formats); where stderr is not a terminal (a log file, a
 pipe) it writes plain lines without ``\\r``, at most one every :data:`PLAIN_INTERVAL_S` seconds and
 one at the end. :func:`casrecon.parallel.parallel_map` moves it as work finishes.
+
+:func:`heartbeat` keeps a long step from being a silent stretch of a log: while it runs, a line
+saying it is still running whenever :data:`HEARTBEAT_S` seconds pass without another line.
 """
 
 from __future__ import annotations
 
+import logging
 import sys
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 #: Seconds between the plain progress lines written where stderr is not a terminal (a log file).
@@ -90,6 +97,7 @@ class Progress:
                 self.last_line = now
                 out.write(self.line(now) + "\n")
                 out.flush()
+                note_line()
             return
         if self.bar is None:  # made at the first finished unit: its rate (and ETA) counts from here
             from tqdm import tqdm
@@ -119,3 +127,53 @@ def end_progress_line() -> None:
     bar = Progress.active
     if bar is not None:
         bar.close()
+
+
+#: Seconds without a log line after which a running stage says it is still running (:func:`heartbeat`).
+HEARTBEAT_S = 4.0
+#: ``time.monotonic()`` of the last line written (:func:`note_line`).
+_LAST_LINE = [time.monotonic()]
+
+
+def note_line() -> None:
+    """Record that a progress or log line has just been written (``casrecon``'s command-line log
+    handler calls it for each record, :class:`Progress` for each plain line)."""
+    _LAST_LINE[0] = time.monotonic()
+
+
+@contextmanager
+def heartbeat(log: logging.Logger, level: int, text: str, every_s: float | None = None) -> Iterator[None]:
+    """While the block runs, log ``"<text>: still running (N s)"`` at ``level`` on ``log`` whenever
+    ``every_s`` seconds (default :data:`HEARTBEAT_S`) have passed without a line (:func:`note_line`),
+    so that a long step is never a silent stretch of the log. Nothing when ``log`` does not log
+    ``level``. The beats come from a daemon thread, stopped when the block ends."""
+    every = HEARTBEAT_S if every_s is None else every_s
+    if not log.isEnabledFor(level):
+        yield
+        return
+    note_line()
+    stop, t0 = threading.Event(), time.monotonic()
+
+    def beat() -> None:
+        while not stop.wait(min(0.25, every / 4)):
+            now = time.monotonic()
+            if now - _LAST_LINE[0] >= every:
+                _LAST_LINE[0] = now
+                log.log(level, "%s: still running (%.0f s)", text, now - t0)
+
+    thread = threading.Thread(target=beat, name="casrecon-heartbeat", daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+
+
+@contextmanager
+def stage(log: logging.Logger, text: str, level: int = logging.INFO) -> Iterator[None]:
+    """Log ``text`` (the stage a command enters, e.g. ``"writing results -> out"``) at ``level`` on
+    ``log``, and a :func:`heartbeat` while the block runs."""
+    log.log(level, "%s", text)
+    with heartbeat(log, level, text):
+        yield

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from casrecon.analysis.parameter_estimates import parameter_estimates
@@ -9,6 +10,8 @@ from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.io.problem import ProblemConfig
 from casrecon.parallel import parallel_map
 from casrecon.scenario import Scenario
+
+LOG = logging.getLogger(__name__)
 
 
 def single_drop_sigma(problem: str | Path | ProblemConfig) -> tuple[str, dict[str, float]]:
@@ -52,4 +55,10 @@ def single_drop_sigmas(problems: list[Path | ProblemConfig], workers: int = 2) -
         in the order of ``problems``.
     """
     items = [p if isinstance(p, ProblemConfig) else str(p) for p in problems]
-    return dict(parallel_map(single_drop_sigma, items, workers=workers))
+    done = []
+
+    def finished(_item, value: tuple[str, dict[str, float]]) -> None:
+        done.append(value[0])
+        LOG.info("single-drop fit %d of %d done (%s)", len(done), len(items), value[0])
+
+    return dict(parallel_map(single_drop_sigma, items, workers=workers, on_done=finished))

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -13,10 +14,13 @@ from casrecon.io.errors import InputError
 from casrecon.io.problem_file import problem_document
 from casrecon.io.toml_fields import TomlDocument, read_toml
 from casrecon.pipelines.options import DEFAULT_OPTIONS, FitOptions
+from casrecon.progress import stage
 from casrecon.results.joint_fit import JointFit
 
 if TYPE_CHECKING:
     from casrecon.estimation.sixdof.joint import JointConfig
+
+LOG = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -115,7 +119,15 @@ def fit_joint_problems(problem: JointProblem, options: FitOptions = DEFAULT_OPTI
     finally:
         if background is not None:
             background.shutdown(wait=False)
-    sigmas = {} if singles is None else singles.result()
-    products = {d.scenario.config.name: fit_products(d, concurrent=options.concurrent) for d in result.drops}
+    if singles is None:
+        sigmas = {}
+    else:
+        with stage(LOG, f"waiting for the single-drop fits of the sigma comparison ({len(configs)} drops)"):
+            sigmas = singles.result()
+    products = {}
+    for k, d in enumerate(result.drops):
+        with stage(LOG, f"drop {k + 1} of {len(result.drops)} ({d.scenario.config.name}): residuals, reconciled "
+                        "simulations, aerodynamic coefficients and model adequacy"):
+            products[d.scenario.config.name] = fit_products(d, concurrent=options.concurrent)
     result.timings["total_s"] = time.perf_counter() - t0
     return JointFit.from_fit(result, products, sigmas)

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from casrecon.io.toml_fields import TomlDocument
 from casrecon.pipelines.options import DEFAULT_OPTIONS, FitOptions
+from casrecon.progress import stage
 from casrecon.results.pointmass_fit import PointMassFit
+
+LOG = logging.getLogger(__name__)
 
 
 def fit_point_mass(problem: str | Path | TomlDocument, options: FitOptions = DEFAULT_OPTIONS) -> PointMassFit:
@@ -25,5 +29,6 @@ def fit_point_mass(problem: str | Path | TomlDocument, options: FitOptions = DEF
     from casrecon.report.pointmass_report import pointmass_report
 
     main, constant = fit_with_comparison(load_point_mass(problem), print_level=options.print_level)
-    adequacy = pointmass_adequacy(main)  # once: the report and summary.json read this verdict
+    with stage(LOG, "model adequacy"):
+        adequacy = pointmass_adequacy(main)  # once: the report and summary.json read this verdict
     return PointMassFit.from_fit(main, constant, pointmass_report(main, constant, adequacy), adequacy)

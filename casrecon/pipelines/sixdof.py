@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
 from casrecon.io.toml_fields import TomlDocument
 from casrecon.pipelines.options import DEFAULT_OPTIONS, FitOptions
+from casrecon.progress import stage
 from casrecon.results.drop_fit import DropFit
 from casrecon.scenario import Scenario
+
+LOG = logging.getLogger(__name__)
 
 
 def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOptions = DEFAULT_OPTIONS) -> DropFit:
@@ -40,14 +44,16 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
     t0 = time.perf_counter()
     scenario = problem if isinstance(problem, Scenario) else Scenario.load(problem)
     result = fit_drop(scenario, **options.solver_overrides, sample_kinds=sixdof_sample_kinds(scenario.config))
-    products = fit_products(result, concurrent=options.concurrent)
+    with stage(LOG, "residuals, reconciled simulations, aerodynamic coefficients and model adequacy"):
+        products = fit_products(result, concurrent=options.concurrent)
     report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
     check = None
     if options.kinematic_check:
         from casrecon.analysis.kinematic_check import kinematic_check
 
         try:
-            _, implied, verdict = kinematic_check(result, products.aero_coefficients)
+            with stage(LOG, "kinematic check"):
+                _, implied, verdict = kinematic_check(result, products.aero_coefficients)
         except FitError as err:
             raise FitError(f"kinematic check: {err}") from err
         report = f"{report.rstrip()}\n{verdict.verdict()}\n"

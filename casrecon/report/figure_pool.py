@@ -14,7 +14,7 @@ import logging
 import multiprocessing
 import signal
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from casrecon.parallel import ignore_interrupts, stop_pool
@@ -75,9 +75,14 @@ class FigurePool:
         appended to ``notes``; FileNotFoundError if the folder lacks summary.json or trajectory.csv."""
         notes = [] if notes is None else notes
         indices = self.order.result()
-        futures = [self.pool.submit(draw_one, Path(folder), i, tuple(formats)) for i in indices]
+        futures = {self.pool.submit(draw_one, Path(folder), i, tuple(formats)): i for i in indices}
+        drawn: dict[int, tuple[list[Path], list[str]]] = {}
+        for future in as_completed(futures):
+            drawn[futures[future]] = future.result()
+            names = ", ".join(p.name for p in drawn[futures[future]][0]) or "skipped"
+            log.info("figure %d of %d: %s", len(drawn), len(futures), names)
         paths: list[Path] = []
-        for _, (p, n) in sorted(zip(indices, [f.result() for f in futures])):
+        for _, (p, n) in sorted(drawn.items()):
             paths += p
             notes += n
             for note in n:

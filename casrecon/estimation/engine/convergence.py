@@ -39,6 +39,7 @@ from scipy.linalg import null_space
 from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 from casrecon.estimation.engine.covariance import fisher_and_jacobian, kkt_matrix, reduced_system_at
 from casrecon.estimation.engine.nlp import Nlp
+from casrecon.progress import heartbeat
 
 LOG = logging.getLogger(__name__)
 
@@ -82,6 +83,34 @@ def log_iteration(level: int, label: str, iteration: int, chi2: float, violation
     if LOG.isEnabledFor(level):
         LOG.log(level, "%siteration %d: chi-square %.6g, constraint violation %.2g",
                 f"{label}: " if label else "", iteration, chi2, violation)
+
+
+def nested_label(text: str) -> str:
+    """``text`` after the label of the enclosing :func:`iteration_logging` block, if any (``"case 3,
+    fit 1 of up to 4"``): a label for a block inside it."""
+    outer = _ITERATION_LOG.get()[1]
+    return f"{outer}, {text}" if outer else text
+
+
+def log_stage(text: str) -> None:
+    """Log that the fit enters the stage ``text`` (e.g. ``"covariance"``), as ``label: text`` at the
+    level and with the label of the enclosing :func:`iteration_logging` block (INFO and no label
+    outside any block), so that a long step between iteration lines is named in the log."""
+    level, label = _ITERATION_LOG.get()
+    if LOG.isEnabledFor(level):
+        LOG.log(level, "%s%s", f"{label}: " if label else "", text)
+
+
+@contextmanager
+def fit_stage(text: str) -> Iterator[None]:
+    """Log the stage ``text`` (:func:`log_stage`) and, while the block runs, that it is still running
+    whenever :data:`casrecon.progress.HEARTBEAT_S` seconds pass without a line
+    (:func:`casrecon.progress.heartbeat`), at the level and with the label of the enclosing
+    :func:`iteration_logging` block."""
+    level, label = _ITERATION_LOG.get()
+    log_stage(text)
+    with heartbeat(LOG, level, f"{label}: {text}" if label else text):
+        yield
 
 
 def at_bounds(z: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:

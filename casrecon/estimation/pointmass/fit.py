@@ -30,7 +30,7 @@ from casrecon.estimation.engine.checks import (
     check_determined,
     covariance_or_fail,
 )
-from casrecon.estimation.engine.convergence import iteration_logging
+from casrecon.estimation.engine.convergence import fit_stage, iteration_logging, nested_label
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.engine.nlp import Nlp, assemble_nlp
 from casrecon.estimation.engine.solve import SolveResult, solve
@@ -289,7 +289,10 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     data say until it stops changing (at most MAX_REFITS refits;
     :mod:`casrecon.estimation.error_models.pointmass_gps_sigma`); the notes say what each estimate found."""
     t0 = time.perf_counter()
-    result = _fitted(cfg, model_name, print_level)
+    name = f"{model_name or cfg.drag.model}-CdA"
+    refits = cfg.gps_error_model_from_data and cfg.gps_errors.enabled
+    label = f"{name} fit 1 of up to {MAX_REFITS + 1}" if refits else f"{name} fit"
+    result = _fitted(cfg, model_name, print_level, label)
     if not gps_sigma.estimated(result):
         return result
     configured = cfg.gps_errors
@@ -299,7 +302,8 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
     for refit in range(MAX_REFITS + 1):
         t1 = time.perf_counter()
         try:
-            estimate = gps_sigma.estimate_gps_model(result, times, search=refit == 0)
+            with iteration_logging(label=nested_label(label)), fit_stage("estimating the GPS error sizes"):
+                estimate = gps_sigma.estimate_gps_model(result, times, search=refit == 0)
         except (np.linalg.LinAlgError, ValueError) as err:
             note = (f"GPS error model not estimated from the data ({err}): fitted with the "
                     f"{'configured' if refit == 0 else 'last estimated'} one")
@@ -310,7 +314,9 @@ def fit_point_mass(cfg: PointMassConfig, model_name: str | None = None, print_le
         if refit == MAX_REFITS:
             break
         try:
-            again = _fitted(dataclasses.replace(result.config, gps_errors=estimate.estimated), model_name, print_level)
+            label = f"{name} refit {refit + 2} of up to {MAX_REFITS + 1} (GPS error sizes)"
+            again = _fitted(dataclasses.replace(result.config, gps_errors=estimate.estimated), model_name, print_level,
+                            label)
         except FitError as err:  # the fit before stands, and says why it was not replaced
             return _noted(result, history + (f"{estimate.text()}; the refit with it failed: {err}",), estimate_s, t0)
         history += (f"{estimate.text()}; refitted (the fit before took {result.timings['total_s']:.1f} s)",)
@@ -326,20 +332,26 @@ def _noted(result: PointMassResult, notes: tuple[str, ...], estimate_s: float, t
     return dataclasses.replace(result, notes=result.notes + notes, timings=timings)
 
 
-def _fitted(cfg: PointMassConfig, model_name: str | None, print_level: int) -> PointMassResult:
-    """One fit with the configured GPS error model (see :func:`fit_point_mass`)."""
+def _fitted(cfg: PointMassConfig, model_name: str | None, print_level: int, label: str | None = None
+            ) -> PointMassResult:
+    """One fit with the configured GPS error model (see :func:`fit_point_mass`); its log lines labelled
+    ``label`` (default ``"<model>-CdA fit"``: casrecon fit runs two, spline and constant CdA)."""
     model_name = model_name or cfg.drag.model
     t0 = time.perf_counter()
-    built = build_point_mass(cfg, model_name)
-    data, part, nlp, z0, lbx, basis = built.data, built.layout, built.nlp, built.z0, built.lower, built.basis
-    t1 = time.perf_counter()
-    with iteration_logging(label=f"{model_name}-CdA fit"):  # casrecon fit runs two: spline and constant CdA
-        sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
-    check_converged(sol, nlp)
-    t2 = time.perf_counter()
-    r = nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(nlp, sol.z, r)
-    result = _result(cfg, model_name, data, part, nlp, sol, cov, r, basis)
+    with iteration_logging(label=nested_label(label or f"{model_name}-CdA fit")):
+        with fit_stage("building the NLP"):
+            built = build_point_mass(cfg, model_name)
+        data, part, nlp, z0, lbx, basis = built.data, built.layout, built.nlp, built.z0, built.lower, built.basis
+        t1 = time.perf_counter()
+        with fit_stage("solving"):
+            sol = solve(nlp, z0, cfg.linear_solver, cfg.max_iter, cfg.tol, print_level, (lbx, np.full(z0.size, np.inf)))
+        check_converged(sol, nlp)
+        t2 = time.perf_counter()
+        with fit_stage("covariance"):
+            r = nlp.residual_vector(sol.z)
+            cov = covariance_or_fail(nlp, sol.z, r)
+        with fit_stage("drag-area and state sigmas"):
+            result = _result(cfg, model_name, data, part, nlp, sol, cov, r, basis)
     result.timings.update(build_s=t1 - t0 + sol.build_s, solve_s=sol.solve_s, covariance_s=time.perf_counter() - t2,
                           total_s=time.perf_counter() - t0)
     return result

@@ -21,6 +21,7 @@ from collections.abc import Callable
 import numpy as np
 
 from casrecon.estimation.engine.checks import FitError, check_converged, check_determined
+from casrecon.estimation.engine.convergence import fit_stage, iteration_logging, nested_label
 from casrecon.estimation.engine.laplace import marginal_solution
 from casrecon.estimation.engine.solve import SolveResult, solve
 from casrecon.estimation.kinds.gps import CLOCK
@@ -79,8 +80,12 @@ def solve_fit(build: Callable[[dict[str, float], dict[str, np.ndarray]], FitNlp]
         if attempt == 0 and previous is None:
             check_determined(nlp, z0)
         bounds = clock_bounds(fit_nlp.parts, nlp.n_z)
-        sol = solve(nlp, z0, linear_solver=settings.linear_solver, max_iter=settings.max_iter, tol=settings.tol,
-                    print_level=settings.print_level, bounds=bounds, method=settings.solver)
+        again = ([f"clock-offset shift {attempt}"] if attempt else []) + (
+            [f"profile windows placed again {placements}"] if placements else [])
+        with iteration_logging(label=nested_label(", ".join(again)) if again else None), \
+                fit_stage("solving again from the last solution" if again else "solving"):
+            sol = solve(nlp, z0, linear_solver=settings.linear_solver, max_iter=settings.max_iter,
+                        tol=settings.tol, print_level=settings.print_level, bounds=bounds, method=settings.solver)
         build_s += sol.build_s
         check_converged(sol, nlp)
         previous, z = fit_nlp, sol.z

@@ -19,6 +19,7 @@ from casrecon.estimation.engine.checks import (
     FitError,
     covariance_or_fail,
 )
+from casrecon.estimation.engine.convergence import fit_stage, iteration_logging, nested_label
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.engine.kkt_covariance import KktCovariance
 from casrecon.estimation.engine.laplace import marginal_solution
@@ -145,7 +146,8 @@ def with_bands(result: FitResult) -> FitResult:
     if result.table_sigma is not None:
         return result
     t0 = time.perf_counter()
-    _, table_sigma = trajectory_with_bands(result.scenario.model, result.part, result.z, result.covariance)
+    with fit_stage("trajectory bands"):
+        _, table_sigma = trajectory_with_bands(result.scenario.model, result.part, result.z, result.covariance)
     spent = time.perf_counter() - t0
     timings = dict(result.timings)
     for key in ("covariance_s", "total_s"):
@@ -279,19 +281,22 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     t1 = time.perf_counter()
 
     def fitted(sc: Scenario, start, guess_clock_s: float, prior_sigma: np.ndarray | None = None,
-               notes: tuple[str, ...] = ()) -> FitResult:
+               notes: tuple[str, ...] = (), label: str = "fit") -> FitResult:
         sc = sc.with_fresh_functions()  # its compiled functions named as in any other fit of the drop
 
         def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
-            return build_nlp(sc.model, data, mesh, params, sc.config, settings.hessian, guesses[cfg.name],
-                             measurements, altitudes.get(cfg.name), profile_prior_sigma=prior_sigma, kinds=kinds)
+            with fit_stage("building the NLP"):
+                return build_nlp(sc.model, data, mesh, params, sc.config, settings.hessian, guesses[cfg.name],
+                                 measurements, altitudes.get(cfg.name), profile_prior_sigma=prior_sigma, kinds=kinds)
 
         t2 = time.perf_counter()
-        fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: guess_clock_s}, settings)
-        t3 = time.perf_counter()
-        r = fit_nlp.nlp.residual_vector(sol.z)
-        cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced,
-                                 information=settings.information_for(fit_nlp.parts), lam_g=sol.lam_g)
+        with iteration_logging(label=nested_label(label)):
+            fit_nlp, sol, build_s = solve_fit(build, start, {cfg.name: guess_clock_s}, settings)
+            t3 = time.perf_counter()
+            with fit_stage("covariance"):
+                r = fit_nlp.nlp.residual_vector(sol.z)
+                cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced,
+                                         information=settings.information_for(fit_nlp.parts), lam_g=sol.lam_g)
         timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
                    "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s,
                    "solve_linear_algebra_s": sol.linear_algebra_s}
@@ -300,10 +305,25 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
         timings.update(covariance_s=t4 - t3, total_s=t4 - t0, fit_s=t4 - t2)
         return dataclasses.replace(result, notes=result.notes + notes) if notes else result
 
-    result = fitted(scenario, lambda fit_nlp: fit_nlp.pack(x0, np.zeros(params.n)), cfg.estimation.clock_offset_guess_s)
+    refits = settings.method != "marginal" and bool(sizes_named(cfg))
+    result = fitted(scenario, lambda fit_nlp: fit_nlp.pack(x0, np.zeros(params.n)), cfg.estimation.clock_offset_guess_s,
+                    label=f"fit 1 of up to {MAX_REFITS + 1}" if refits else "fit")
     if not sizes_estimated(result) or result.part.n_u or settings.method == "marginal":
         return with_bands(result)
     return with_bands(with_profile_sigma_from_data(result, cfg, t0, fitted))
+
+
+def sizes_named(cfg: ProblemConfig) -> str:
+    """What error-model sizes a fit of ``cfg`` may estimate from the data and refit with, as the log
+    names its refits (``"profile sizes"``, ``"GPS error sizes"``, both, or ``""``: none; a fit with
+    disturbance states estimates none)."""
+    atm, gps, disturbance = cfg.atmosphere, cfg.gps, cfg.estimation.disturbance
+    if disturbance is not None and len(disturbance.active):
+        return ""
+    profile = atm.profile_sigma_from_data and bool(atm.profile_wind_sigma_mps or atm.profile_density_sigma)
+    errors = bool(gps.error_model_from_data and gps.error_model.enabled)
+    return " and ".join(name for name, on in (("profile", profile), ("GPS error", errors)) if on) + (
+        " sizes" if profile or errors else "")
 
 
 def drop_kinds(cfg: ProblemConfig, sample_kinds: Sequence[SampleKind] = ()) -> tuple[MeasurementKind, ...]:
@@ -336,13 +356,16 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
     notes)`` makes one fit. The result's timings ``first_fit_s`` is the time of the fits before
     the last. A refit that fails leaves the fit before it, whose notes say why."""
     earlier_s, intended, history = 0.0, None, ()
-    for _ in range(MAX_REFITS):
+    what = sizes_named(cfg) or "error-model sizes"
+    for k in range(MAX_REFITS):
         try:
             errors = cfg.gps.error_model
-            estimate = estimate_error_sizes(result, cfg.atmosphere.profile_length_m,
-                                            profile=cfg.atmosphere.profile_sigma_from_data,
-                                            configured_times_s=(errors.position_time_s, errors.velocity_time_s),
-                                            search=intended is None)
+            with iteration_logging(label=nested_label(f"{'fit' if k == 0 else 'refit'} {k + 1} of up to "
+                                                      f"{MAX_REFITS + 1}")), fit_stage(f"estimating the {what}"):
+                estimate = estimate_error_sizes(result, cfg.atmosphere.profile_length_m,
+                                                profile=cfg.atmosphere.profile_sigma_from_data,
+                                                configured_times_s=(errors.position_time_s, errors.velocity_time_s),
+                                                search=intended is None)
         except (np.linalg.LinAlgError, ValueError) as err:
             return dataclasses.replace(result, notes=result.notes + (
                 f"error-model sizes not estimated from the data ({err}): fitted with the "
@@ -363,7 +386,8 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
         try:
             again = fitted(dataclasses.replace(result.scenario, config=refit_cfg),
                            lambda fit_nlp, before=before, z=result.z: transferred(before, fit_nlp, z),
-                           before.parts[0].guess_clock_s, prior, history)
+                           before.parts[0].guess_clock_s, prior, history,
+                           label=f"refit {k + 2} of up to {MAX_REFITS + 1} ({what})")
         except FitError as err:  # the fit before stands, and says why it was not replaced
             return dataclasses.replace(result, notes=result.notes + (f"{estimate.text()}; the refit "
                                                                      f"{refit_text(estimate, prior)} failed: {err}",))

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.estimation.engine.checks import FitError, covariance_or_fail
+from casrecon.estimation.engine.convergence import fit_stage, iteration_logging, nested_label
 from casrecon.estimation.kinds.base import DropContext
 from casrecon.estimation.sixdof.continuation import solve_fit
 from casrecon.estimation.sixdof.drop import FitNlp, assemble_drops, load_measurements, parameter_set, with_extra_columns
@@ -188,17 +189,27 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     t0 = time.perf_counter()
     # each drop's data read and checked side by side; the initial guesses (CasADi functions, whose
     # making is not thread-safe: casadi#1355) one after the other
-    prepared = list(in_threads(prepare_drop, scenarios))
-    x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
-           for sc, (data, mesh) in zip(scenarios, prepared)]
-    psets, shared = _parameter_sets(scenarios, cfg)
-    measurements = [load_measurements(sc.config, data) for sc, (data, _) in zip(scenarios, prepared)]
+    with iteration_logging(label=nested_label("joint fit")):
+        with fit_stage(f"reading and checking the data of {len(scenarios)} drops, initial guesses"):
+            prepared = list(in_threads(prepare_drop, scenarios))
+            x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
+                   for sc, (data, mesh) in zip(scenarios, prepared)]
+            psets, shared = _parameter_sets(scenarios, cfg)
+            measurements = [load_measurements(sc.config, data) for sc, (data, _) in zip(scenarios, prepared)]
+        return _solved_joint(scenarios, cfg, settings, setting_notes, prepared, x0s, psets, shared, measurements, t0)
+
+
+def _solved_joint(scenarios, cfg: JointConfig, settings: FitSettings, setting_notes: list[str], prepared, x0s,
+                  psets, shared, measurements, t0: float) -> JointResult:
+    """The joint NLP of the prepared drops built, solved, and its covariance (:func:`fit_joint`)."""
 
     def build(guesses: dict[str, float], altitudes: dict[str, np.ndarray]) -> FitNlp:
-        layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses, measurements, altitudes)
-        contexts = [DropContext(sc.model, sc.config, layout, data, meas, prefixed=True)
-                    for sc, (data, _), layout, meas in zip(scenarios, prepared, layouts, measurements)]
-        return assemble_drops(contexts, n_z, settings.hessian)
+        with fit_stage("building the NLP"):
+            layouts, n_z = _layouts(scenarios, [m for _, m in prepared], psets, shared, guesses, measurements,
+                                    altitudes)
+            contexts = [DropContext(sc.model, sc.config, layout, data, meas, prefixed=True)
+                        for sc, (data, _), layout, meas in zip(scenarios, prepared, layouts, measurements)]
+            return assemble_drops(contexts, n_z, settings.hessian)
 
     def start(fit_nlp: FitNlp) -> np.ndarray:
         z0 = np.zeros(fit_nlp.nlp.n_z)
@@ -210,12 +221,14 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     fit_nlp, sol, build_s = solve_fit(build, start, guesses0, settings)
     nlp = fit_nlp.nlp
     t2 = time.perf_counter()
-    r = nlp.residual_vector(sol.z)
-    cov = covariance_or_fail(nlp, sol.z, r, sol.reduced, information=settings.information_for(fit_nlp.parts),
-                             lam_g=sol.lam_g)
+    with fit_stage("covariance"):
+        r = nlp.residual_vector(sol.z)
+        cov = covariance_or_fail(nlp, sol.z, r, sol.reduced, information=settings.information_for(fit_nlp.parts),
+                                 lam_g=sol.lam_g)
     timings = {"build_s": build_s, "solve_s": sol.solve_s}
-    drops = [drop_result(sc, data, fit_nlp, i, sol, cov, r, timings)
-             for i, (sc, (data, _)) in enumerate(zip(scenarios, prepared))]
+    with fit_stage("trajectory bands of each drop"):
+        drops = [drop_result(sc, data, fit_nlp, i, sol, cov, r, timings)
+                 for i, (sc, (data, _)) in enumerate(zip(scenarios, prepared))]
     if setting_notes:
         drops = [dataclasses.replace(d, notes=d.notes + tuple(setting_notes)) for d in drops]
     columns = nlp.parameter_names
