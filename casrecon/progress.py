@@ -20,7 +20,7 @@ from contextlib import contextmanager
 from typing import Any
 
 #: Seconds between the plain progress lines written where stderr is not a terminal (a log file).
-PLAIN_INTERVAL_S = 10.0
+PLAIN_INTERVAL_S = 4.0
 
 
 def is_terminal(stream: Any) -> bool:
