@@ -130,8 +130,14 @@ def draw_drop_figures(folder: Path, notes: list[str] | None = None, correlation:
     notes = [] if notes is None else notes
     DropFolder(folder)  # validates the folder before any worker starts
     indices = draw_order(correlation)
+    drawn: list[int] = []
+
+    def said(index: int, value: tuple[list[Path], list[str]]) -> None:  # one log line per figure as it lands
+        drawn.append(index)
+        log.info("figure %d of %d: %s", len(drawn), len(indices), ", ".join(p.name for p in value[0]) or "skipped")
+
     done = parallel_map(partial(draw_drop_figure, folder, correlation=correlation, formats=tuple(formats)), indices,
-                        workers=workers, start_method="fork")
+                        workers=workers, start_method="fork", on_done=said)
     paths: list[Path] = []
     for _, (p, n) in sorted(zip(indices, done)):
         paths += p
@@ -160,10 +166,12 @@ def draw_figures(results_dir: Path, notes: list[str] | None = None,
     if not drops:
         return draw_drop_figures(results_dir, notes, formats=formats)
     paths: list[Path] = []
-    for folder in drops:
+    for k, folder in enumerate(drops):
+        log.info("figures of drop %d of %d (%s)", k + 1, len(drops), folder.name)
         paths += draw_drop_figures(folder, notes, correlation=False, formats=formats)
     title = _joint_title(results_dir, drops)
     joint_notes: list[str] = []
+    log.info("joint figures")
     paths += draw_joint_figures(results_dir, drops, title, joint_notes, formats=formats)
     for note in joint_notes:
         log.warning(note)

@@ -126,8 +126,8 @@ def assert_no_traceback(proc: subprocess.CompletedProcess) -> None:
     assert TRACEBACK not in proc.stderr and TRACEBACK not in (proc.stdout or ""), proc.stderr[-3000:]
 
 
-#: A progress bar line (``montecarlo [####    ] 250/1000 cases ...``).
-PROGRESS = re.compile(r"\[[# ]*\] \d+/\d+ ")
+#: A progress line of a redirected log (``montecarlo: 250/1000 cases, 12 s, about 36 s left``).
+PROGRESS = re.compile(r"^[\w -]+: \d+/\d+ \w+, \d+ s")
 
 
 def error_lines(proc: subprocess.CompletedProcess) -> list[str]:

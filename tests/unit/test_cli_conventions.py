@@ -116,9 +116,8 @@ def test_cli_fit_progress_on_stderr_unless_quiet(tmp_path):
         assert sum(line.startswith(f"{label}: iteration ") and "chi-square" in line for line in lines) >= 3, label
     first_constant = next(i for i, line in enumerate(lines) if line.startswith("constant-CdA fit: "))
     assert all(line.startswith("spline-CdA fit: ") for line in lines[:first_constant])  # one run, then the other
-    stages = ("spline-CdA fit: building the NLP", "spline-CdA fit: covariance", "spline-CdA fit: drag-area and state "
-              "sigmas", "constant-CdA fit: building the NLP", "constant-CdA fit: covariance", "model adequacy",
-              "writing the results -> ")
+    stages = ("spline-CdA fit: solving", "spline-CdA fit: covariance", "spline-CdA fit: drag-area and state sigmas",
+              "constant-CdA fit: solving", "constant-CdA fit: covariance", "model adequacy", "writing the results -> ")
     at = [next((i for i, line in enumerate(lines) if line.startswith(stage)), None) for stage in stages]
     assert None not in at and at == sorted(at), dict(zip(stages, at))  # every stage named, in order
     quiet = run_module("fit", problem, "--out", str(tmp_path / "b"), "--no-figures", "--quiet")

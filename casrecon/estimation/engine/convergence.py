@@ -102,13 +102,15 @@ def log_stage(text: str) -> None:
 
 
 @contextmanager
-def fit_stage(text: str) -> Iterator[None]:
-    """Log the stage ``text`` (:func:`log_stage`) and, while the block runs, that it is still running
-    whenever :data:`casrecon.progress.HEARTBEAT_S` seconds pass without a line
-    (:func:`casrecon.progress.heartbeat`), at the level and with the label of the enclosing
-    :func:`iteration_logging` block."""
+def fit_stage(text: str, announce: bool = True) -> Iterator[None]:
+    """Log the stage ``text`` (:func:`log_stage`; not with ``announce`` False) and, while the block
+    runs, that it is still running whenever :data:`casrecon.progress.HEARTBEAT_S` seconds pass
+    without a line (:func:`casrecon.progress.heartbeat`), at the level and with the label of the
+    enclosing :func:`iteration_logging` block. ``announce=False`` suits a stage that may end in a
+    refusal of the inputs, whose one error line should stand alone: it speaks only if it runs long."""
     level, label = _ITERATION_LOG.get()
-    log_stage(text)
+    if announce:
+        log_stage(text)
     with heartbeat(LOG, level, f"{label}: {text}" if label else text):
         yield
 

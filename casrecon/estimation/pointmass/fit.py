@@ -339,7 +339,7 @@ def _fitted(cfg: PointMassConfig, model_name: str | None, print_level: int, labe
     model_name = model_name or cfg.drag.model
     t0 = time.perf_counter()
     with iteration_logging(label=nested_label(label or f"{model_name}-CdA fit")):
-        with fit_stage("building the NLP"):
+        with fit_stage("reading the track, building the NLP", announce=False):  # a refused input: one line
             built = build_point_mass(cfg, model_name)
         data, part, nlp, z0, lbx, basis = built.data, built.layout, built.nlp, built.z0, built.lower, built.basis
         t1 = time.perf_counter()

@@ -190,7 +190,8 @@ def fit_joint(scenarios: list[Scenario], cfg: JointConfig, *, hessian: str | Non
     # each drop's data read and checked side by side; the initial guesses (CasADi functions, whose
     # making is not thread-safe: casadi#1355) one after the other
     with iteration_logging(label=nested_label("joint fit")):
-        with fit_stage(f"reading and checking the data of {len(scenarios)} drops, initial guesses"):
+        # unannounced: a refused input file is then the only line (it speaks if it takes long)
+        with fit_stage(f"reading and checking the data of {len(scenarios)} drops, initial guesses", announce=False):
             prepared = list(in_threads(prepare_drop, scenarios))
             x0s = [initial_guess(data, mesh, sc.config.vehicle, sc.atmosphere, sc.config.site.ground_alt_msl_m)
                    for sc, (data, mesh) in zip(scenarios, prepared)]
