@@ -3,7 +3,8 @@
 Runs ``casrecon ARGS...`` with stderr redirected to a pipe (as a log file would be), timestamps
 each line (and each ``\\r``-separated redraw) as it arrives, and prints the longest gaps between
 consecutive lines with the line that ended each gap, the time to the first line and from the last
-line to the end, and whether any ``\\r`` reached the pipe.
+line to the end, whether any ``\\r`` reached the pipe, and the longest stretch with only
+heartbeat lines (``<stage>: still running (N s)``, casrecon.progress.heartbeat).
 
 Run: python benchmarks/log_silence.py [--top 5] [--save LOG] -- fit problems/ees-drop-1 --out /tmp/x
 """
@@ -63,6 +64,10 @@ def main() -> None:
           f"last line to the end {total - (stamps[-2] if lines else 0.0):.1f} s")
     for gap, at, text in gaps[:args.top]:
         print(f"  silent {gap:6.1f} s, ended at {at:7.1f} s by: {text[:100]}")
+    news = [0.0] + [t for t, line in lines if ": still running (" not in line] + [total]
+    beats = sum(": still running (" in line for _, line in lines)
+    print(f"  heartbeat lines ('still running'): {beats}; longest stretch without another line "
+          f"{max(b - a for a, b in zip(news, news[1:])):.1f} s")
 
 
 if __name__ == "__main__":
