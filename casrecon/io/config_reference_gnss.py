@@ -72,7 +72,8 @@ POINT_MASS = FileKind(
         ), required=True),
         Table("segment", (
             key("start_utc", "datetime or string", "UTC", "Start of the fitted segment", "<found from the data>"),
-            key("end_utc", "datetime or string", "UTC", "End of the fitted segment", "<found from the data>"),
+            key("end_utc", "datetime or string", "UTC", "End of the fitted segment; refused when the fall's final drop "
+               "(canopy opening, impact) began before it", "<found from the data>"),
             key("min_speed_mps", "float", "m/s", "Descent speed that defines the segment when start/end are not "
                "given", source=SegmentConfig, attr="segment.min_speed_mps"),
             key("end_margin_s", "float", "s", "The found segment ends this long before the final drop began",
