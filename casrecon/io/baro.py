@@ -103,12 +103,15 @@ class BaroLog:
     pressure_pa : (N,) array
         Static pressure, Pa.
     clock : {"utc", "imu"}
+    notes : tuple of str
+        What the reader noted (a SENSOR.CSV's dropped ``$TIME`` rows).
     """
 
     path: Path
     time_s: np.ndarray
     pressure_pa: np.ndarray
     clock: str
+    notes: tuple[str, ...] = ()
 
 
 def read_baro(path: str | Path) -> BaroLog:
@@ -119,7 +122,8 @@ def read_baro(path: str | Path) -> BaroLog:
         log = read_flysight2_sensor(path)
         if log.baro_time_unix_s.size < 2:
             raise InputError(path, f"holds {log.baro_time_unix_s.size} BARO rows; a barometer fit needs at least 2")
-        return BaroLog(path, log.baro_time_unix_s, log.baro_pressure_pa, "utc")
+        return BaroLog(path, log.baro_time_unix_s, log.baro_pressure_pa, "utc",
+                       (log.clock_fit.dropped_note(),) if log.clock_fit.dropped else ())
     header = [h.strip() for h in lines[0].split(",")]
     time_col = next((c for c in TIME_COLUMNS if c in header), None)
     pressure_col = next((c for c in PRESSURE_COLUMNS if c in header), None)

@@ -68,8 +68,11 @@ class Finding:
         return InputError(path, self.message, line=self.line, field=self.field)
 
 
-def line_of(index: int) -> int:
-    """Line of the IMU CSV holding sample ``index`` (0-based; the header is line 1)."""
+def line_of(index: int, m: ImuLog | None = None) -> int:
+    """Line of the file holding sample ``index`` (0-based): ``m.line_numbers`` when the log has them, else
+    the IMU CSV's (the header is line 1)."""
+    if m is not None and m.line_numbers is not None:
+        return int(m.line_numbers[index])
     return int(index) + 2
 
 
@@ -93,7 +96,8 @@ def gap_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> Findi
     more = f" ({n_gaps} such gaps in all)" if n_gaps > 1 else ""
     return Finding(f"gap of {step[k]:.4g} s after t = {t[k]:.6g} s ({step[k] / med:.1f} sample periods of "
                    f"{med * 1e3:.4g} ms){more}; expected evenly spaced samples, steps at most {IMU_GAP_FACTOR:g} "
-                   "periods (the fit places sample k at t0 + k dt)", line=line_of(idx[k + 1]), field=spec.time_column)
+                   "periods (the fit places sample k at t0 + k dt)", line=line_of(idx[k + 1], m),
+                   field=spec.time_column)
 
 
 def gyro_unit_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> Finding | None:
@@ -146,7 +150,7 @@ def saturation_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -
             return Finding(f"{share[k]:.0%} of the {kind} samples at or beyond the declared {kind} limits "
                            f"({_limits_text(limits, k, unit)}), from t = {m.time_s[idx[0]]:.6g} s; expected at most "
                            f"{MAX_SATURATED_SHARE:.0%} (a clipped sensor, or limits or unit declared wrong)",
-                           line=line_of(idx[0]), field=_axis_names(spec, columns)[k])
+                           line=line_of(idx[0], m), field=_axis_names(spec, columns)[k])
     return None
 
 
@@ -184,7 +188,7 @@ def stuck_finding(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> Fin
                                f"({n} samples from t = {t[start]:.6g} s); expected a reading that changes (a working "
                                f"sensor's noise changes it from sample to sample; unchanged for {STUCK_RUN_S:g} s or "
                                "longer means a stuck or disconnected channel, or clipping at undeclared limits)",
-                               line=line_of(idx[start]), field=_axis_names(spec, columns)[k])
+                               line=line_of(idx[start], m), field=_axis_names(spec, columns)[k])
     return None
 
 
@@ -226,7 +230,7 @@ def peak_findings(m: ImuLog, spec: ImuCsvSpec, span: slice = slice(None)) -> dic
             other = f"{v / STANDARD_GRAVITY:.0f} g" if unit == "m/s^2" else f"{v:.0f} m/s^2"
         out[kind] = Finding(f"{kind} reads {raw:.6g} {unit} ({other}) at t = {m.time_s[idx]:.6g} s "
                             f"with the {kind}s read as {unit}; beyond {limit:g} {si}, implausible for a {kind}; {hint}",
-                            line=line_of(idx), field=_axis_names(spec, columns)[k])
+                            line=line_of(idx, m), field=_axis_names(spec, columns)[k])
     return out
 
 
