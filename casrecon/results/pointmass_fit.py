@@ -64,6 +64,10 @@ class PointMassFit(FolderViews):
         None when loaded.
     source : Path or None
         The folder a loaded result came from.
+
+    Also (properties, :class:`~casrecon.results.drop_fit.FolderViews`): lmfit's ``success``,
+    ``chisqr``, ``redchi``, ``nfev``, ``nvarys``, ``covar``, ``correl`` and ``fit_report()``; every
+    parameter is estimated (``vary`` True).
     """
 
     fit: PointMassResult | None = None
