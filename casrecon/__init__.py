@@ -6,8 +6,8 @@ The public Python API (in the spirit of lmfit and rockit)::
 
     result = casrecon.fit("problems/ees-drop-1")
     print(result.params["CA_mult"].value, result.params["CA_mult"].stderr)
-    print(result.report())
-    result.sample("alpha_t_deg", [2.0, 5.0])        # values and 3-sigma at flight times, s
+    print(result.fit_report())                      # lmfit-style: 1- and 3-sigma named; result.correl
+    result.sample("alpha_t_deg", [2.0, 5.0])        # values and 3-sigma at flight times, s (or UTC instants)
     result.save("results/ees-drop-1")               # the folder `casrecon fit --out` writes
     again = casrecon.load_results("results/ees-drop-1")
     casrecon.plot_trajectory(result).savefig("trajectory.png")

@@ -10,7 +10,7 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -58,6 +58,10 @@ class KinematicFit(FolderViews):
         The estimator's result (None when loaded).
     source : Path or None
         The folder a loaded result came from.
+
+    Also (properties, :class:`~casrecon.results.drop_fit.FolderViews`): lmfit's ``success``,
+    ``chisqr``, ``redchi``, ``nfev``, ``nvarys``, ``covar``, ``correl`` and ``fit_report()``; every
+    parameter is estimated (``vary`` True).
     """
 
     fit: KinematicResult | None = None
@@ -103,19 +107,20 @@ class KinematicFit(FolderViews):
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"
         return (f"<KinematicFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
-                f"{len(self.params)} parameters, {len(self.trajectory)} nodes>")
+                f"{self.nvarys} parameters, {len(self.trajectory)} nodes>")
 
-    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
-               time: str = "time_s") -> pd.DataFrame:
+    def sample(self, columns: str | Sequence[str], times_s: Any, *, time: str | None = None) -> pd.DataFrame:
         """Columns (e.g. ``"vel_d_mps"``, ``"yaw_deg"``) and their 3-sigma interpolated linearly at
-        ``times_s`` (s since the span's start, or UTC Unix seconds with ``time="time_unix_s"``);
-        the Euler angles are unwrapped first and returned in (-180, 180] deg. ValueError for an
-        unknown column (listing the available ones) or a time outside the span."""
+        ``times_s`` (s since the span's start, or UTC Unix seconds with ``time="time_unix_s"``), or
+        at UTC instants (``datetime``, pandas ``Timestamp`` or a sequence of them; naive ones taken
+        as UTC; returned in a ``utc`` column; a clock that is not UTC has none); the Euler angles are
+        unwrapped first and returned in (-180, 180] deg. ValueError for an unknown column (listing
+        the available ones) or a time outside the span."""
         frame = self.trajectory.copy()
         for col in ANGLE_COLUMNS:
             if col in frame:
                 frame[col] = np.rad2deg(np.unwrap(np.deg2rad(frame[col].to_numpy(float))))
-        out = sample_frame(self.name, frame, TIME_COLUMNS, columns, times_s, time)
+        out = sample_frame(self.name, frame, TIME_COLUMNS, columns, times_s, time, "time_s")
         for col in ANGLE_COLUMNS:
             if col in out:
                 out[col] = 180.0 - np.mod(180.0 - out[col].to_numpy(float), 360.0)

@@ -9,7 +9,7 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -64,6 +64,10 @@ class PointMassFit(FolderViews):
         None when loaded.
     source : Path or None
         The folder a loaded result came from.
+
+    Also (properties, :class:`~casrecon.results.drop_fit.FolderViews`): lmfit's ``success``,
+    ``chisqr``, ``redchi``, ``nfev``, ``nvarys``, ``covar``, ``correl`` and ``fit_report()``; every
+    parameter is estimated (``vary`` True).
     """
 
     fit: PointMassResult | None = None
@@ -119,17 +123,24 @@ class PointMassFit(FolderViews):
         """Chi-square per residual group of the fitted model, -."""
         return dict((self.summary.get("fit") or {}).get("chi2", {}))
 
+    @property
+    def nit(self) -> int | None:
+        """The fitted model's iteration count; None when not recorded."""
+        n = (self.summary.get("fit") or {}).get("iterations")
+        return None if n is None else int(n)
+
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"
         return (f"<PointMassFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
-                f"{len(self.params)} parameters, {len(self.trajectory)} fixes>")
+                f"{self.nvarys} parameters, {len(self.trajectory)} fixes>")
 
-    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
-               time: str = "time_s") -> pd.DataFrame:
+    def sample(self, columns: str | Sequence[str], times_s: Any, *, time: str | None = None) -> pd.DataFrame:
         """Columns (e.g. ``"cda_m2"``) and their 3-sigma interpolated linearly at ``times_s`` (s since the
-        segment start, or UTC Unix seconds with ``time="time_unix_s"``); ValueError for an unknown
-        column (listing the available ones) or a time outside the segment."""
-        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
+        segment start, or UTC Unix seconds with ``time="time_unix_s"``), or at UTC instants
+        (``datetime``, pandas ``Timestamp`` or a sequence of them; naive ones taken as UTC; returned
+        in a ``utc`` column); ValueError for an unknown column (listing the available ones) or a
+        time outside the segment."""
+        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time, "time_s")
 
     def write(self, out: Path) -> None:
         """Write this fit's results files into the folder ``out`` being made (by :meth:`save`, or by
