@@ -21,7 +21,10 @@ Limits:
   way is a clock, a datum or a unit, not a receiver (1 s of clock error at 40 m/s of descent is
   40 m against vAcc 2.5 m; hAcc in mm read as m is 1000).
 - A GPS correlation time at the longest searched (``gps_error_sigma.TIME_FACTORS`` times the
-  configured one): an error that holds over the whole drop.
+  configured one): an error that holds over the whole drop, which the search cannot size. Not
+  only a gross input error: von Karman turbulence and gusts the fit has no states for
+  (``benchmarks/error_families.py --families turbulence``) ask for the longest GPS velocity time
+  too, so the finding names both.
 - A profile group's sigma at the top of its search (``profile_sigma.MAX_RATIO`` times the fit's),
   or a profile correlation length at the longest searched (``profile_sigma.LENGTH_FACTORS``) with
   some group's sigma above the fit's: a difference between the air flown and the sounding larger
@@ -48,10 +51,14 @@ MAX_ACCURACY_SCALE = 3.0
 CAUSES = {
     "gps_large": "the IMU clock ([sensors.imu.clock] utc_at_zero), a GPS datum or the units of the GPS file",
     "gps_small": "the units of the GPS accuracy columns (hAcc, vAcc, sAcc)",
-    "gps_time": "the IMU clock ([sensors.imu.clock] utc_at_zero) or a datum or ground altitude: an error that "
-                "holds over the whole drop",
+    "gps_time": "a gross input error (the IMU clock, [sensors.imu.clock] utc_at_zero, or a datum or ground "
+                "altitude), or air that differs from the sounding in ways the profile model does not hold "
+                "(turbulence, gusts)",
     "profile": "a sounding of another day or place, a datum or ground altitude of the sounding or site, the IMU "
                "clock ([sensors.imu.clock] utc_at_zero), or the sounding's units",
+    "profile_length": "a sounding of another day or place, a datum or ground altitude of the sounding or site, the "
+                      "IMU clock ([sensors.imu.clock] utc_at_zero), the sounding's units, or air that differs from "
+                      "the sounding in ways the profile model does not hold (turbulence, gusts)",
 }
 
 
@@ -91,8 +98,9 @@ def implausible(estimate: ps.ProfileSigmaEstimate, configured_length_m: float | 
             tau = (gps.estimated.position_time_s, gps.estimated.velocity_time_s)[k]
             top = max(gs.TIME_FACTORS) * base[k]
             if base[k] > 0 and tau > 0 and tau != fitted[k] and _at_top(tau, top):
-                out.append(f"the data ask for GPS {g} errors correlated over {tau:g} s, the longest searched: a gross "
-                           f"error, likely {CAUSES['gps_time']}")
+                out.append(f"the data ask for GPS {g} errors correlated over {tau:g} s, the longest searched: an "
+                           f"error that holds over the whole drop, which no searched model sizes: likely "
+                           f"{CAUSES['gps_time']}")
         for name, ratio in gps.ratios.items():
             if _at_top(ratio, gs.MAX_RATIO):
                 out.append(f"the data ask for the {name[4:]} sigma at {ratio:.3g} times the fit's, the top of its "
@@ -110,7 +118,7 @@ def implausible(estimate: ps.ProfileSigmaEstimate, configured_length_m: float | 
             out.append(f"the data ask for an atmosphere-profile error ({sizes}) correlated over "
                        f"{estimate.length_m:.0f} m, the longest searched: a difference from the sounding that "
                        "holds over the whole drop, "
-                       f"likely {CAUSES['profile']}")
+                       f"likely {CAUSES['profile_length']}")
     return tuple(out)
 
 
