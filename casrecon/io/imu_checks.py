@@ -20,9 +20,10 @@ a :class:`Finding` (message, line of the IMU CSV, column) or None. The threshold
   bends by at most 90 deg). So the angle the mean specific-force direction sweeps block to block
   must stay within 3 times the angle the gyros sweep (the integral of the rate magnitude) plus
   90 deg. Measured: 0.22 to 0.32 times on the EES drops' fit windows, 0.03 on the spinning
-  davinci-ztu, 1.4 on the FlySight 2 skydive (whole log), 0.4 on the rocket Hedy; gyros in rad/s
-  declared as deg/s (57.3 times too small) give 13 to 18 times on the EES drops. A body spinning
-  about its specific-force axis (davinci-ztu: 1.7 times) escapes: the spin does not turn the force.
+  davinci-ztu, 1.5 to 1.6 on the FlySight 2 skydive (its span, its whole log), 0.4 on the rocket
+  Hedy; gyros in rad/s declared as deg/s (57.3 times too small) give 13 to 18 times on the EES
+  drops. A body spinning about its specific-force axis (davinci-ztu: 1.7 times) escapes: the spin
+  does not turn the force.
 - **accelerometer unit** (:data:`ACCEL_MEDIAN_G` = 0.25 to 4 g for the median specific-force
   magnitude over the whole log): a body hanging under a helicopter, sitting on the ground or
   descending at terminal speed feels about 1 g, so the median is near 1 g; m/s^2 declared as g
