@@ -113,7 +113,7 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
     top_needed = max(ground + cfg.release.h_agl_m, float(track.h_msl_m[in_window].max(initial=-np.inf)))
     check_sounding_top(cfg.atmosphere.sounding, cfg.atmosphere.launch, top_needed, "the release altitude", sounding)
     check_impact_time(imu.path, track, zero, release, impact)
-    if cfg.baro is not None and cfg.baro.file is not None:
+    if cfg.baro is not None and cfg.baro.file is not None and cfg.baro.file.exists():  # (missing: the fit says so)
         log = read_baro(cfg.baro.file)
         check_baro(log, log.time_s + (0.0 if log.clock == "utc" else zero), (zero + window[0], zero + window[1]),
                    track, good, ground, sounding)
