@@ -265,7 +265,8 @@ FAMILIES: dict[str, Callable[[Span, np.random.Generator], SyntheticWorld]] = {
     "none": no_error,
 }
 #: The atmosphere families: their data's GPS errors are white (the family is the only model error).
-ATMOSPHERE_FAMILIES = ("turbulence", "turbulence-altitude", "turbulence-time", "fine-grid", "coarse-grid", "density-ramp", "wind-jet")
+ATMOSPHERE_FAMILIES = ("turbulence", "turbulence-altitude", "turbulence-time", "fine-grid", "coarse-grid",
+                       "density-ramp", "wind-jet")
 
 
 def family_world(name: str, span: Span, seed: int) -> SyntheticWorld:

@@ -14,6 +14,7 @@ from casrecon.estimation.kinds.gps import fix_sigma
 from casrecon.estimation.kinematic.data import KinematicData, KinematicOptions
 from casrecon.estimation.kinematic.imu_record import check_span, read_imu_record
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError, load_fit_data
+from casrecon.estimation.validation.consistency import check_baro, sounding_origin_warning, warn_once
 from casrecon.io.baro import BaroConfig, read_baro
 from casrecon.io.gps_files import read_gps_track
 from casrecon.io.gps_rules import fixes_ned, good_fixes
@@ -22,6 +23,9 @@ from casrecon.io.problem import ProblemConfig
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.vehicle import Vehicle
+
+#: A common clock after this (2001-09-09 UTC, Unix seconds) is taken as UTC: the sounding's date is compared.
+UTC_AFTER_S = 1e9
 
 
 def options_from_problem(cfg: ProblemConfig, **overrides) -> KinematicOptions:
@@ -103,15 +107,22 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
     pos, vel, sigma = fixes_ned(track, cfg.site, keep, cfg.velocity_sigma_mps)
     sel = (t_imu >= start - 1.0) & (t_imu <= end + 1.0)
     notes += check_span(record, start - 1.0, end + 1.0)
+    sounding = None if cfg.sounding is None else read_sounding(cfg.sounding)
     baro_t = baro_p = None
     if cfg.baro_file is not None:
         blog = read_baro(cfg.baro_file)
         notes += [n for n in blog.notes if n not in notes]  # the IMU's SENSOR.CSV read again: its note once
         tb = blog.time_s + (imu.utc_at_zero_s if blog.clock == "imu" else 0.0)
+        check_baro(blog, tb, (start, end), track, good, cfg.site.ground_alt_msl_m, sounding)
         bk = (tb >= start) & (tb <= end)
         baro_t, baro_p = tb[bk] - start, blog.pressure_pa[bk]
-    atmosphere = (Atmosphere.standard() if cfg.sounding is None else
-                  Atmosphere.from_sounding(read_sounding(cfg.sounding), cfg.site.ground_alt_msl_m, cfg.humidity))
+    if sounding is not None:
+        warning = sounding_origin_warning(sounding, start if start > UTC_AFTER_S else None, cfg.site.lat_deg,
+                                          cfg.site.lon_deg, "the span's start and [site]")
+        if warning is not None:
+            warn_once(warning)
+    atmosphere = (Atmosphere.standard() if sounding is None else
+                  Atmosphere.from_sounding(sounding, cfg.site.ground_alt_msl_m, cfg.humidity))
     data = KinematicData(t_imu[sel] - start, gyro[sel], accel[sel], gyro_ok[sel], accel_ok[sel], t_fix[keep] - start,
                          np.column_stack([pos, vel]), sigma, (0.0, end - start), baro_t, baro_p, cfg.baro_noise_pa,
                          atmosphere, tuple(notes), time_ref_s=float(start), imu_file=m.path,
