@@ -33,7 +33,7 @@ import numpy as np
 
 from casrecon.estimation.validation.data_checks import GPS_MAX_GAP_S
 from casrecon.io.flysight import GpsTrack
-from casrecon.io.gps_rules import GpsQuality, good_fixes, no_fix_note
+from casrecon.io.gps_rules import GpsQuality, filter_note, good_fixes, no_fix_note
 from casrecon.io.pointmass_problem import SegmentConfig
 
 #: Window of the running maximum that finds the final drop, s.
@@ -111,6 +111,10 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
         return Segment(cfg.start_unix_s, cfg.end_unix_s, good, tuple(notes))
     i0, i1 = longest_fast_run(t, track.vel_d_mps, good, cfg.min_speed_mps)
     if i1 == i0:
+        filtered = filter_note(track, q)
+        if filtered:
+            raise SegmentError(f"{track.path}: {filtered}; no fix left descends faster than {cfg.min_speed_mps} m/s "
+                               "(relax the filter)")
         raise SegmentError(f"{track.path}: no good fix descends faster than {cfg.min_speed_mps} m/s")
     t_good, vd_good = t[good], track.vel_d_mps[good]
 
