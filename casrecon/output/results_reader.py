@@ -92,7 +92,8 @@ def read_document(path: str | Path) -> dict:
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as err:
-        cut = " (the file is cut short)" if err.pos >= len(text.rstrip()) else ""
+        # the writers end every document with its closing bracket: without one the file was cut short
+        cut = "" if text.rstrip().endswith(("}", "]")) else " (the file is cut short)"
         raise InputError(path, f"not valid JSON: {err.msg}{cut}; expected a JSON object {{...}}",
                          line=err.lineno) from None
     if not isinstance(doc, dict):
