@@ -130,7 +130,9 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     onset = run[drop_onset(t[run], track.vel_d_mps[run], cfg.deploy_drop_mps)]
     end = cfg.end_unix_s if cfg.end_unix_s is not None else float(t[onset]) - cfg.end_margin_s
     if end - start < 5.0:
-        raise SegmentError(f"{track.path}: the descent segment found is only {end - start:.1f} s long")
+        filtered = filter_note(track, q)
+        why = f" ({filtered})" if filtered else ""
+        raise SegmentError(f"{track.path}: the descent segment found is only {end - start:.1f} s long{why}")
     notes.append(f"segment found from the data: {end - start:.1f} s, vertical speed up to "
                  f"{track.vel_d_mps[run].max():.1f} m/s (rule: longest run faster than {cfg.min_speed_mps} m/s, "
                  f"back to 2 m/s or to a fix not yet falling, ending {cfg.end_margin_s} s before the final drop "
