@@ -315,7 +315,7 @@ def folder_kind(folder: str | Path) -> str:
     its summary.json is damaged."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise InputError(folder, "results folder not found")
+        raise InputError(folder, "results folder not found: it does not exist or is not a folder")
     if (folder / "drops").is_dir():
         return "joint"
     summary = folder / "summary.json"
@@ -358,7 +358,7 @@ def require_files(folder: str | Path, names: Sequence[str], kind: str = "") -> N
     ending in ``/``: a sub-folder); ``kind`` names the kind of folder in the message."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise InputError(folder, "results folder not found")
+        raise InputError(folder, "results folder not found: it does not exist or is not a folder")
     missing = [n for n in names if not ((folder / n).is_dir() if n.endswith("/") else (folder / n).is_file())]
     if missing:
         raise InputError(folder, f"not a casrecon {kind + ' ' if kind else ''}results folder: "
