@@ -19,6 +19,7 @@ one Axes per panel, in row-major order; the title and legend then go on those ax
 from __future__ import annotations
 
 import functools
+import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TypeAlias
@@ -144,7 +145,9 @@ def save_figure(fig: Figure, path: Path, formats: Sequence[str] = DEFAULT_FORMAT
     A :class:`~casrecon.report.figure_layout.FixedLayout` figure is laid out here, once, and then saved
     without a layout engine (with one, ``savefig`` runs a whole draw without rendering before the real
     one). The figure is left as it is (``Figure.clear`` costs ~0.05 s a figure; an unreferenced figure
-    is freed by the garbage collector)."""
+    is freed by the garbage collector). Each file is written beside its name and renamed into place
+    when complete: a failed write (disk full, read-only folder) leaves no partial file, and an
+    OSError naming the figure's file."""
     engine = fig.get_layout_engine()
     if isinstance(engine, FixedLayout):
         engine.execute(fig)
@@ -154,7 +157,16 @@ def save_figure(fig: Figure, path: Path, formats: Sequence[str] = DEFAULT_FORMAT
     paths = []
     for fmt in formats:
         out = path.with_suffix(f".{fmt}")
-        fig.savefig(out, dpi=DPI, format=fmt, **({"pil_kwargs": PNG_OPTIONS} if fmt == "png" else {}))
+        tmp = out.with_name(f".{out.name}.tmp-{os.getpid()}")  # never a half-written figure under its name
+        try:
+            fig.savefig(tmp, dpi=DPI, format=fmt, **({"pil_kwargs": PNG_OPTIONS} if fmt == "png" else {}))
+            os.replace(tmp, out)
+        except OSError as err:
+            tmp.unlink(missing_ok=True)
+            raise OSError(err.errno, err.strerror or str(err), str(out)) from err
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
         paths.append(out)
     return paths
 

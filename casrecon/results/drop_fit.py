@@ -7,7 +7,6 @@ from) the results folder that ``casrecon fit --out`` writes.
 from __future__ import annotations
 
 import datetime
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +28,14 @@ from casrecon.output.fit_results import (
 from casrecon.output.kinematic_check_results import write_kinematic_check
 from casrecon.output.out_folder import input_paths
 from casrecon.output.results import json_values, save_results_folder
+from casrecon.output.results_reader import (
+    PARAMETERS_SHAPE,
+    TRAJECTORY_TIME_COLUMNS,
+    FolderFiles,
+    Table,
+    read_results_folder,
+    read_text,
+)
 from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.report.results_folder import DropTables
 from casrecon.results.fit_statistics import FitStatistics
@@ -45,20 +52,14 @@ if TYPE_CHECKING:
 #: Time columns of ``trajectory`` (s): IMU clock, flight time since release, UTC (Unix seconds).
 TIME_COLUMNS = ("time_imu_s", "flight_time_s", TIME_UNIX)
 #: Time columns a per-drop trajectory.csv must have.
-REQUIRED_TIME_COLUMNS = ("time_imu_s", "flight_time_s")
-#: Files without which a folder is not a per-drop results folder.
-REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
+REQUIRED_TIME_COLUMNS = TRAJECTORY_TIME_COLUMNS["drop"]
 
 
-def read_frame(path: Path) -> pd.DataFrame:
-    """A CSV file of casrecon's as a DataFrame, every number parsed exactly as written (the nearest
-    float; pandas 3 does so by default, pandas 2 needs ``float_precision="round_trip"``), the
-    ``utc`` column as tz-aware timestamps (:func:`with_timestamps`)."""
-    import pandas as pd
-
-    if int(pd.__version__.split(".")[0]) < 3:
-        return with_timestamps(pd.read_csv(path, float_precision="round_trip"))
-    return with_timestamps(pd.read_csv(path))
+def read_frame(table: Table) -> pd.DataFrame:
+    """A checked CSV table of a results folder (:func:`casrecon.output.results_reader.read_table`) as a
+    DataFrame, every number parsed exactly as written, the ``utc`` column as tz-aware timestamps
+    (:func:`with_timestamps`)."""
+    return with_timestamps(table.frame())
 
 
 def with_timestamps(frame: pd.DataFrame) -> pd.DataFrame:
@@ -70,12 +71,24 @@ def with_timestamps(frame: pd.DataFrame) -> pd.DataFrame:
     return frame
 
 
-def read_document(path: Path) -> dict:
-    """A JSON file as a dict; InputError naming the file when it is not JSON."""
+def parameters_of(files: FolderFiles, reduced_chi2: float | None, held_dispersions: bool = False) -> Parameters:
+    """The :class:`Parameters` of a checked folder's parameters.json (``reduced_chi2`` for entries without
+    ``sigma_chi2_scaled``; ``held_dispersions``: with records of the aero dispersion factors a 6-DOF fit
+    held at 0, :func:`fixed_dispersions`); InputError naming the file should the document still not
+    make records."""
+    path = files.folder / "parameters.json"
     try:
-        return json.loads(Path(path).read_text())
-    except json.JSONDecodeError as err:
-        raise InputError(path, f"not valid JSON ({err.msg})", line=err.lineno) from None
+        doc = files.documents["parameters.json"]
+        return from_document(doc, reduced_chi2, fixed_dispersions(doc["parameters"]) if held_dispersions else ())
+    except (KeyError, TypeError, ValueError, IndexError) as err:
+        raise InputError(path, f"expected {PARAMETERS_SHAPE} ({type(err).__name__}: {err})") from None
+
+
+def report_text(folder: Path) -> str:
+    """report.txt of a results folder without its final line break ("" without one); InputError
+    naming it when it is not text."""
+    report = folder / "report.txt"
+    return read_text(report, "the text report").rstrip("\n") if report.is_file() and report.stat().st_size else ""
 
 
 def fixed_dispersions(estimated: Sequence[str]) -> tuple[Parameter, ...]:
@@ -262,37 +275,30 @@ class DropFit(FolderViews):
 
     @classmethod
     def load(cls, folder: str | Path) -> DropFit:
-        """Read a per-drop results folder (``casrecon fit --out`` or :meth:`save`).
+        """Read a per-drop results folder (``casrecon fit --out`` or :meth:`save`), every file checked
+        (:func:`casrecon.output.results_reader.read_results_folder`).
 
         Raises
         ------
         InputError
-            The folder does not exist, lacks one of :data:`REQUIRED_FILES`, or holds a malformed one.
+            The folder does not exist, lacks one of its
+            :data:`~casrecon.output.results_reader.REQUIRED_FILES`, or holds a damaged file
+            (the file, the line or key, and what was expected).
         """
-        folder = Path(folder)
-        if not folder.is_dir():
-            raise InputError(folder, "results folder not found")
-        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
-        if missing:
-            raise InputError(folder, f"not a casrecon per-drop results folder: {', '.join(missing)} missing")
-        documents = {p.name: read_document(p) for p in sorted(folder.glob("*.json"))}
-        tables = {p.name: read_frame(p) for p in sorted(folder.glob("*.csv"))}
-        summary = documents["summary.json"]
-        try:
-            doc = documents["parameters.json"]
-            params = from_document(doc, summary.get("reduced_chi2"), fixed_dispersions(doc["parameters"]))
-        except (KeyError, TypeError, ValueError, IndexError) as err:
-            raise InputError(folder / "parameters.json",
-                             f"expected parameters {{name: {{value, sigma, ...}}}} and correlation {{names, "
-                             f"matrix}} ({type(err).__name__}: {err})") from None
-        missing_time = [c for c in REQUIRED_TIME_COLUMNS if c not in tables["trajectory.csv"].columns]
-        if missing_time:
-            raise InputError(folder / "trajectory.csv", f"no column {', '.join(missing_time)}")
-        report = folder / "report.txt"
-        return cls(name=str(summary.get("problem") or folder.name), params=params,
-                   trajectory=tables["trajectory.csv"], residuals=_residuals_of(tables), summary=summary,
-                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
-                   tables=tables, documents=documents, source=folder.resolve())
+        return cls.from_files(read_results_folder(folder, "drop"))
+
+    @classmethod
+    def from_files(cls, files: FolderFiles) -> DropFit:
+        """The result held by a checked per-drop folder (:class:`~casrecon.output.results_reader.FolderFiles`)."""
+        folder = files.folder
+        tables = {name: read_frame(table) for name, table in files.tables.items()}
+        summary = files.summary
+        return cls(name=str(summary.get("problem") or folder.name),
+                   params=parameters_of(files, summary.get("reduced_chi2"), held_dispersions=True),
+                   trajectory=tables["trajectory.csv"],
+                   residuals=_residuals_of(tables), summary=summary,
+                   report_text=report_text(folder), tables=tables, documents=dict(files.documents),
+                   source=folder.resolve())
 
     time_columns = TIME_COLUMNS
 

@@ -12,11 +12,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from casrecon.analysis.fit_adequacy import JointAdequacy, joint_adequacy
-from casrecon.io.errors import InputError
 from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
 from casrecon.output.out_folder import input_paths
 from casrecon.output.results import json_values, save_results_folder
-from casrecon.results.drop_fit import DropFit, adequacy_of, fixed_dispersions, read_document
+from casrecon.output.results_reader import read_results_folder, read_text
+from casrecon.results.drop_fit import DropFit, adequacy_of, fixed_dispersions, parameters_of
 from casrecon.results.fit_statistics import FitStatistics
 from casrecon.results.parameters import Parameters, from_document
 
@@ -26,8 +26,6 @@ if TYPE_CHECKING:
     from casrecon.analysis.fit_products import FitProducts
     from casrecon.estimation.sixdof.joint import JointResult
 
-#: Files without which a folder is not a joint results folder (besides ``drops/``).
-REQUIRED_FILES = ("summary.json", "parameters.json")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -97,34 +95,27 @@ class JointFit(FitStatistics):
 
     @classmethod
     def load(cls, folder: str | Path) -> JointFit:
-        """Read a joint results folder (``casrecon joint --out`` or :meth:`save`).
+        """Read a joint results folder (``casrecon joint --out`` or :meth:`save`), every file of it and
+        of its drops checked (:func:`casrecon.output.results_reader.read_results_folder`).
 
         Raises
         ------
         InputError
-            Not a folder, a missing top-level file, or a drop sub-folder that is not a results folder.
+            Not a folder, a missing top-level file, a drop sub-folder that is not a results folder,
+            or a damaged file (the file, the line or key, and what was expected).
         """
-        folder = Path(folder)
-        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
-        if not (folder / "drops").is_dir():
-            missing.append("drops/")
-        if missing:
-            raise InputError(folder, f"not a casrecon joint results folder: {', '.join(missing)} missing")
-        summary = read_document(folder / "summary.json")
-        try:
-            doc = read_document(folder / "parameters.json")
-            params = from_document(doc, summary.get("reduced_chi2"), fixed_dispersions(doc["parameters"]))
-        except (KeyError, TypeError, ValueError, IndexError) as err:
-            raise InputError(folder / "parameters.json", f"expected parameters and correlation "
-                                                         f"({type(err).__name__}: {err})") from None
+        files = read_results_folder(folder, "joint")
+        summary = files.summary
         drops = {}
-        for sub in sorted(p for p in (folder / "drops").iterdir() if p.is_dir()):
-            drop = DropFit.load(sub)
+        for sub in files.drops:
+            drop = DropFit.from_files(sub)
             drops[drop.name] = drop
-        tables = folder / "tables.md"
-        return cls(name=str(summary.get("name") or folder.name), params=params, drops=drops, summary=summary,
-                   tables_md=tables.read_text() if tables.is_file() else "",
-                   single=dict(summary.get("single_drop_sigma") or {}), source=folder.resolve())
+        tables = files.folder / "tables.md"
+        return cls(name=str(summary.get("name") or files.folder.name),
+                   params=parameters_of(files, summary.get("reduced_chi2"), held_dispersions=True),
+                   drops=drops, summary=summary,
+                   tables_md=read_text(tables, "the tables") if tables.is_file() and tables.stat().st_size else "",
+                   single=dict(summary.get("single_drop_sigma") or {}), source=files.folder.resolve())
 
     @property
     def converged(self) -> bool:

@@ -14,11 +14,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
 from casrecon.output.kinematic_results import write_kinematic_results
-from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
-from casrecon.results.parameters import from_document
+from casrecon.output.results_reader import read_results_folder
+from casrecon.results.drop_fit import FolderViews, parameters_of, read_frame, report_text, sample_frame
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -83,24 +82,17 @@ class KinematicFit(FolderViews):
 
     @classmethod
     def load(cls, folder: str | Path) -> KinematicFit:
-        """Read a kinematic results folder; InputError naming the folder and what is missing."""
-        folder = Path(folder)
-        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
-        if missing:
-            raise InputError(folder, f"not a casrecon kinematic results folder: {', '.join(missing)} missing")
-        summary = read_document(folder / "summary.json")
-        try:
-            params = from_document(read_document(folder / "parameters.json"), summary.get("reduced_chi2"))
-        except (KeyError, TypeError, ValueError) as err:
-            raise InputError(folder / "parameters.json", f"expected parameters {{name: {{value, sigma}}}} "
-                                                         f"({type(err).__name__}: {err})") from None
-        residuals = {kind: read_frame(folder / f"residuals_{kind}.csv") for kind in ("imu", "gps")
-                     if (folder / f"residuals_{kind}.csv").is_file()}
-        report = folder / "report.txt"
-        return cls(name=str(summary.get("problem") or folder.name), params=params,
-                   trajectory=read_frame(folder / "trajectory.csv"), residuals=residuals, summary=summary,
-                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
-                   source=Path(folder).resolve())
+        """Read a kinematic results folder, every file checked
+        (:func:`casrecon.output.results_reader.read_results_folder`); InputError naming the folder and
+        what is missing, or the damaged file, the line or key, and what was expected."""
+        files = read_results_folder(folder, "kinematic")
+        summary = files.summary
+        residuals = {kind: read_frame(files.tables[f"residuals_{kind}.csv"]) for kind in ("imu", "gps")
+                     if f"residuals_{kind}.csv" in files.tables}
+        return cls(name=str(summary.get("problem") or files.folder.name),
+                   params=parameters_of(files, summary.get("reduced_chi2")),
+                   trajectory=read_frame(files.tables["trajectory.csv"]), residuals=residuals, summary=summary,
+                   report_text=report_text(files.folder), source=files.folder.resolve())
 
     time_columns = TIME_COLUMNS
 

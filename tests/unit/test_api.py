@@ -151,7 +151,8 @@ def test_load_results_on_a_folder_that_is_not_a_results_folder(tmp_path):
         casrecon.load_results(tmp_path / "nowhere")
     folder = make_folder(tmp_path / "bad")
     (folder / "parameters.json").write_text('{"correlation": {}}')
-    with pytest.raises(casrecon.InputError, match=r"bad/parameters.json: expected parameters"):
+    with pytest.raises(casrecon.InputError,
+                       match=r"bad/parameters.json: field .parameters.: expected an object \{name: \{value, sigma"):
         casrecon.load_results(folder)
 
 

@@ -47,7 +47,7 @@ import numpy as np
 
 from casrecon.estimation.validation.data_checks import GPS_MAX_GAP_S
 from casrecon.io.flysight import GpsTrack, iso_utc
-from casrecon.io.gps_rules import GpsQuality, good_fixes, no_fix_note
+from casrecon.io.gps_rules import GpsQuality, filter_note, good_fixes, no_fix_note
 from casrecon.io.pointmass_problem import SegmentConfig
 
 #: Window of the running maximum that finds the final drop, s.
@@ -129,6 +129,10 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
         return Segment(cfg.start_unix_s, cfg.end_unix_s, good, tuple(notes))
     i0, i1 = longest_fast_run(t, track.vel_d_mps, good, cfg.min_speed_mps)
     if i1 == i0:
+        filtered = filter_note(track, q)
+        if filtered:
+            raise SegmentError(f"{track.path}: {filtered}; no fix left descends faster than {cfg.min_speed_mps} m/s "
+                               "(relax the filter)")
         raise SegmentError(f"{track.path}: no good fix descends faster than {cfg.min_speed_mps} m/s")
     t_good, vd_good = t[good], track.vel_d_mps[good]
 
@@ -144,7 +148,9 @@ def find_segment(track: GpsTrack, q: GpsQuality, cfg: SegmentConfig) -> Segment:
     onset = run[drop_onset(t[run], track.vel_d_mps[run], cfg.deploy_drop_mps)]
     end = cfg.end_unix_s if cfg.end_unix_s is not None else float(t[onset]) - cfg.end_margin_s
     if end - start < 5.0:
-        raise SegmentError(f"{track.path}: the descent segment found is only {end - start:.1f} s long")
+        filtered = filter_note(track, q)
+        why = f" ({filtered})" if filtered else ""
+        raise SegmentError(f"{track.path}: the descent segment found is only {end - start:.1f} s long{why}")
     notes.append(f"segment found from the data: {end - start:.1f} s, vertical speed up to "
                  f"{track.vel_d_mps[run].max():.1f} m/s (rule: longest run faster than {cfg.min_speed_mps} m/s, "
                  f"back to 2 m/s or to a fix not yet falling, ending {cfg.end_margin_s} s before the final drop "
