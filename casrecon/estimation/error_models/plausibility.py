@@ -20,11 +20,14 @@ Limits:
   description (realdata problems, ``[gps]`` comments), a scale of 0.7 to 1.4; a factor 3 either
   way is a clock, a datum or a unit, not a receiver (1 s of clock error at 40 m/s of descent is
   40 m against vAcc 2.5 m; hAcc in mm read as m is 1000).
-- A GPS correlation time at the longest searched (``gps_error_sigma.TIME_FACTORS`` times the
-  configured one): an error that holds over the whole drop, which the search cannot size. Not
-  only a gross input error: von Karman turbulence and gusts the fit has no states for
-  (``benchmarks/error_families.py --families turbulence``) ask for the longest GPS velocity time
-  too, so the finding names both.
+- Not a GPS correlation time at the longest searched: that is no receiver's impossibility (a
+  position error correlated over 500 s is ionospheric), and on data whose GPS errors are white the
+  correlated share is not identifiable, so its time lands at the end of the search. Measured
+  (``benchmarks/error_families.py --families none --variants default``, seed 100: the world is the
+  plain model, white GPS) the estimate was position 42 % of the variance over 500 s, velocity 2 % over
+  3 s, both times the longest searched, accuracy scales 1.35 and 0.99: taking the times for a gross
+  error kept the configured 99 %-correlated model, whose position bands then held the truth at 30 %
+  of nodes. The 1 s clock error this limit was added for is also caught by the profile's.
 - A profile group's sigma at the top of its search (``profile_sigma.MAX_RATIO`` times the fit's),
   or a profile correlation length at the longest searched (``profile_sigma.LENGTH_FACTORS``) with
   some group's sigma above the fit's: a difference between the air flown and the sounding larger
@@ -51,9 +54,6 @@ MAX_ACCURACY_SCALE = 3.0
 CAUSES = {
     "gps_large": "the IMU clock ([sensors.imu.clock] utc_at_zero), a GPS datum or the units of the GPS file",
     "gps_small": "the units of the GPS accuracy columns (hAcc, vAcc, sAcc)",
-    "gps_time": "a gross input error (the IMU clock, [sensors.imu.clock] utc_at_zero, or a datum or ground "
-                "altitude), or air that differs from the sounding in ways the profile model does not hold "
-                "(turbulence, gusts)",
     "profile": "a sounding of another day or place, a datum or ground altitude of the sounding or site, the IMU "
                "clock ([sensors.imu.clock] utc_at_zero), or the sounding's units",
     "profile_length": "a sounding of another day or place, a datum or ground altitude of the sounding or site, the "
@@ -92,15 +92,6 @@ def implausible(estimate: ps.ProfileSigmaEstimate, configured_length_m: float | 
             elif scale < 1.0 / MAX_ACCURACY_SCALE:
                 out.append(f"the data ask for GPS {g} errors {scale:.3g} times the receiver's stated accuracies "
                            f"(plausible down to {1 / MAX_ACCURACY_SCALE:.2g}): likely {CAUSES['gps_small']}")
-        fitted = (gps.fitted.position_time_s, gps.fitted.velocity_time_s)
-        base = fitted if configured_times_s is None else configured_times_s
-        for k, g in enumerate(("position", "velocity")):
-            tau = (gps.estimated.position_time_s, gps.estimated.velocity_time_s)[k]
-            top = max(gs.TIME_FACTORS) * base[k]
-            if base[k] > 0 and tau > 0 and tau != fitted[k] and _at_top(tau, top):
-                out.append(f"the data ask for GPS {g} errors correlated over {tau:g} s, the longest searched: an "
-                           f"error that holds over the whole drop, which no searched model sizes: likely "
-                           f"{CAUSES['gps_time']}")
         for name, ratio in gps.ratios.items():
             if _at_top(ratio, gs.MAX_RATIO):
                 out.append(f"the data ask for the {name[4:]} sigma at {ratio:.3g} times the fit's, the top of its "
