@@ -25,13 +25,14 @@ drawn from other shapes, spectra and grids:
   normal step of the stated 1-sigma), plus the stated white noise;
 - ``none``: the world is the model (the flown air is the sounding, GPS errors white).
 
-Each family draws from its own random stream ``(seed, 7, k)`` and never touches the simulator's
+Each family draws from its own random stream ``(seed, 7, crc32(name))`` and never touches the simulator's
 main streams, so the IMU and GPS white noise of a drop are the same in every family.
 :func:`family_world` gives the :class:`SyntheticWorld` that :func:`~.synthetic.make_synthetic` flies.
 """
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -270,9 +271,8 @@ ATMOSPHERE_FAMILIES = ("turbulence", "turbulence-altitude", "turbulence-time", "
 
 
 def family_world(name: str, span: Span, seed: int) -> SyntheticWorld:
-    """The world of family ``name`` for drop ``seed`` (own random stream ``(seed, 7, k)``, k the
-    family's place in :data:`FAMILIES`). ValueError for an unknown family."""
+    """The world of family ``name`` for drop ``seed`` (own random stream ``(seed, 7, crc32(name))``,
+    so a family's draws do not move when families are added). ValueError for an unknown family."""
     if name not in FAMILIES:
         raise ValueError(f"unknown error family {name!r}; expected one of {', '.join(FAMILIES)}")
-    k = list(FAMILIES).index(name)
-    return FAMILIES[name](span, np.random.default_rng((seed, 7, k)))
+    return FAMILIES[name](span, np.random.default_rng((seed, 7, zlib.crc32(name.encode()))))
