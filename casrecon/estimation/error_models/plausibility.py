@@ -19,7 +19,10 @@ Limits:
   tracks every velocity channel's innovation reduced chi-square lies in [0.5, 2] under their error
   description (realdata problems, ``[gps]`` comments), a scale of 0.7 to 1.4; a factor 3 either
   way is a clock, a datum or a unit, not a receiver (1 s of clock error at 40 m/s of descent is
-  40 m against vAcc 2.5 m; hAcc in mm read as m is 1000).
+  40 m against vAcc 2.5 m; hAcc in mm read as m is 1000). Not only gross input errors reach it:
+  on the error family ``fine-grid`` (air rough below the profile grid, seed 100) the position
+  scale came out 4.08, the trajectory bent by forces the fit has no states for; the finding names
+  that cause too.
 - Not a GPS correlation time at the longest searched: that is no receiver's impossibility (a
   position error correlated over 500 s is ionospheric), and on data whose GPS errors are white the
   correlated share is not identifiable, so its time lands at the end of the search. Measured
@@ -52,7 +55,9 @@ from casrecon.estimation.error_models import profile_sigma as ps
 MAX_ACCURACY_SCALE = 3.0
 #: Likely causes named with each kind of implausible estimate.
 CAUSES = {
-    "gps_large": "the IMU clock ([sensors.imu.clock] utc_at_zero), a GPS datum or the units of the GPS file",
+    "gps_large": "the IMU clock ([sensors.imu.clock] utc_at_zero), a GPS datum or the units of the GPS file; or "
+                 "forces the model does not have (gusts, air rougher than the profile grid) bending the trajectory "
+                 "away from the fixes",
     "gps_small": "the units of the GPS accuracy columns (hAcc, vAcc, sAcc)",
     "profile": "a sounding of another day or place, a datum or ground altitude of the sounding or site, the IMU "
                "clock ([sensors.imu.clock] utc_at_zero), or the sounding's units",
