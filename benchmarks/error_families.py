@@ -10,7 +10,9 @@ family's world (its own random stream), and fits it as each variant says:
   replaced by the defaults: profile model 0.5 m/s, 0.5 %, 300 m with its sizes from the data,
   GPS error model 100 s / 0.6 s from the data), what a user who writes no error-model key gets;
 - ``fixed``: the default error models with their configured sizes (no size estimate, no refit);
-- ``plain``: both error models off.
+- ``plain``: both error models off;
+- ``gusts``: ``fixed`` with gust states at every node (the weak-constraint option: 0.5, 0.5 and
+  0.3 m/s north, east, down over 3 s, the keys' default time) and the marginal estimator.
 
 Vehicles: ``ees`` (problems/ees-drop-3: 98.6 kg, 1.27 m) and ``light`` (the same shape scaled to
 60 kg and 1.0 m, its inertia with it).
@@ -39,6 +41,7 @@ from casrecon.analysis.estimator_mc import chi2_interval, draw_truth
 from casrecon.analysis.model_error_mc import COVERAGE_GROUPS, fit_summary
 from casrecon.io.atmosphere_config import AtmosphereConfig
 from casrecon.parallel import parallel_map
+from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.scenario import Scenario
 from casrecon.simulation.error_families import FAMILIES, family_world
@@ -46,7 +49,9 @@ from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_b
 
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEM = ROOT / "problems" / "ees-drop-3"
-VARIANTS = ("default", "fixed", "plain")
+VARIANTS = ("default", "fixed", "plain", "gusts")
+#: The ``gusts`` variant's prior: (sigma north, east, down m/s, then six model-error sigmas), times s.
+GUST_PRIOR = DisturbanceModel((0.5, 0.5, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), (3.0,) * 3 + (1.0,) * 6)
 #: Parameter groups of the worst-|z| columns, by name prefix.
 GROUPS = {"aero": ("C",), "atmosphere": ("wind_bias", "density_factor"), "imu": ("accel_bias", "gyro_bias"),
           "clock": ("clock_offset",)}
@@ -79,16 +84,19 @@ def fit_variant(scenario: Scenario, variant: str) -> Scenario:
                               profile_density_sigma=d.profile_density_sigma, profile_length_m=d.profile_length_m,
                               profile_step_m=d.profile_step_m, profile_sigma_from_data=d.profile_sigma_from_data)
     gps = dataclasses.replace(cfg.gps, error_model=GpsErrorModel(), error_model_from_data=True)
-    if variant == "fixed":
+    estimation = cfg.estimation
+    if variant in ("fixed", "gusts"):
         atm = dataclasses.replace(atm, profile_sigma_from_data=False)
         gps = dataclasses.replace(gps, error_model_from_data=False)
+    if variant == "gusts":
+        estimation = dataclasses.replace(estimation, disturbance=GUST_PRIOR, method="marginal")
     elif variant == "plain":
         atm = dataclasses.replace(atm, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0,
                                   profile_sigma_from_data=False)
         gps = dataclasses.replace(gps, error_model=GpsErrorModel.white(), error_model_from_data=False)
-    elif variant != "default":
+    elif variant not in ("default", "fixed", "gusts"):
         raise ValueError(f"unknown variant {variant!r}; expected one of {VARIANTS}")
-    return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps))
+    return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps, estimation=estimation))
 
 
 def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int) -> dict:

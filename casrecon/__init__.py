@@ -6,8 +6,8 @@ The public Python API (in the spirit of lmfit and rockit)::
 
     result = casrecon.fit("problems/ees-drop-1")
     print(result.params["CA_mult"].value, result.params["CA_mult"].stderr)
-    print(result.report())
-    result.sample("alpha_t_deg", [2.0, 5.0])        # values and 3-sigma at flight times, s
+    print(result.fit_report())                      # lmfit-style: 1- and 3-sigma named; result.correl
+    result.sample("alpha_t_deg", [2.0, 5.0])        # values and 3-sigma at flight times, s (or UTC instants)
     result.save("results/ees-drop-1")               # the folder `casrecon fit --out` writes
     again = casrecon.load_results("results/ees-drop-1")
     casrecon.plot_trajectory(result).savefig("trajectory.png")
@@ -314,23 +314,24 @@ def load_results(folder: str | Path) -> DropFit | JointFit | PointMassFit | Kine
     ``save``: a :class:`DropFit`, a :class:`JointFit` for a folder with ``drops/``, or a
     :class:`PointMassFit` for a point-mass fit's folder.
 
+    Every file is read and checked (:mod:`casrecon.output.results_reader`): a JSON file that is not
+    an object, a CSV row cut mid-line or with a cell missing, a parameter value or sigma that is not
+    a finite number, text that is not UTF-8 are refused.
+
     Raises
     ------
     InputError
-        The folder does not exist or is not a results folder (the message names the folder and
-        the missing file).
+        The folder does not exist, is not a results folder (the message names the folder and the
+        missing file), or holds a damaged file (the file, the line or key, and what was expected).
     """
-    from casrecon.results.drop_fit import DropFit, read_document
+    from casrecon.output.results_reader import folder_kind
+    from casrecon.results.drop_fit import DropFit
     from casrecon.results.joint_fit import JointFit
     from casrecon.results.pointmass_fit import PointMassFit
 
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(folder, "results folder not found")
-    if (folder / "drops").is_dir():
+    kind = folder_kind(folder)
+    if kind == "joint":
         return JointFit.load(folder)
-    summary = folder / "summary.json"
-    kind = read_document(summary).get("kind") if summary.is_file() else None
     if kind == "point-mass":
         return PointMassFit.load(folder)
     if kind == "kinematic":

@@ -29,6 +29,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from casrecon.cli_guard import (
+    EXIT_INPUT,
     add_format_argument,
     debug_enabled,
     exit_process,
@@ -244,23 +245,29 @@ def _sensitivity(args: argparse.Namespace) -> int:
     return 0
 
 
-def _figures(folder: Path, formats: Sequence[str] = ("png",)) -> list[Path]:
-    from casrecon.report.plots import draw_figures
+def _report(args: argparse.Namespace) -> int:
+    """Redraw the figures of a results folder: every file checked first (a damaged one is a located
+    InputError, exit 2), the ``figures/`` folders checked writable (an OSError naming the folder,
+    exit 2), then the figures; exit 2 when any could not be drawn or written, naming the first."""
+    from casrecon.output.results_reader import folder_kind
+    from casrecon.report.plots import check_writable, draw_figures
 
+    folder = Path(args.results)
+    folder_kind(folder)  # "results folder not found" before anything else
     notes: list[str] = []
-    paths = draw_figures(folder, notes, formats)
+    failures: list[str] = []
+    check_writable(folder)
+    paths = draw_figures(folder, notes, args.formats, failures)
     for note in notes:
         print(f"casrecon: figure skipped: {note}", file=sys.stderr)
-    return paths
-
-
-def _report(args: argparse.Namespace) -> int:
-    folder = Path(args.results)
-    try:
-        paths = _figures(folder, args.formats)
-    except FileNotFoundError as err:
-        print(f"casrecon: {err}", file=sys.stderr)
-        return 2
+    if failures:
+        more = f" (and {len(failures) - 1} more)" if len(failures) > 1 else ""
+        print(f"casrecon: {len(failures)} figure(s) of {folder} could not be drawn or written: "
+              f"{failures[0]}{more}; {len(paths)} written", file=sys.stderr)
+        return EXIT_INPUT
+    if not paths:
+        print(f"casrecon: no figure written to {folder} (every one lacked an input)", file=sys.stderr)
+        return EXIT_INPUT
     print(f"{len(paths)} figures -> {folder}")
     return 0
 

@@ -37,6 +37,22 @@ MAX_PRESSURE_PA = 120000.0
 TIME_COLUMNS = {"time_unix_s": "utc", "time_s": "imu", "ts": "imu"}
 #: Pressure columns of a plain CSV and their factor to Pa.
 PRESSURE_COLUMNS = {"pressure_pa": 1.0, "pressure_hpa": 100.0, "P": 1.0}
+#: Units a pressure file may be in by mistake (read as Pa), and their factor to Pa, most likely first.
+PRESSURE_UNITS = {"hPa (mbar)": 100.0, "kPa": 1000.0, "mmHg (torr)": 133.322, "inHg": 3386.39, "psi": 6894.76}
+
+
+def pressure_unit_hint(low: float, high: float, column: str | None) -> str:
+    """What to do about pressures read too small by a factor between ``low`` and ``high``: the unit of
+    PRESSURE_UNITS whose factor lies there, nearest their geometric mean, for a message; ``column``:
+    the column read."""
+    fits = {name: f for name, f in PRESSURE_UNITS.items() if low <= f <= high}
+    if not fits:
+        return "check the pressure column, its unit and the sensor"
+    name = min(fits, key=lambda n: abs(np.log(fits[n] / np.sqrt(low * high))))
+    what = f"the file is probably in {name} (x {fits[name]:g})"
+    if fits[name] == 100.0 and column in ("pressure_pa", "P"):
+        return f"{what}: name its column pressure_hpa"
+    return f"{what}: convert it to Pa"
 
 
 @dataclass(frozen=True)
@@ -103,12 +119,21 @@ class BaroLog:
     pressure_pa : (N,) array
         Static pressure, Pa.
     clock : {"utc", "imu"}
+    notes : tuple of str
+        What the reader noted (a SENSOR.CSV's dropped ``$TIME`` rows).
+    lines : (N,) int array or None
+        1-based line of each sample in the file (None: not kept, FlySight 2 SENSOR.CSV).
+    pressure_column : str or None
+        The pressure column read (``pressure_pa``, ``pressure_hpa``, ``P``); None for SENSOR.CSV.
     """
 
     path: Path
     time_s: np.ndarray
     pressure_pa: np.ndarray
     clock: str
+    notes: tuple[str, ...] = ()
+    lines: np.ndarray | None = None
+    pressure_column: str | None = None
 
 
 def read_baro(path: str | Path) -> BaroLog:
@@ -119,7 +144,8 @@ def read_baro(path: str | Path) -> BaroLog:
         log = read_flysight2_sensor(path)
         if log.baro_time_unix_s.size < 2:
             raise InputError(path, f"holds {log.baro_time_unix_s.size} BARO rows; a barometer fit needs at least 2")
-        return BaroLog(path, log.baro_time_unix_s, log.baro_pressure_pa, "utc")
+        return BaroLog(path, log.baro_time_unix_s, log.baro_pressure_pa, "utc",
+                       (log.clock_fit.dropped_note(),) if log.clock_fit.dropped else ())
     header = [h.strip() for h in lines[0].split(",")]
     time_col = next((c for c in TIME_COLUMNS if c in header), None)
     pressure_col = next((c for c in PRESSURE_COLUMNS if c in header), None)
@@ -149,7 +175,8 @@ def read_baro(path: str | Path) -> BaroLog:
         k = int(bad[0])
         raise InputError(path, f"pressure {p[k]:g} Pa is outside (0, {MAX_PRESSURE_PA:g}] Pa (is the unit right? "
                          f"{pressure_col})", line=numbers[k], field=pressure_col)
-    return BaroLog(path, t, p, TIME_COLUMNS[time_col])
+    return BaroLog(path, t, p, TIME_COLUMNS[time_col], lines=np.asarray(numbers, dtype=np.int64),
+                   pressure_column=pressure_col)
 
 
 def write_baro_csv(path: str | Path, time_unix_s: np.ndarray, pressure_pa: np.ndarray) -> None:

@@ -72,7 +72,8 @@ POINT_MASS = FileKind(
         ), required=True),
         Table("segment", (
             key("start_utc", "datetime or string", "UTC", "Start of the fitted segment", "<found from the data>"),
-            key("end_utc", "datetime or string", "UTC", "End of the fitted segment", "<found from the data>"),
+            key("end_utc", "datetime or string", "UTC", "End of the fitted segment; refused when the fall's final drop "
+               "(canopy opening, impact) began before it", "<found from the data>"),
             key("min_speed_mps", "float", "m/s", "Descent speed that defines the segment when start/end are not "
                "given", source=SegmentConfig, attr="segment.min_speed_mps"),
             key("end_margin_s", "float", "s", "The found segment ends this long before the final drop began",
@@ -133,6 +134,13 @@ KINEMATIC = FileKind(
                 attr="imu.spec.gyro_unit"),
             key("axes", "string or [[float; 3]; 3]", "", "Rotation from the file's axes to the IMU axes", None,
                 attr="imu.spec.axes"),
+            key("accel_limits", "[[float; 2]; 3]", "accel_unit (g)", "Saturation limits [low, high] of the x, y, z "
+                "accelerometer axes as the file writes them (a CSV's accel_unit; g for a SENSOR.CSV); a sample at or "
+                "beyond one is masked: bridged and given a large noise; absent: no saturation flagging", None,
+                attr="imu.accel_limits"),
+            key("gyro_limits", "[[float; 2]; 3]", "gyro_unit (deg/s)", "Saturation limits [low, high] of the x, y, z "
+                "gyro axes (a CSV's gyro_unit; deg/s for a SENSOR.CSV; see accel_limits)", None,
+                attr="imu.gyro_limits"),
             key("utc_at_zero_s", "float", "s", "Clock value of a CSV's time 0 (0: the flight computer's own clock)",
                 0.0, attr="imu.utc_at_zero_s"),
             key("gyro_noise_dps", "float", "deg/s", "White noise 1-sigma of one gyro sample, per axis", REQUIRED),

@@ -61,6 +61,40 @@ def good_fixes(track: GpsTrack, q: GpsQuality) -> np.ndarray:
         track.s_acc_mps > q.max_s_acc_mps) & sv_ok & ~no_fix_mask(track) & np.isfinite(track.lat_deg + track.lon_deg)
 
 
+#: The quality rules as keys of a problem's GPS table: (key, GpsQuality field, the track's field,
+#: whether a fix fails by being above the value, what the field is).
+QUALITY_KEYS = (("max_h_acc_m", "h_acc_m", True, "hAcc", "m"), ("max_v_acc_m", "v_acc_m", True, "vAcc", "m"),
+                ("max_s_acc_mps", "s_acc_mps", True, "sAcc", "m/s"), ("min_num_sv", "num_sv", False, "numSV", ""))
+#: A filter "removes nearly every fix" when fewer than this fraction of the fixes with a position pass it.
+NEARLY_ALL = 0.05
+
+
+def filter_note(track: GpsTrack, q: GpsQuality, table: str = "gps") -> str | None:
+    """When the quality rules ``q`` remove every fix of ``track`` with a position, or nearly all (fewer
+    than :data:`NEARLY_ALL` of them pass), the rules that do it, as keys of the problem's ``[table]``
+    with their values and how many fixes each removes (``[gps] max_h_acc_m = 0.01 removes 2311 of
+    2320 fixes (hAcc above it)``); None otherwise."""
+    fixed = ~no_fix_mask(track) & np.isfinite(track.lat_deg + track.lon_deg)
+    n = int(fixed.sum())
+    if not n or good_fixes(track, q).sum() >= NEARLY_ALL * n:
+        return None
+    parts = []
+    for key, field, above, name, unit in QUALITY_KEYS:
+        value, values = getattr(q, key), getattr(track, field)
+        if field == "num_sv":
+            removed = fixed & (values >= 0) & (values < value)
+        else:
+            removed = fixed & (values > value)
+        if removed.any():
+            side = "above" if above else "below"
+            parts.append((int(removed.sum()), f"{key} = {value} removes {int(removed.sum())} of {n} fixes "
+                                              f"({name} {side} it{', ' + unit if unit else ''})"))
+    if not parts:
+        return None
+    rules = "; ".join(text for _, text in sorted(parts, key=lambda x: -x[0]))
+    return f"the GPS quality filter of [{table}] leaves {int(good_fixes(track, q).sum())} of {n} fixes: {rules}"
+
+
 def no_fix_note(track: GpsTrack, mask: np.ndarray | None = None) -> str | None:
     """A note on the rows without a 3D fix (within ``mask`` when given) that a fit drops, or None."""
     bad = no_fix_mask(track) if mask is None else no_fix_mask(track) & mask

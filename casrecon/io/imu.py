@@ -218,6 +218,8 @@ class ImuLog:
         (N, 3) angular rate, rad/s.
     accel_saturated, gyro_saturated : numpy.ndarray
         (N, 3) bool, true where the sample is at or beyond its saturation limit.
+    line_numbers : numpy.ndarray or None
+        (N,) 1-based line of each sample in its file; None: sample k on line k + 2 (an IMU CSV).
     """
 
     path: str
@@ -226,6 +228,7 @@ class ImuLog:
     gyro_radps: np.ndarray
     accel_saturated: np.ndarray
     gyro_saturated: np.ndarray
+    line_numbers: np.ndarray | None = None
 
     @property
     def n(self) -> int:

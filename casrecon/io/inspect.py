@@ -15,10 +15,14 @@ Problems reported:
 - NMEA logs and flight-computer GNSS CSVs: which components the file holds (a missing one, NaN, is
   left out of every fit), the accuracies assumed, and the lines skipped (bad checksums, stale repeats);
 - barometer CSVs (``time_s``/``time_unix_s``/``ts`` with ``pressure_pa``/``pressure_hpa``/``P``): span,
-  rate, gaps and pressure range;
+  rate, gaps and pressure range, and a warning when the median pressure is outside the standard
+  atmosphere's from :data:`BARO_FLIGHT_ALT_M` (-500 m to 12 km MSL), with the likely unit (the fits
+  compare each sample with the atmosphere at the GPS altitude:
+  :mod:`casrecon.estimation.validation.consistency`);
 - GPS warnings: rows without a 3D fix (``gpsFix`` 0, 1, 2 or 5, or latitude, longitude and height
   all 0), which every fit drops;
-- soundings: levels dropped for missing values, IGRA2 launches that are truncated, and a University
+- soundings: the launch date and place the file gives (:mod:`casrecon.io.sounding_origin`, which the
+  fits compare with the drop's), levels dropped for missing values, IGRA2 launches that are truncated, and a University
   of Wyoming TEXT:LIST that looks truncated (a last level cut short, or levels ending below
   :data:`WYOMING_TOP_HPA` with nothing after them).
 """
@@ -32,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.io._csvtools import read_lines
-from casrecon.io.baro import PRESSURE_COLUMNS, TIME_COLUMNS, BaroLog, read_baro
+from casrecon.io.baro import PRESSURE_COLUMNS, TIME_COLUMNS, BaroLog, pressure_unit_hint, read_baro
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc, no_fix_mask, read_flysight
 from casrecon.io.gps_files import gps_file_kind, read_gps_track
@@ -41,6 +45,7 @@ from casrecon.io.imu_checks import imu_findings, unit_warnings
 from casrecon.io.sensor import SensorLog, is_flysight2_sensor, read_flysight2_sensor
 from casrecon.io.sounding import detect_sounding_format, igra2_launches, read_sounding
 from casrecon.io.sounding_levels import Sounding
+from casrecon.physics.atmosphere import standard_pressure
 
 SUPPORTED = ("FlySight 1 CSV, FlySight 2 TRACK.CSV and SENSOR.CSV, NMEA 0183 log, GNSS CSV "
              "(ts,latitude,longitude,satellites), barometer CSV (time_s or ts, pressure_pa or P), "
@@ -55,6 +60,9 @@ COLD_V_ACC_M = 10.0
 COLD_S_ACC_MPS = 1.0
 COLD_MIN_SV = 6
 SATURATION_MIN_REPEATS = 3
+#: Altitudes (m MSL) a drop flies at: a barometer's median pressure outside the standard atmosphere's
+#: between them is warned about.
+BARO_FLIGHT_ALT_M = (-500.0, 12000.0)
 #: A complete Wyoming TEXT:LIST download reaches this pressure or lower (hPa) and ends with a text block.
 WYOMING_TOP_HPA = 100.0
 
@@ -213,8 +221,16 @@ def _report_baro(b: BaroLog) -> str:
     clock = "UTC" if b.clock == "utc" else "IMU clock"
     t = b.time_s
     span = f"{iso_utc(t[0])} to {iso_utc(t[-1])} UTC" if b.clock == "utc" else f"{t[0]:.6g} to {t[-1]:.6g} s IMU clock"
-    return "\n".join([f"{b.path}: barometer CSV ({clock})", f"rows: {t.size}", f"time: {span} ({_span(t)})",
-                      f"pressure: {b.pressure_pa.min():.0f} to {b.pressure_pa.max():.0f} Pa", _gaps(t)])
+    out = [f"{b.path}: barometer CSV ({clock})", f"rows: {t.size}", f"time: {span} ({_span(t)})",
+           f"pressure: {b.pressure_pa.min():.0f} to {b.pressure_pa.max():.0f} Pa", _gaps(t)]
+    med = float(np.median(b.pressure_pa))
+    low, high = (float(standard_pressure(h)) for h in BARO_FLIGHT_ALT_M[::-1])
+    if not low <= med <= high:
+        hint = pressure_unit_hint(low / med, high / med, b.pressure_column)
+        out.append(f"WARNING: {b.pressure_column or 'pressure'}: median pressure {med:.6g} Pa, outside the standard "
+                   f"atmosphere's {low:.0f} to {high:.0f} Pa from {BARO_FLIGHT_ALT_M[0]:g} to {BARO_FLIGHT_ALT_M[1]:g} "
+                   f"m MSL; {hint}")
+    return "\n".join(out)
 
 
 def _humidity_line(s: Sounding) -> str:
@@ -224,6 +240,16 @@ def _humidity_line(s: Sounding) -> str:
     used = "" if s.density_kgm3 is None else " (not used: the density is given)"
     n = int(np.isfinite(s.dewpoint_k).sum())
     return f"humidity: dewpoint at {n} of {s.n} levels{used}"
+
+
+def _origin_line(s: Sounding) -> str:
+    """The launch date and place the sounding's file gives."""
+    o = s.origin
+    if not o.known:
+        return "launch date and place: not in the file (the fits cannot compare them with the drop's)"
+    when = "date not in the file" if o.time_unix_s is None else iso_utc(o.time_unix_s)
+    where = "place not in the file" if o.lat_deg is None else f"lat {o.lat_deg:.4f} lon {o.lon_deg:.4f}"
+    return f"launch: {when}, {where} (line {o.line})"
 
 
 def _report_sounding(s: Sounding, lines: list[str], final_newline: bool = True) -> str:
@@ -240,7 +266,7 @@ def _report_sounding(s: Sounding, lines: list[str], final_newline: bool = True) 
            f"temperature: {s.temperature_k.min():.1f} to {s.temperature_k.max():.1f} K",
            f"wind speed: {speed.min():.1f} to {speed.max():.1f} m/s",
            f"density: {'given' if s.density_kgm3 is not None else 'not given'}",
-           _humidity_line(s)]
+           _humidity_line(s), _origin_line(s)]
     if s.format == "igra2":
         for k, info in enumerate(igra2_launches(s.path, lines)):
             note = "" if info.present_levels == info.declared_levels else (

@@ -7,7 +7,8 @@ helpers, located errors).
     [site]        lat_deg, lon_deg, ground_alt_msl_m
     [atmosphere]  sounding = "standard" (ICAO) or a sounding file (the barometer's pressure-altitude)
     [dynamics]    gravity, earth_rotation
-    [imu]         file (FlySight 2 SENSOR.CSV or an IMU CSV), columns/units/axes/limits of a CSV,
+    [imu]         file (FlySight 2 SENSOR.CSV or an IMU CSV), columns/units/axes of a CSV, saturation
+                  limits (accel_limits, gyro_limits: a CSV's units; g and deg/s for a SENSOR.CSV),
                   utc_at_zero_s, noise and bias sigmas, scale-factor sigmas, gyro_senses_earth_rate
     [gps]         file (FlySight, NMEA 0183 or GNSS CSV), lever_arm_m, quality limits, error model,
                   velocity_sigma_mps, date
@@ -33,7 +34,7 @@ from casrecon.io.baro import HEIGHT_SCALE_SIGMA, BaroConfig
 from casrecon.io.errors import InputError
 from casrecon.io.gps_rules import GpsQuality, gps_date, gps_error_model, velocity_sigma
 from casrecon.io.imu import ImuCsvSpec
-from casrecon.io.problem import parse_dynamics, parse_site
+from casrecon.io.problem import parse_dynamics, parse_limits, parse_site
 from casrecon.io.problem_file import problem_document
 from casrecon.io.sample_sensors import parse_sample_sensors
 from casrecon.io.toml_fields import Fields, TomlDocument
@@ -63,6 +64,10 @@ class KinematicImu:
         Prior 1-sigma of each axis's sensitivity to the other two (rad; 0: not estimated).
     gyro_senses_earth_rate : bool
         A real gyro measures the rate against inertial space (true, default).
+    accel_limits, gyro_limits : tuple of 3 (low, high) or None
+        Saturation limits of the x, y, z axes as the file writes them: in ``spec``'s ``accel_unit`` and
+        ``gyro_unit`` for an IMU CSV, in g and deg/s for a SENSOR.CSV; a sample at or beyond one is
+        masked. None: no saturation flagging.
     """
 
     file: Path
@@ -77,6 +82,8 @@ class KinematicImu:
     gyro_misalignment_sigma: float = 0.0
     accel_misalignment_sigma: float = 0.0
     gyro_senses_earth_rate: bool = True
+    accel_limits: tuple[tuple[float, float], ...] | None = None
+    gyro_limits: tuple[tuple[float, float], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -112,7 +119,7 @@ class KinematicConfig:
     sample_sensors: tuple[tuple[str, object], ...] = ()  # registered [X] tables: io.sample_sensors
 
 
-def _imu_spec(t: Fields) -> ImuCsvSpec | None:
+def _imu_spec(t: Fields, accel_limits, gyro_limits) -> ImuCsvSpec | None:
     cols = t.table("columns")
     if cols is None and not t.has("gyro_unit") and not t.has("accel_unit"):
         return None
@@ -122,7 +129,8 @@ def _imu_spec(t: Fields) -> ImuCsvSpec | None:
                           accel_columns=tuple(cols.raw("accel", ["ax", "ay", "az"])),
                           gyro_columns=tuple(cols.raw("gyro", ["wx", "wy", "wz"])),
                           time_unit=t.string("time_unit", "s"), accel_unit=t.string("accel_unit", "m/s^2"),
-                          gyro_unit=t.string("gyro_unit", "rad/s"), axes=t.raw("axes", None))
+                          gyro_unit=t.string("gyro_unit", "rad/s"), axes=t.raw("axes", None),
+                          accel_limits=accel_limits, gyro_limits=gyro_limits)
     except (ValueError, TypeError) as err:
         raise InputError(t.path, str(err), field=t.name("columns/units/axes")) from None
     cols.reject_unknown()
@@ -130,8 +138,10 @@ def _imu_spec(t: Fields) -> ImuCsvSpec | None:
 
 
 def _imu(t: Fields) -> KinematicImu:
+    limits = {key: parse_limits(t, key) for key in ("accel_limits", "gyro_limits")}
     return KinematicImu(
-        file=t.path_of("file", required=True), spec=_imu_spec(t), utc_at_zero_s=t.number("utc_at_zero_s", 0.0),
+        file=t.path_of("file", required=True), spec=_imu_spec(t, **limits),
+        utc_at_zero_s=t.number("utc_at_zero_s", 0.0),
         gyro_noise_radps=float(np.radians(t.number("gyro_noise_dps", required=True, positive=True))),
         accel_noise_mps2=t.number("accel_noise_mps2", required=True, positive=True),
         gyro_bias_sigma_radps=float(np.radians(t.number("gyro_bias_sigma_dps", 1.0, positive=True))),
@@ -140,7 +150,7 @@ def _imu(t: Fields) -> KinematicImu:
         accel_scale_sigma=t.number("accel_scale_sigma", 0.02, minimum=0.0),
         gyro_misalignment_sigma=t.number("gyro_misalignment_sigma", 0.005, minimum=0.0),
         accel_misalignment_sigma=t.number("accel_misalignment_sigma", 0.005, minimum=0.0),
-        gyro_senses_earth_rate=t.boolean("gyro_senses_earth_rate", True))
+        gyro_senses_earth_rate=t.boolean("gyro_senses_earth_rate", True), **limits)
 
 
 def load_kinematic(source: str | Path | TomlDocument) -> KinematicConfig:

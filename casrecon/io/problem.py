@@ -243,7 +243,9 @@ def _release(t: Fields) -> ReleaseConfig:
     return cfg
 
 
-def _limits(t: Fields, key: str):
+def parse_limits(t: Fields, key: str) -> tuple[tuple[float, float], ...] | None:
+    """Saturation limits ``key`` of table ``t``: three [low, high] pairs (x, y, z) with low < high, or None
+    when absent; a located :class:`~casrecon.io.errors.InputError` otherwise."""
     value = t.raw(key)
     if value is None:
         return None
@@ -265,7 +267,7 @@ def _imu(t: Fields) -> ImuConfig:
             gyro_columns=tuple(cols.raw("gyro", ["wx", "wy", "wz"])),
             time_unit=t.string("time_unit", "s"), accel_unit=t.string("accel_unit", "m/s^2"),
             gyro_unit=t.string("gyro_unit", "rad/s"),
-            accel_limits=_limits(t, "accel_limits"), gyro_limits=_limits(t, "gyro_limits"),
+            accel_limits=parse_limits(t, "accel_limits"), gyro_limits=parse_limits(t, "gyro_limits"),
             axes=t.raw("axes", None))
     except (ValueError, TypeError) as err:
         raise InputError(t.path, str(err), field=t.name("columns/units/limits")) from None

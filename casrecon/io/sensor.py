@@ -38,7 +38,8 @@ Rules kept by :func:`read_flysight2_sensor` (violations raise a located
   ``[0, 604800)``, ``week`` a whole number. With 4 rows or more, a robust line (median of
   the slopes between rows half the record apart, median offset) is drawn first and rows off it
   by more than ``CLOCK_RESIDUAL_LIMIT_S`` (50 ms) are dropped from the fit, named with their
-  offsets in :meth:`ClockFit.dropped_note` (logged; ``casrecon inspect`` prints it): on real
+  offsets in :meth:`ClockFit.dropped_note` (not logged here: ``casrecon inspect`` prints it, the
+  kinematic fit and the barometer reader (``BaroLog.notes``) carry it in their notes, once): on real
   FlySight 2 files the first ``$TIME`` row after the fix is often about 0.9 s off while the
   others fit within a millisecond. Half the rows or more off the line is an error, and so is
   a kept row off the least-squares refit by more than the limit, or a drift beyond
@@ -57,7 +58,6 @@ Rules kept by :func:`read_flysight2_sensor` (violations raise a located
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,8 +66,6 @@ import numpy as np
 from casrecon.io._csvtools import check_increasing, find_columns, parse_floats, read_lines, split_rows
 from casrecon.io.errors import InputError
 from casrecon.io.imu import STANDARD_GRAVITY
-
-logger = logging.getLogger(__name__)
 
 #: GPS epoch 1980-01-06T00:00:00Z as Unix seconds.
 GPS_EPOCH_UNIX_S = 315964800.0
@@ -196,6 +194,8 @@ class SensorLog:
     gyro_scale_applied : float
         Factor the logged rates were multiplied by (``FLYSIGHT2_GYRO_SCALE`` by default; module
         docstring).
+    imu_lines : numpy.ndarray
+        (N,) 1-based line of each IMU sample in the file.
     """
 
     path: str
@@ -211,6 +211,7 @@ class SensorLog:
     row_counts: dict = field(default_factory=dict)
     skipped_rows: dict = field(default_factory=dict)
     gyro_scale_applied: float = 1.0
+    imu_lines: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0, np.int64))
 
 
 def is_flysight2_sensor(lines: list[str]) -> bool:
@@ -317,7 +318,8 @@ def read_flysight2_sensor(path: str | Path, time_base: str = "utc",
     return SensorLog(str(path), fit.unix_utc(imu["time"]), gyro, accel,
                      fit.unix_utc(baro["time"]), baro["pressure"], baro["temperature"], fit,
                      imu["time"], baro["time"], counts,
-                     {k: n for k, n in counts.items() if k not in _KINDS}, float(gyro_scale))
+                     {k: n for k, n in counts.items() if k not in _KINDS}, float(gyro_scale),
+                     np.asarray(rows["IMU"][1] if "IMU" in rows else [], np.int64))
 
 
 def _read_kind(path: str | Path, kind: str, cols: dict, units: dict, body: list[str],
@@ -402,6 +404,4 @@ def _fit_clock(path: str | Path, tv: dict[str, np.ndarray], numbers: list[int],
         else 0
     fit = ClockFit(float(offset), float(drift_ppm), float(np.sqrt(np.mean(res ** 2))),
                    float(np.abs(res).max()), int(keep.sum()), leap, str(path), dropped)
-    if dropped:
-        logger.info("%s", fit.dropped_note())
     return fit

@@ -35,6 +35,13 @@ import numpy as np
 from casrecon.io._csvtools import find_columns, parse_floats, read_lines, split_rows
 from casrecon.io.errors import InputError
 from casrecon.io.sounding_levels import Sounding, checked_wind, sounding_from_levels
+from casrecon.io.sounding_origin import (
+    NO_ORIGIN,
+    igra2_origin,
+    origin_from_text,
+    wyoming_csv_origin,
+    wyoming_list_origin,
+)
 
 KNOT_MPS = 1852.0 / 3600.0
 ZERO_C_K = 273.15
@@ -168,12 +175,16 @@ def _read_wyoming_csv(path: str | Path, lines: list[str]) -> Sounding:
         with np.errstate(over="ignore"):
             cols["dew"] = raw * scale + offset
     desc = ""
+    origin = wyoming_csv_origin(
+        rows[0][header.index("time")], *(rows[0][header.index(c)] if c in header else None
+                                         for c in ("latitude", "longitude")), int(numbers[0])) \
+        if rows and "time" in header else NO_ORIGIN
     if rows and "time" in header:
         desc = rows[0][header.index("time")].strip()
         if "latitude" in header and "longitude" in header:
             desc += (f" at lat {rows[0][header.index('latitude')].strip()} lon "
                      f"{rows[0][header.index('longitude')].strip()}")
-    return sounding_from_levels(path, "wyoming-csv", cols, numbers, desc)
+    return sounding_from_levels(path, "wyoming-csv", cols, numbers, desc, origin)
 
 
 # ---------------------------------------------------------------------------- Wyoming LIST
@@ -233,7 +244,7 @@ def _read_wyoming_list(path: str | Path, lines: list[str]) -> Sounding:
     if "DWPT" in vals:
         cols["dew"] = vals["DWPT"] + ZERO_C_K
     desc = next((ln.strip() for ln in lines[:hk] if ln.strip() and "---" not in ln), "")
-    return sounding_from_levels(path, "wyoming-list", cols, numbers_a, desc)
+    return sounding_from_levels(path, "wyoming-list", cols, numbers_a, desc, wyoming_list_origin(lines))
 
 
 # ----------------------------------------------------------------------------------- IGRA2
@@ -306,7 +317,8 @@ def _read_igra2(path: str | Path, lines: list[str], launch: int) -> Sounding:
     cols = {"z": v["GPH"], "p": v["PRESS"], "t": v["TEMP"] / 10.0 + ZERO_C_K, "wn": wn,
             "we": we, "dew": (v["TEMP"] - v["DPDP"]) / 10.0 + ZERO_C_K}
     desc = f"{info.description} (launch {launch} of {len(launches)})"
-    return sounding_from_levels(path, "igra2", cols, numbers, desc)
+    return sounding_from_levels(path, "igra2", cols, numbers, desc,
+                                igra2_origin(lines[info.line - 1], info.line))
 
 
 # ------------------------------------------------------------------------------- plain CSV
@@ -340,7 +352,9 @@ def _read_plain_csv(path: str | Path, lines: list[str]) -> Sounding:
         cols["rho"] = v["density_kgm3"]
     if "dewpoint_k" in v:
         cols["dew"] = v["dewpoint_k"]
-    return sounding_from_levels(path, "plain-csv", cols, numbers, " ".join(c for c in comments if c))
+    origin = next((o for o in (origin_from_text(c, k + 1) for k, c in enumerate(comments)) if o.known),
+                  NO_ORIGIN)
+    return sounding_from_levels(path, "plain-csv", cols, numbers, " ".join(c for c in comments if c), origin)
 
 
 def write_sounding_csv(path: str | Path, s: Sounding) -> None:

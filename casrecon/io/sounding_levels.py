@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.io.errors import InputError
+from casrecon.io.sounding_origin import NO_ORIGIN, SoundingOrigin
 
 #: Largest amount (K) a level's dewpoint may exceed its temperature, read as rounding of saturated
 #: air (the dewpoint is then taken as the temperature); more is an error.
@@ -71,6 +72,9 @@ class Sounding:
         the previous kept level.
     dewpoint_k : numpy.ndarray or None
         Dewpoint, K, NaN at levels without one; None when the file gives no dewpoint.
+    origin : SoundingOrigin
+        Launch time and place as the file gives them (:mod:`casrecon.io.sounding_origin`; fields
+        None when it does not).
     """
 
     path: str
@@ -84,6 +88,7 @@ class Sounding:
     description: str
     dropped_levels: int
     dewpoint_k: np.ndarray | None = None
+    origin: SoundingOrigin = NO_ORIGIN
 
     @property
     def n(self) -> int:
@@ -112,12 +117,12 @@ def wind_from_direction(direction_from_deg: np.ndarray | float, speed_mps: np.nd
     return -s * np.cos(d), -s * np.sin(d)
 
 def sounding_from_levels(path: str | Path, fmt: str, cols: dict[str, np.ndarray], lines: np.ndarray,
-            description: str) -> Sounding:
+            description: str, origin: SoundingOrigin = NO_ORIGIN) -> Sounding:
     """The Sounding of a reader's columns: incomplete levels dropped, order, signs and
     plausibility checked (the module's rules; errors name ``path`` and the line in ``lines``).
 
     ``cols`` holds ``z, p, t, wn, we`` and optionally ``rho`` and ``dew`` (SI, NaN = missing; a
-    missing dewpoint does not drop its level).
+    missing dewpoint does not drop its level); ``origin``: the launch time and place the file gives.
     """
     _check_plausible(path, cols, lines)
     have = np.ones(lines.size, dtype=bool)
@@ -160,7 +165,7 @@ def sounding_from_levels(path: str | Path, fmt: str, cols: dict[str, np.ndarray]
         if not np.isfinite(dew).any():
             dew = None
     return Sounding(str(path), fmt, cols["z"], cols["p"], cols["t"], cols["wn"], cols["we"],
-                    cols.get("rho"), description, dropped, dew)
+                    cols.get("rho"), description, dropped, dew, origin)
 
 
 def _check_plausible(path: str | Path, cols: dict[str, np.ndarray], lines: np.ndarray) -> None:

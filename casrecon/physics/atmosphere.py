@@ -150,6 +150,13 @@ class Atmosphere:
         return AtmosphereState(rho, t, p, ca.sqrt(GAMMA_AIR * R_AIR * t), wind)
 
 
+def standard_pressure(alt_msl_m: np.ndarray | float) -> np.ndarray:
+    """Pressure, Pa, of the ICAO standard atmosphere's troposphere (288.15 K and 101325 Pa at sea level,
+    -6.5 K/km; the law :meth:`Atmosphere.standard` tabulates) at ``alt_msl_m`` (m MSL, below 11 km)."""
+    t = 288.15 - 0.0065 * np.asarray(alt_msl_m, dtype=float)
+    return 101325.0 * (t / 288.15) ** (9.80665 / (R_AIR * 0.0065))
+
+
 def vapour_pressure(dewpoint_k: np.ndarray | float) -> np.ndarray:
     """Water-vapour pressure, Pa, of air whose dewpoint is ``dewpoint_k`` (K): the saturation
     vapour pressure over water at the dewpoint, by Bolton's (1980) formula

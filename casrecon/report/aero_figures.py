@@ -73,13 +73,13 @@ def label_time_panels(axes) -> None:
     axes[0, 1].set_title("moment coefficients about the MRP, body axes")
 
 
-def aero_coefficients_figure(drop: DropFolder) -> Figure:
+def aero_coefficients_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """C_A, C_Y, C_N (body axes) and C_l, C_m, C_n (about the MRP) against flight time (s): the
     reconstruction with its 3-sigma band, the best-fit database with its band and the nominal
     database along the reconstructed trajectory."""
     tab = drop.csv(TABLE)
     t = tab[cols.FLIGHT_TIME]
-    fig, axes = style.new_figure(3, 2, (13, 9.5), fixed=True)
+    fig, axes = style.new_figure(3, 2, (13, 9.5), fixed=True, ax=ax)
     for r, row in enumerate(TIME_PANELS):
         for c, coef in enumerate(row):
             ax = axes[r, c]
@@ -106,12 +106,12 @@ def aero_coefficients_figure(drop: DropFolder) -> Figure:
     return fig
 
 
-def aero_sigma_figure(drop: DropFolder) -> Figure:
+def aero_sigma_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """Size of the 3-sigma bands of :func:`aero_coefficients_figure` against flight time (s), log
     scale: which coefficient is limited by the measurement noise and which by the parameters."""
     tab = drop.csv(TABLE)
     t = tab[cols.FLIGHT_TIME]
-    fig, axes = style.new_figure(3, 2, (13, 9.5), fixed=True)
+    fig, axes = style.new_figure(3, 2, (13, 9.5), fixed=True, ax=ax)
     for r, row in enumerate(TIME_PANELS):
         for c, coef in enumerate(row):
             ax = axes[r, c]
@@ -125,12 +125,12 @@ def aero_sigma_figure(drop: DropFolder) -> Figure:
     return fig
 
 
-def aero_alpha_t_figure(drop: DropFolder) -> Figure:
+def aero_alpha_t_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """C_A and the crossflow-plane C_N and C_m against the total angle of attack (deg) at every node:
     reconstructed points (3-sigma error bars on a subset), best-fit and nominal database points."""
     tab = drop.csv(TABLE)
     a = tab[cols.ALPHA_T]
-    fig, axes = style.new_figure(1, 3, (15, 5.2), sharex=True, fixed=True)
+    fig, axes = style.new_figure(1, 3, (15, 5.2), sharex=True, fixed=True, ax=ax)
     for ax, coef in zip(axes[0], ALPHA_PANELS):
         rec, three = tab[cols.column(coef, cols.RECONSTRUCTED)], tab[cols.sigma_column(coef, cols.RECONSTRUCTED)]
         ax.plot(a, tab[cols.column(coef, cols.NOMINAL)], ".", ms=2, color=style.NOMINAL_COLOR, rasterized=True,

@@ -47,7 +47,7 @@ def draw_order() -> list[int]:
     return order(True)
 
 
-def draw_one(folder: Path, index: int, formats: tuple[str, ...]) -> tuple[list[Path], list[str]]:
+def draw_one(folder: Path, index: int, formats: tuple[str, ...]) -> tuple[list[Path], list[str], list[str]]:
     """One figure of a per-drop folder, in a worker (:func:`casrecon.report.plots.draw_drop_figure`)."""
     from casrecon.report.plots import draw_drop_figure
 
@@ -71,21 +71,22 @@ class FigurePool:
     def draw(self, folder: Path, notes: list[str] | None = None,
              formats: Sequence[str] = ("png",)) -> list[Path]:
         """Every figure of the per-drop results folder ``folder`` into ``folder / "figures"``, in each
-        of ``formats``; the paths in figure order. Skipped figures are logged and their reasons
-        appended to ``notes``; FileNotFoundError if the folder lacks summary.json or trajectory.csv."""
+        of ``formats``; the paths in figure order. Skipped figures, and figures that could not be drawn
+        or written, are logged and their reasons appended to ``notes``; InputError if the folder lacks
+        summary.json or trajectory.csv."""
         notes = [] if notes is None else notes
         indices = self.order.result()
         futures = {self.pool.submit(draw_one, Path(folder), i, tuple(formats)): i for i in indices}
-        drawn: dict[int, tuple[list[Path], list[str]]] = {}
+        drawn: dict[int, tuple[list[Path], list[str], list[str]]] = {}
         for future in as_completed(futures):
             drawn[futures[future]] = future.result()
             names = ", ".join(p.name for p in drawn[futures[future]][0]) or "skipped"
             log.info("figure %d of %d: %s", len(drawn), len(futures), names)
         paths: list[Path] = []
-        for _, (p, n) in sorted(drawn.items()):
+        for _, (p, n, f) in sorted(drawn.items()):
             paths += p
-            notes += n
-            for note in n:
+            notes += n + f
+            for note in n + f:
                 log.warning(note)
         return paths
 

@@ -11,15 +11,21 @@ used by every figure for the same meaning: :data:`RECONSTRUCTED_COLOR`, :data:`N
 :data:`MASKED_COLOR` (data left out of the fit). Labels use mathtext (``r"$\\bar q$"``,
 ``r"m/s$^2$"``, :data:`PM3SIGMA`); each figure has one legend (:func:`figure_legend`), not one per
 panel. :func:`save_figure` writes PNG and, on request, PDF or SVG.
+
+Every figure can instead be drawn on the caller's own matplotlib axes (``ax=``, :func:`user_axes`):
+one Axes per panel, in row-major order; the title and legend then go on those axes' figure.
 """
 
 from __future__ import annotations
 
 import functools
+import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import TypeAlias
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.collections import PathCollection
 from matplotlib.figure import Figure
@@ -73,14 +79,54 @@ def parse_formats(text: str) -> tuple[str, ...]:
     return formats
 
 
-def new_figure(nrows: int, ncols: int, size: tuple[float, float], sharex: bool | str = True, fixed: bool = False):
+#: What ``ax=`` of a figure function takes: one matplotlib Axes, or a sequence or array of them.
+UserAxes: TypeAlias = "Axes | Sequence[Axes] | np.ndarray"
+
+
+def user_axes(ax: UserAxes, n: int) -> tuple[Figure, np.ndarray]:
+    """The figure and the flat object array of the ``n`` axes a caller gave as ``ax=`` (one Axes, or
+    a sequence or array of Axes of one figure, one per panel in row-major order).
+
+    Raises
+    ------
+    ValueError
+        Not Axes, not ``n`` of them (the message says how many panels the figure draws), or axes of
+        different figures.
+    """
+    axes = np.empty(1, dtype=object)
+    if isinstance(ax, Axes):
+        axes[0] = ax
+    else:
+        axes = np.asarray(list(np.ravel(np.asarray(ax, dtype=object))), dtype=object)
+    if axes.size != n or not all(isinstance(a, Axes) for a in axes):
+        given = f"{axes.size} item(s) of type {', '.join(sorted({type(a).__name__ for a in axes}))}" \
+            if axes.size else "none"
+        want = "one matplotlib Axes" if n == 1 else f"{n} matplotlib Axes (e.g. fig.subplots(...)), in row-major order"
+        raise ValueError(f"ax: this figure draws {n} panel{'s' if n != 1 else ''}: give {want}; got {given}")
+    fig = axes[0].figure
+    if any(a.figure is not fig for a in axes):
+        raise ValueError("ax: the axes must all belong to one figure")
+    return fig, axes
+
+
+def new_figure(nrows: int, ncols: int, size: tuple[float, float], sharex: bool | str = True, fixed: bool = False,
+               ax: UserAxes | None = None):
     """A Figure on an Agg canvas and its axes (2-D array), grid on.
 
     The layout is matplotlib's constrained layout, or with ``fixed`` the cheaper
     :class:`casrecon.report.figure_layout.FixedLayout` (margins computed once per draw from the text;
     about half the CPU time of a per-drop figure) and at most :data:`casrecon.report.figure_layout.TICK_BINS`
     tick intervals per linear axis (fewer tick artists to build and draw).
+
+    With ``ax`` (:func:`user_axes`: ``nrows * ncols`` axes of the caller's) those axes, reshaped to
+    ``(nrows, ncols)``, and their figure are returned instead (size, layout and ``sharex`` are the
+    caller's; grid on).
     """
+    if ax is not None:
+        fig, flat = user_axes(ax, nrows * ncols)
+        for a in flat:
+            a.grid(True, alpha=0.4)
+        return fig, flat.reshape(nrows, ncols)
     fig = Figure(figsize=size, layout=FixedLayout() if fixed else "constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(nrows, ncols, sharex=sharex, squeeze=False)
@@ -99,7 +145,9 @@ def save_figure(fig: Figure, path: Path, formats: Sequence[str] = DEFAULT_FORMAT
     A :class:`~casrecon.report.figure_layout.FixedLayout` figure is laid out here, once, and then saved
     without a layout engine (with one, ``savefig`` runs a whole draw without rendering before the real
     one). The figure is left as it is (``Figure.clear`` costs ~0.05 s a figure; an unreferenced figure
-    is freed by the garbage collector)."""
+    is freed by the garbage collector). Each file is written beside its name and renamed into place
+    when complete: a failed write (disk full, read-only folder) leaves no partial file, and an
+    OSError naming the figure's file."""
     engine = fig.get_layout_engine()
     if isinstance(engine, FixedLayout):
         engine.execute(fig)
@@ -109,7 +157,16 @@ def save_figure(fig: Figure, path: Path, formats: Sequence[str] = DEFAULT_FORMAT
     paths = []
     for fmt in formats:
         out = path.with_suffix(f".{fmt}")
-        fig.savefig(out, dpi=DPI, format=fmt, **({"pil_kwargs": PNG_OPTIONS} if fmt == "png" else {}))
+        tmp = out.with_name(f".{out.name}.tmp-{os.getpid()}")  # never a half-written figure under its name
+        try:
+            fig.savefig(tmp, dpi=DPI, format=fmt, **({"pil_kwargs": PNG_OPTIONS} if fmt == "png" else {}))
+            os.replace(tmp, out)
+        except OSError as err:
+            tmp.unlink(missing_ok=True)
+            raise OSError(err.errno, err.strerror or str(err), str(out)) from err
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
         paths.append(out)
     return paths
 

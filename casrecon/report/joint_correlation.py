@@ -22,6 +22,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from casrecon.report import figure_style as style
 from casrecon.report.parameter_labels import short_label, split_name
 from casrecon.report.results_folder import MissingInput
 
@@ -57,7 +58,9 @@ def block_title(name: str, k: int) -> str:
     return name if name == "shared" else f"drop {k}: {name}"
 
 
-def _figure(size: tuple[float, float], **grid) -> tuple[Figure, np.ndarray]:
+def _figure(size: tuple[float, float], ax: style.UserAxes | None = None, **grid) -> tuple[Figure, np.ndarray]:
+    if ax is not None:
+        return style.user_axes(ax, grid.get("ncols", 1))
     fig = Figure(figsize=size, layout="constrained")
     FigureCanvasAgg(fig)
     return fig, np.atleast_1d(fig.subplots(1, grid.pop("ncols", 1), squeeze=False, gridspec_kw=grid or None)[0])
@@ -110,7 +113,7 @@ def _tick_labels(ax, rows: list[str], cols: list[str], font: float) -> None:
     ax.set_yticks(range(len(rows)), [short_label(n) for n in rows], fontsize=font)
 
 
-def joint_correlation_figure(parameters: dict, title: str) -> Figure:
+def joint_correlation_figure(parameters: dict, title: str, *, ax: style.UserAxes | None = None) -> Figure:
     """The whole correlation matrix of a joint fit's ``parameters.json``, blocked (shared factors,
     then each drop's own parameters), short labels, values where the cells are large enough."""
     names, mat = correlation_matrix(parameters)
@@ -119,7 +122,7 @@ def joint_correlation_figure(parameters: dict, title: str) -> Figure:
     names, mat = [names[i] for i in order], mat[np.ix_(order, order)]
     n = len(names)
     side = float(np.clip(3.5 + 0.26 * n, 6.0, 18.0))
-    fig, (ax,) = _figure((side + 1.0, side + 0.5))
+    fig, (ax,) = _figure((side + 1.0, side + 0.5), ax)
     img = _heatmap(ax, mat, names, names)
     cell_pt = 0.78 * side * 72.0 / max(n, 1)
     _tick_labels(ax, names, names, float(np.clip(0.62 * cell_pt, 6.0, 11.0)))
@@ -136,10 +139,11 @@ def joint_correlation_figure(parameters: dict, title: str) -> Figure:
     return fig
 
 
-def shared_correlation_figure(parameters: dict, title: str) -> Figure:
+def shared_correlation_figure(parameters: dict, title: str, *, ax: style.UserAxes | None = None) -> Figure:
     """Condensed view of a joint fit's correlations: the shared factors against each other (top
     left) and against each drop's own parameters (one panel per drop, two per row), with values;
-    MissingInput when the fit has no shared or no per-drop parameters."""
+    MissingInput when the fit has no shared or no per-drop parameters. With ``ax``: one Axes of the
+    caller's for the shared block, then one per drop."""
     names, mat = correlation_matrix(parameters)
     parts = blocks(names)
     if len(parts) < 2 or parts[0][0] != "shared":
@@ -152,9 +156,13 @@ def shared_correlation_figure(parameters: dict, title: str) -> Figure:
     n_cols = len(shared) + 2 * n_local
     width = float(np.clip(2.5 + 0.45 * n_cols, 8.0, 18.0))
     height = float(np.clip(1.2 + n_rows * (1.3 + 0.36 * len(shared)), 4.5, 16.0))
-    fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplot_mosaic(mosaic, width_ratios=[len(shared), n_local, n_local])
+    if ax is not None:
+        fig, given = style.user_axes(ax, 1 + len(drops))
+        axes = {"shared": given[0], **{f"d{k}": a for k, a in enumerate(given[1:])}}
+    else:
+        fig = Figure(figsize=(width, height), layout="constrained")
+        FigureCanvasAgg(fig)
+        axes = fig.subplot_mosaic(mosaic, width_ratios=[len(shared), n_local, n_local])
     cell_pt = 0.8 * width * 72.0 / n_cols
     font = float(np.clip(0.5 * cell_pt, 7.0, 10.0))
     rows = [names[i] for i in shared]

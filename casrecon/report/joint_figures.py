@@ -108,12 +108,13 @@ def _legend(fig: Figure, drops, band: bool = True) -> None:
     fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5), fontsize=9, frameon=False)
 
 
-def overlay_figure(drops: list[DropFolder | DropTables], name: str, title: str = "joint fit") -> Figure:
+def overlay_figure(drops: list[DropFolder | DropTables], name: str, title: str = "joint fit", *,
+                   ax: style.UserAxes | None = None) -> Figure:
     """Overlay figure ``name`` (a key of :data:`OVERLAYS`) of all drops."""
     if not drops:
         raise MissingInput("a joint overlay needs at least one drop")
     what, rows = OVERLAYS[name]
-    fig, axes = style.new_figure(len(rows), 2, (13, 1.0 + 2.9 * len(rows)))
+    fig, axes = style.new_figure(len(rows), 2, (13, 1.0 + 2.9 * len(rows)), ax=ax)
     for k, drop in enumerate(drops):
         t = drop.traj[TIME]
         for row, q in enumerate(rows):
@@ -156,7 +157,8 @@ def _cm_points(drops) -> tuple[list[tuple[int, np.ndarray, np.ndarray]], dict | 
     return points, curves
 
 
-def pitching_moment_overlay(drops: list[DropFolder | DropTables], title: str = "joint fit") -> Figure:
+def pitching_moment_overlay(drops: list[DropFolder | DropTables], title: str = "joint fit", *,
+                            ax: style.UserAxes | None = None) -> Figure:
     """C_m about the MRP against angle of attack (deg): each drop's points reconstructed from its
     measured rates (qbar and |alpha| limits of the per-drop figure), the nominal database and the
     jointly fitted one at beta = 0 (from the first drop that has cm_curves.csv; the shared
@@ -164,7 +166,7 @@ def pitching_moment_overlay(drops: list[DropFolder | DropTables], title: str = "
     minus the fitted curve, where the drops can be told apart."""
     points, curves = _cm_points(drops)
     rows = 2 if curves is not None else 1
-    fig, axes = style.new_figure(rows, 1, (9, 4.2 + 2.8 * rows))
+    fig, axes = style.new_figure(rows, 1, (9, 4.2 + 2.8 * rows), ax=ax)
     ax = axes[0, 0]
     for k, alpha, cm in points:
         ax.scatter(alpha, cm, s=9, color=drop_color(k), alpha=0.6, linewidths=0, zorder=2)

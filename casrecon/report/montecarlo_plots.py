@@ -42,13 +42,13 @@ def _title(result) -> str:
     return f"{result.problem}: dispersed Monte Carlo, seed {result.seed}, RK4 $\\Delta t$ = {result.dt_s:g} s"
 
 
-def histogram_figure(result) -> Figure:
+def histogram_figure(result, *, ax: style.UserAxes | None = None) -> Figure:
     """Histograms of :data:`HISTOGRAMS` over the impacted cases of a
     :class:`~casrecon.analysis.montecarlo.MonteCarloResult`."""
     stats = result.statistics()
     ok = result["impacted"] > 0.5
     names = [n for n in HISTOGRAMS if stats.get(n)]
-    fig, axes = style.new_figure(1, max(len(names), 1), (5.5 * max(len(names), 1), 4.8), sharex=False)
+    fig, axes = style.new_figure(1, max(len(names), 1), (5.5 * max(len(names), 1), 4.8), sharex=False, ax=ax)
     for ax, name in zip(axes[0], names):
         values, st = result[name][ok], stats[name]
         label, unit = HISTOGRAMS[name]
@@ -76,10 +76,10 @@ def histogram_figure(result) -> Figure:
     return fig
 
 
-def speed_time_figure(result) -> Figure:
+def speed_time_figure(result, *, ax: style.UserAxes | None = None) -> Figure:
     """Impact speed (m/s) against flight time (s) of every impacted case, coloured by release altitude (m)."""
     ok = result["impacted"] > 0.5
-    fig, axes = style.new_figure(1, 1, (7.5, 6.2))
+    fig, axes = style.new_figure(1, 1, (7.5, 6.2), ax=ax)
     ax = axes[0, 0]
     sc = ax.scatter(result["flight_time_s"][ok], result["impact_speed_mps"][ok], s=6, alpha=0.7,
                     c=result["h_agl_m"][ok], cmap="viridis")
@@ -100,7 +100,7 @@ def speed_time_figure(result) -> Figure:
 
 
 def envelope_figure(envelopes: dict[str, np.ndarray], title: str, n_cases: int,
-                    touchdown_s: tuple[float, float] | None = None) -> Figure:
+                    touchdown_s: tuple[float, float] | None = None, *, ax: style.UserAxes | None = None) -> Figure:
     """The p1-p99 band, median and nominal flight of :data:`ENVELOPES` against flight time (s), the
     altitude also about its median (the band is too thin to see at the scale of the drop), and the
     number of cases in flight.
@@ -118,7 +118,7 @@ def envelope_figure(envelopes: dict[str, np.ndarray], title: str, n_cases: int,
     """
     t = envelopes[TIME]
     many = envelopes[IN_FLIGHT] >= MIN_IN_FLIGHT_FRACTION * n_cases
-    fig, axes = style.new_figure(3, 2, (13, 10.5))
+    fig, axes = style.new_figure(3, 2, (13, 10.5), ax=ax)
     panels = [("h_agl_m", False), ("h_agl_m", True), ("speed_mps", False), ("alpha_t_deg", False),
               ("pitch_deg", False)]
     for ax, (channel, about_median) in zip(axes.flat, panels):
@@ -151,14 +151,14 @@ def envelope_figure(envelopes: dict[str, np.ndarray], title: str, n_cases: int,
     return fig
 
 
-def montecarlo_envelope_figure(result) -> Figure:
+def montecarlo_envelope_figure(result, *, ax: style.UserAxes | None = None) -> Figure:
     """:func:`envelope_figure` of a :class:`~casrecon.analysis.montecarlo.MonteCarloResult` with
     histories (ValueError without)."""
     if result.histories is None:
         raise ValueError("the Monte Carlo result has no histories (run with history_dt_s)")
     ft = result.statistics()["flight_time_s"]
     window = (ft["p1"], ft["p99"]) if ft else None
-    return envelope_figure(result.histories.envelopes(), _title(result), result.histories.n_cases, window)
+    return envelope_figure(result.histories.envelopes(), _title(result), result.histories.n_cases, window, ax=ax)
 
 
 def plot_montecarlo(result, folder: str | Path, formats: Sequence[str] = style.DEFAULT_FORMATS) -> list[Path]:

@@ -32,27 +32,42 @@ registered globally and a figure is freed once saved and no longer referenced. T
 laid out by :class:`casrecon.report.figure_layout.FixedLayout` (margins measured once from their text)
 with few ticks: 0.15 to 0.8 s of CPU each on ees-drop-1, 5 to 7 s for all 13 on a loaded machine
 (15 s with constrained layout and matplotlib's default ticks; ``benchmarks/bench_figures.py``). A
-figure whose optional input file is missing or unreadable is skipped with a note (logged, and appended
-to ``notes`` if given); a folder without ``summary.json`` or ``trajectory.csv`` raises
-``FileNotFoundError`` naming the file.
+figure whose optional input file is missing is skipped with a note (logged, and appended to ``notes``
+if given); one that cannot be drawn or written (an input file named by ``config/resolved.json`` that
+is damaged, a read-only disk) is a failure (logged, and appended to ``failures`` if given). Every
+file of the folder is read and checked before any figure is drawn
+(:mod:`casrecon.output.results_reader`): a folder without ``summary.json`` or ``trajectory.csv``, or
+with a damaged file, raises :class:`~casrecon.io.errors.InputError` naming the file.
 """
 
 from __future__ import annotations
 
 import logging
+import os
+import tempfile
 from collections.abc import Callable, Sequence
 from functools import partial
 from pathlib import Path
 
 from matplotlib.figure import Figure
 
+from casrecon.output.results_reader import folder_kind, read_results_folder
 from casrecon.parallel import parallel_map
 from casrecon.report import figure_style as style
 from casrecon.report.aero_figures import aero_alpha_t_figure, aero_coefficients_figure, aero_sigma_figure
 from casrecon.report.input_figures import INPUT_FIGURES
 from casrecon.report.joint_plots import draw_joint_figures
+from casrecon.report.kinematic_plots import plot_kinematic
+from casrecon.report.pointmass_plots import plot_track_fit
 from casrecon.report.residual_figures import correlation_figure, residuals_gps_figure, residuals_imu_figure
-from casrecon.report.results_folder import DropFolder, MissingInput, drop_folders, read_json
+from casrecon.report.results_folder import (
+    REQUIRED_FILES,
+    DropFolder,
+    MissingInput,
+    attempt_figure,
+    drop_folders,
+    read_json,
+)
 from casrecon.report.trajectory_figures import (
     altitude_velocity_figure,
     pitching_moment_figure,
@@ -92,90 +107,124 @@ def draw_order(correlation: bool = True) -> list[int]:
     return sorted(range(len(labels)), key=lambda i: (rank.get(labels[i], len(rank)), i))
 
 
-def _attempt(label: str, draw: Callable[[], list[Path]], notes: list[str]) -> list[Path]:
-    """Run one figure; a missing or unreadable optional input skips it with a note."""
-    try:
-        return draw()
-    except (MissingInput, KeyError, ValueError, OSError) as exc:
-        what = f"missing column {exc}" if isinstance(exc, KeyError) else str(exc)
-        notes.append(f"skipped {label}: {what}")  # logged by the caller (a worker's log would be lost)
-        return []
-
-
 def draw_drop_figure(folder: Path, index: int, correlation: bool,
-                     formats: Sequence[str] = style.DEFAULT_FORMATS) -> tuple[list[Path], list[str]]:
+                     formats: Sequence[str] = style.DEFAULT_FORMATS) -> tuple[list[Path], list[str], list[str]]:
     """Figure number ``index`` of DROP_FIGURES (or the correlation matrix) of one drop folder: the
-    paths written and the notes of a skipped figure."""
-    notes: list[str] = []
+    paths written, the note of a figure skipped for want of an optional input, and the failure of
+    one that could not be drawn or written (:func:`~casrecon.report.results_folder.attempt_figure`)."""
     drop = DropFolder(folder)
     out = drop.folder / "figures"
     if index < len(DROP_FIGURES):
         label, make = DROP_FIGURES[index]
-        return _attempt(f"{drop.name} {label}", lambda: style.save_figure(make(drop), out / label, formats),
-                        notes), notes
-    return _attempt(f"{drop.name} correlation", lambda: style.save_figure(correlation_figure(
-        drop.json("parameters.json"), drop.name), out / "correlation", formats), notes), notes
+        return attempt_figure(f"{drop.name} {label}", lambda: style.save_figure(make(drop), out / label, formats))
+    return attempt_figure(f"{drop.name} correlation", lambda: style.save_figure(correlation_figure(
+        drop.json("parameters.json"), drop.name), out / "correlation", formats))
+
+
+def collect(done: Sequence[tuple[list[Path], list[str], list[str]]], notes: list[str],
+            failures: list[str] | None) -> list[Path]:
+    """The paths of figure outcomes ``(paths, notes, failures)``, in order; their notes appended to
+    ``notes`` and their failures to ``failures`` (to ``notes`` when None), each logged."""
+    paths: list[Path] = []
+    for p, n, f in done:
+        paths += p
+        notes += n
+        (notes if failures is None else failures).extend(f)
+        for line in n + f:
+            log.warning(line)
+    return paths
 
 
 def draw_drop_figures(folder: Path, notes: list[str] | None = None, correlation: bool = True, workers: int = 2,
-                      formats: Sequence[str] = style.DEFAULT_FORMATS) -> list[Path]:
+                      formats: Sequence[str] = style.DEFAULT_FORMATS, failures: list[str] | None = None) -> list[Path]:
     """All figures of one drop's results folder into ``folder / "figures"``; returns the paths.
 
     Each figure is saved once per format of ``formats`` (``"png"``, ``"pdf"``, ``"svg"``).
     Figures are drawn by ``workers`` forked processes (matplotlib spends its time in layout and
     rasterisation, one core per figure); ``workers=1`` draws them in this process
     (:class:`casrecon.report.figure_pool.FigurePool` draws them with workers started before the fit).
-    Raises FileNotFoundError if summary.json or trajectory.csv is missing.
+    A figure skipped for want of an optional input is noted in ``notes``; one that could not be drawn
+    or written in ``failures`` (in ``notes`` when None). InputError if summary.json or
+    trajectory.csv is missing.
     """
     notes = [] if notes is None else notes
     DropFolder(folder)  # validates the folder before any worker starts
     indices = draw_order(correlation)
     drawn: list[int] = []
 
-    def said(index: int, value: tuple[list[Path], list[str]]) -> None:  # one log line per figure as it lands
+    def said(index: int, value: tuple[list[Path], list[str], list[str]]) -> None:  # a log line per figure
         drawn.append(index)
         log.info("figure %d of %d: %s", len(drawn), len(indices), ", ".join(p.name for p in value[0]) or "skipped")
 
     done = parallel_map(partial(draw_drop_figure, folder, correlation=correlation, formats=tuple(formats)), indices,
                         workers=workers, start_method="fork", on_done=said)
-    paths: list[Path] = []
-    for _, (p, n) in sorted(zip(indices, done)):
-        paths += p
-        notes += n
-        for note in n:
-            log.warning(note)
-    return paths
+    return collect([d for _, d in sorted(zip(indices, done), key=lambda x: x[0])], notes, failures)
+
+
+#: Files without which ``report`` cannot draw a folder of each kind (a joint folder: ``drops/`` and,
+#: in each drop, those of a per-drop folder).
+REPORT_REQUIRED = {"drop": REQUIRED_FILES, "joint": ("drops/",), "point-mass": ("summary.json", "trajectory.csv",
+                                                                               "residuals_gps.csv", "gps_fixes.csv"),
+                   "kinematic": ("summary.json", "trajectory.csv", "residuals_imu.csv", "residuals_gps.csv")}
+
+
+def figure_folders(results_dir: Path) -> list[Path]:
+    """The ``figures/`` folders :func:`draw_figures` writes into (a joint folder's and each drop's)."""
+    results_dir = Path(results_dir)
+    return [results_dir / "figures"] + [d / "figures" for d in drop_folders(results_dir)]
+
+
+def check_writable(results_dir: Path) -> None:
+    """OSError naming the folder unless every ``figures/`` folder of ``results_dir`` can be made and
+    written (a file is created and removed in each, a folder made for it removed again): checked
+    before any figure is drawn."""
+    for figures in figure_folders(results_dir):
+        made = not figures.exists()
+        try:
+            figures.mkdir(exist_ok=True)
+            fd, probe = tempfile.mkstemp(prefix=".casrecon-probe-", dir=figures)
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as err:
+            raise OSError(err.errno, f"{err.strerror or err}; no figure written", str(figures)) from None
+        if made:
+            figures.rmdir()  # made again by the first figure; none left if the folder turns out damaged
 
 
 def draw_figures(results_dir: Path, notes: list[str] | None = None,
-                 formats: Sequence[str] = style.DEFAULT_FORMATS) -> list[Path]:
+                 formats: Sequence[str] = style.DEFAULT_FORMATS, failures: list[str] | None = None) -> list[Path]:
     """Draw every figure of a results folder in each of ``formats`` and return the paths.
 
-    A per-drop folder gets its figures in ``results_dir / "figures"``. A joint folder (sub-folders
-    ``drops/<name>/``) gets each drop's figures in ``drops/<name>/figures`` and the joint figures
-    (:mod:`casrecon.report.joint_plots`: multi-drop overlays, the blocked correlation matrix of
-    ``results_dir / "parameters.json"`` and the shared factors' correlations) in ``results_dir / "figures"``.
-    Skipped figures are logged and their reasons appended to ``notes`` when a list is given.
-    Raises FileNotFoundError if ``results_dir`` (or a drop sub-folder) is not a results folder.
+    Every file of the folder is read and checked first (:func:`casrecon.output.results_reader.read_results_folder`):
+    a damaged one is an InputError naming it, before any figure is drawn. A per-drop folder gets its
+    figures in ``results_dir / "figures"``. A joint folder (sub-folders ``drops/<name>/``) gets each
+    drop's figures in ``drops/<name>/figures`` and the joint figures (:mod:`casrecon.report.joint_plots`:
+    multi-drop overlays, the blocked correlation matrix of ``results_dir / "parameters.json"`` and
+    the shared factors' correlations) in ``results_dir / "figures"``. A point-mass folder gets its
+    track fit (:mod:`casrecon.report.pointmass_plots`), a kinematic one its reconstruction
+    (:mod:`casrecon.report.kinematic_plots`). Figures skipped for want of an optional input are
+    logged and noted in ``notes``; figures that could not be drawn or written in ``failures`` (in
+    ``notes`` when None).
+    Raises InputError if ``results_dir`` (or a drop sub-folder) is not a results folder or holds a
+    damaged file.
     """
     results_dir = Path(results_dir)
     notes = [] if notes is None else notes
-    if not results_dir.is_dir():
-        raise FileNotFoundError(f"results folder {results_dir} does not exist")
+    kind = folder_kind(results_dir)
+    read_results_folder(results_dir, kind, REPORT_REQUIRED[kind], REQUIRED_FILES)
+    if kind in ("point-mass", "kinematic"):
+        draw = partial(plot_track_fit if kind == "point-mass" else plot_kinematic, results_dir, tuple(formats))
+        return collect([attempt_figure(f"{results_dir.name} {kind}", lambda: [draw()])], notes, failures)
     drops = drop_folders(results_dir)
-    if not drops:
-        return draw_drop_figures(results_dir, notes, formats=formats)
+    if kind == "drop":
+        return draw_drop_figures(results_dir, notes, formats=formats, failures=failures)
     paths: list[Path] = []
     for k, folder in enumerate(drops):
         log.info("figures of drop %d of %d (%s)", k + 1, len(drops), folder.name)
-        paths += draw_drop_figures(folder, notes, correlation=False, formats=formats)
+        paths += draw_drop_figures(folder, notes, correlation=False, formats=formats, failures=failures)
     title = _joint_title(results_dir, drops)
-    joint_notes: list[str] = []
     log.info("joint figures")
-    paths += draw_joint_figures(results_dir, drops, title, joint_notes, formats=formats)
-    for note in joint_notes:
-        log.warning(note)
-    notes += joint_notes
+    paths += draw_joint_figures(results_dir, drops, title, notes, formats=formats, failures=failures)
     return paths
 
 

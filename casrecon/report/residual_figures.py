@@ -28,7 +28,7 @@ def _count(ax, text: str) -> None:
             bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.8", alpha=0.85))
 
 
-def residuals_imu_figure(drop: DropFolder) -> Figure:
+def residuals_imu_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """IMU residuals (measured - model) against flight time (s): specific force in m/s^2, angular
     rate in deg/s; masked samples (used = 0) in another colour; +-1/3 sigma from imu_sigma.json."""
     res = drop.csv("residuals_imu.csv")
@@ -38,7 +38,7 @@ def residuals_imu_figure(drop: DropFolder) -> Figure:
         log.info("residuals_imu: no sigma lines (%s)", exc)
         sigma = {}
     t = drop.flight_time(res[rf.TIME_IMU])
-    fig, axes = style.new_figure(3, 2, (13, 9), fixed=True)
+    fig, axes = style.new_figure(3, 2, (13, 9), fixed=True, ax=ax)
     for k, ch in enumerate(rf.IMU_CHANNELS):
         ax = axes[k % 3, k // 3]
         unit = "deg/s" if ch.startswith("w") else style.MPS2
@@ -74,12 +74,12 @@ def _residual_limit(used: np.ndarray, sigma: float | None) -> float:
     return 1.1 * big if big > 0 else 1.0
 
 
-def residuals_gps_figure(drop: DropFolder) -> Figure:
+def residuals_gps_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """GPS residuals (measured - model) against flight time (s): NED position (m) and velocity (m/s)
     with the receiver's own +-1 and +-3 sigma per fix."""
     res = drop.csv("residuals_gps.csv")
     t = drop.flight_time(res[rf.TIME_IMU])
-    fig, axes = style.new_figure(3, 2, (13, 9), fixed=True)
+    fig, axes = style.new_figure(3, 2, (13, 9), fixed=True, ax=ax)
     for k, ch in enumerate(rf.GPS_COMPONENTS):
         ax = axes[k % 3, k // 3]
         unit = "m" if ch.startswith("pos") else "m/s"
@@ -96,13 +96,14 @@ def residuals_gps_figure(drop: DropFolder) -> Figure:
     return fig
 
 
-def correlation_figure(parameters: dict, title: str) -> Figure:
+def correlation_figure(parameters: dict, title: str, *, ax: style.UserAxes | None = None) -> Figure:
     """The parameter correlation matrix of parameters.json (``correlation`` {names, matrix}) as an
     image, names on both axes, colour scale -1..1; values printed when there are few parameters,
     black lines between the blocks of a joint fit (shared, then ``<drop>.<name>`` per drop).
 
     The matrix is a square of :func:`correlation_side_in` inches; the margins (inches) are measured from
-    the names, so the figure needs no layout engine."""
+    the names, so the figure needs no layout engine. With ``ax`` (one Axes of the caller's) the
+    matrix is drawn there, its colour bar beside it."""
     corr = parameters.get("correlation")
     if not corr or "names" not in corr or "matrix" not in corr:
         raise MissingInput("parameters.json has no correlation {names, matrix}")
@@ -114,13 +115,18 @@ def correlation_figure(parameters: dict, title: str) -> Figure:
     side = correlation_side_in(n)
     left, bottom, top, right = 0.1 + names_in, 0.1 + names_in, 0.45, CORRELATION_BAR_IN
     width, height = left + side + right, bottom + side + top
-    fig = Figure(figsize=(width, height))
-    FigureCanvasAgg(fig)
-    ax = fig.add_axes((left / width, bottom / height, side / width, side / height))
-    img = ax.imshow(mat, cmap="RdBu_r", vmin=-1.0, vmax=1.0, interpolation="nearest")
-    cax = fig.add_axes(((left + side + 0.3) / width, (bottom + 0.1 * side) / height, 0.22 / width,
-                        0.8 * side / height))
-    fig.colorbar(img, cax=cax, label="correlation coefficient, -")
+    if ax is not None:
+        fig, (ax,) = style.user_axes(ax, 1)
+        img = ax.imshow(mat, cmap="RdBu_r", vmin=-1.0, vmax=1.0, interpolation="nearest")
+        fig.colorbar(img, ax=ax, label="correlation coefficient, -")
+    else:
+        fig = Figure(figsize=(width, height))
+        FigureCanvasAgg(fig)
+        ax = fig.add_axes((left / width, bottom / height, side / width, side / height))
+        img = ax.imshow(mat, cmap="RdBu_r", vmin=-1.0, vmax=1.0, interpolation="nearest")
+        cax = fig.add_axes(((left + side + 0.3) / width, (bottom + 0.1 * side) / height, 0.22 / width,
+                            0.8 * side / height))
+        fig.colorbar(img, cax=cax, label="correlation coefficient, -")
     ax.set_xticks(range(n), names, rotation=90, fontsize=font)
     ax.set_yticks(range(n), names, fontsize=font)
     groups = [name.split(".", 1)[0] if "." in name else "" for name in names]

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import functools
-import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -11,14 +11,14 @@ import numpy as np
 from casrecon.io.units import (
     GPS_COMPONENT_UNITS,
     IMU_CHANNEL_UNITS,
-    TEXT_COLUMNS,
     gps_residual_column,
     gps_sigma_column,
     imu_residual_column,
     imu_sigma_key,
 )
+from casrecon.output.results_reader import TRAJECTORY_TIME_COLUMNS, read_checked_document, read_table, require_files
 
-#: Files without which a folder is not a per-drop results folder.
+#: Files without which a folder is not a per-drop results folder the figures can draw.
 REQUIRED_FILES = ("summary.json", "trajectory.csv")
 
 # Column names the figures read (one place to follow a rename of the writers' columns).
@@ -60,28 +60,38 @@ class MissingInput(Exception):
     """An optional input of one figure is absent; the figure is skipped."""
 
 
+def attempt_figure(label: str, draw: Callable[[], list[Path]]) -> tuple[list[Path], list[str], list[str]]:
+    """Draw and save one figure: ``(paths, notes, failures)``. An absent optional input
+    (:class:`MissingInput`) skips it with a note; anything else that stops it (a damaged file, a
+    file that cannot be written) is a failure, located (the file, and why)."""
+    try:
+        return draw(), [], []
+    except MissingInput as exc:
+        return [], [f"skipped {label}: {exc}"], []
+    except OSError as exc:
+        where = f"{exc.filename}: " if exc.filename else ""
+        return [], [], [f"{label} not written: {where}{exc.strerror or exc}"]
+    except (KeyError, ValueError) as exc:
+        what = f"missing column {exc}" if isinstance(exc, KeyError) else str(exc)
+        return [], [], [f"{label} not drawn: {what}"]
+
+
 def read_csv(path: Path) -> dict[str, np.ndarray]:
-    """Numeric columns of a CSV file with a one-line header, as float arrays keyed by header name
-    (text columns such as ``utc`` are left out; the numbers hold the same time as ``time_unix_s``)."""
+    """Numeric columns of a results CSV file, as float arrays keyed by header name (text columns such
+    as ``utc`` are left out; the numbers hold the same time as ``time_unix_s``), checked by
+    :func:`casrecon.output.results_reader.read_table` (InputError, located, when damaged);
+    MissingInput if absent."""
     if not path.is_file():
         raise MissingInput(f"{path.name} not found in {path.parent}")
-    with path.open() as f:
-        header = [n.strip() for n in f.readline().strip().split(",")]
-        first = f.readline().strip()
-    if first and len(first.split(",")) != len(header):
-        raise ValueError(f"{path}: {len(first.split(','))} columns but {len(header)} header names")
-    keep = [k for k, name in enumerate(header) if name not in TEXT_COLUMNS]
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, usecols=keep)
-    if data.shape[0] == 0:
-        data = np.zeros((0, len(keep)))
-    return {header[k]: data[:, j] for j, k in enumerate(keep)}
+    return read_table(path).columns()
 
 
 def read_json(path: Path) -> dict:
-    """A JSON file as a dict; MissingInput if absent."""
+    """A results JSON file as a dict, checked by :func:`casrecon.output.results_reader.read_checked_document`
+    (InputError, located, when damaged); MissingInput if absent."""
     if not path.is_file():
         raise MissingInput(f"{path.name} not found in {path.parent}")
-    return json.loads(path.read_text())
+    return read_checked_document(path)
 
 
 class DropFolder:
@@ -94,18 +104,18 @@ class DropFolder:
 
     def __init__(self, folder: Path):
         self.folder = Path(folder)
-        for name in REQUIRED_FILES:
-            if not (self.folder / name).is_file():
-                raise FileNotFoundError(
-                    f"{self.folder} is not a casrecon results folder: {name} is missing")
+        require_files(self.folder, REQUIRED_FILES)
         self._cache: dict[str, object] = {}
         self.summary = read_json(self.folder / "summary.json")
         self.name = str(self.summary.get("problem") or self.folder.name)
 
     @functools.cached_property
     def traj(self) -> dict[str, np.ndarray]:
-        """Columns of trajectory.csv."""
-        return self.csv("trajectory.csv")
+        """Columns of trajectory.csv (its time columns present and finite)."""
+        if "trajectory.csv" not in self._cache:
+            times = TRAJECTORY_TIME_COLUMNS["drop"]
+            self._cache["trajectory.csv"] = read_table(self.folder / "trajectory.csv", times, times).columns()
+        return self._cache["trajectory.csv"]
 
     @functools.cached_property
     def release_imu_s(self) -> float:

@@ -34,10 +34,11 @@ def _save(fig: Figure, path: Path, formats: Sequence[str]) -> Path:
     return style.save_figure(fig, path, formats)[0]
 
 
-def fisher_figure(document: dict) -> Figure:
+def fisher_figure(document: dict, *, ax: style.UserAxes | None = None) -> Figure:
     """The Fisher directions of ``fisher.json`` (:func:`casrecon.analysis.sensitivity_documents.fisher_document`):
     loadings (-1..1) per direction and parameter, weakest direction at the top, and each
-    direction's sigma (scaled parameters, log axis)."""
+    direction's sigma (scaled parameters, log axis). With ``ax``: two Axes of the caller's (loadings,
+    sigmas)."""
     directions = document["directions"]
     names = list(directions[0]["loadings"]) if directions else []
     load = np.array([[d["loadings"][n] for n in names] for d in directions])
@@ -45,9 +46,12 @@ def fisher_figure(document: dict) -> Figure:
     n_dir, n_par = load.shape
     width = float(np.clip(4.5 + 0.48 * n_par, 8.0, 20.0))
     height = float(np.clip(2.2 + 0.36 * n_dir, 4.5, 16.0))
-    fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
-    ax, bar = fig.subplots(1, 2, gridspec_kw={"width_ratios": [max(n_par, 1), 5.0]})
+    if ax is not None:
+        fig, (ax, bar) = style.user_axes(ax, 2)
+    else:
+        fig = Figure(figsize=(width, height), layout="constrained")
+        FigureCanvasAgg(fig)
+        ax, bar = fig.subplots(1, 2, gridspec_kw={"width_ratios": [max(n_par, 1), 5.0]})
     bar.grid(True, axis="x", alpha=0.4)
     img = ax.imshow(load, cmap="RdBu_r", vmin=-1, vmax=1, aspect="auto", interpolation="nearest")
     for i, j in zip(*np.nonzero(np.abs(load) >= MIN_PRINTED_LOADING)):
@@ -82,10 +86,10 @@ def plot_fisher(document: dict, out: Path, formats: Sequence[str] = style.DEFAUL
     return _save(fisher_figure(document), Path(out) / "fisher", formats)
 
 
-def profile_figure(profile) -> Figure:
+def profile_figure(profile, *, ax: style.UserAxes | None = None) -> Figure:
     """Delta chi-square against the held value of a :class:`~casrecon.analysis.observability.Profile`,
     with the delta chi-square = 9 line (3 sigma) and the Fisher 3-sigma interval for comparison."""
-    fig, axes = style.new_figure(1, 1, (8, 5.5))
+    fig, axes = style.new_figure(1, 1, (8, 5.5), ax=ax)
     ax = axes[0, 0]
     ax.plot(profile.values, profile.delta_chi2, "o-", color=POINTS_COLOR)
     ax.axhline(9.0, color="k", ls=":")
@@ -109,10 +113,10 @@ def plot_profile(profile, out: Path, formats: Sequence[str] = style.DEFAULT_FORM
     return _save(profile_figure(profile), Path(out) / f"profile_{profile.name}", formats)
 
 
-def design_figure(design: dict) -> Figure:
+def design_figure(design: dict, *, ax: style.UserAxes | None = None) -> Figure:
     """Predicted 1-sigma of ``design["parameter"]`` against the initial pitch rate (deg/s), the
     release altitude (m) and the number of drops, on one y scale from 0."""
-    fig, axes = style.new_figure(1, 3, (13, 4.6), sharex=False)
+    fig, axes = style.new_figure(1, 3, (13, 4.6), sharex=False, ax=ax)
     label = short_label(design["parameter"])
     for ax, key, xlabel in zip(axes[0], ("pitch_rate", "altitude", "n_drops"),
                                ("initial pitch rate $q_0$, deg/s", r"release altitude $h_{\mathrm{AGL}}$, m",

@@ -25,7 +25,7 @@ RECON_LABEL = "reconstruction (centre of mass)"
 GPS_LABEL = "GPS fix (antenna)"
 
 
-def altitude_velocity_figure(drop: DropFolder) -> Figure:
+def altitude_velocity_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """Altitude AGL (m), speed, north, east and down velocity (m/s) against flight time (s) and the
     ground track (m, when the trajectory has north and east positions): reconstruction lines and, if
     gps_fixes.csv exists, GPS fixes as dots (altitude = -pos_d)."""
@@ -37,7 +37,7 @@ def altitude_velocity_figure(drop: DropFolder) -> Figure:
     except MissingInput as exc:
         log.info("altitude_velocity: no GPS dots (%s)", exc)
         gps = None
-    fig, axes = style.new_figure(3, 2, (13, 9.5), sharex=False, fixed=True)
+    fig, axes = style.new_figure(3, 2, (13, 9.5), sharex=False, fixed=True, ax=ax)
     panels = ((axes[0, 0], tr[rf.H_AGL], "altitude AGL $h$, m"), (axes[0, 1], style.speed(*vel), "speed $|v|$, m/s"),
               (axes[1, 0], vel[0], "north velocity $v_N$, m/s"), (axes[1, 1], vel[1], "east velocity $v_E$, m/s"),
               (axes[2, 0], vel[2], "down velocity $v_D$, m/s"))
@@ -69,12 +69,12 @@ def altitude_velocity_figure(drop: DropFolder) -> Figure:
     return fig
 
 
-def qbar_alpha_t_figure(drop: DropFolder) -> Figure:
+def qbar_alpha_t_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """Dynamic pressure (Pa) and total angle of attack (deg) against flight time (s) with shaded
     3-sigma bands (left), and the 3-sigma itself against time (right) since the bands are thin."""
     tr = drop.traj
     t = tr[rf.FLIGHT_TIME]
-    fig, axes = style.new_figure(2, 2, (13, 7.5), fixed=True)
+    fig, axes = style.new_figure(2, 2, (13, 7.5), fixed=True, ax=ax)
     rows = ((rf.QBAR, r"dynamic pressure $\bar q$", "Pa"), (rf.ALPHA_T, r"total angle of attack $\alpha_T$", "deg"))
     for k, (col, label, unit) in enumerate(rows):
         three = tr[rf.three_sigma(col)]
@@ -93,7 +93,7 @@ def qbar_alpha_t_figure(drop: DropFolder) -> Figure:
     return fig
 
 
-def pitching_moment_figure(drop: DropFolder) -> Figure:
+def pitching_moment_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """C_m,body about the MRP against angle of attack (deg): points reconstructed from the measured
     rates (qbar > 100 Pa and |alpha| < 20 deg), nominal database curve and best-fit dispersed curve at
     beta = 0 (EES paper Fig. 12: black, blue, red)."""
@@ -105,7 +105,7 @@ def pitching_moment_figure(drop: DropFolder) -> Figure:
     except MissingInput as exc:
         log.info("pitching_moment: no database curves (%s)", exc)
         curves = None
-    fig, axes = style.new_figure(1, 1, (9, 6.8), fixed=True)
+    fig, axes = style.new_figure(1, 1, (9, 6.8), fixed=True, ax=ax)
     ax = axes[0, 0]
     ax.plot(pm[rf.ALPHA][keep], pm[rf.CM_RECONSTRUCTED][keep], ".", ms=3, color=style.RECONSTRUCTED_COLOR,
             zorder=2, rasterized=True, label=f"reconstructed from the measured rates ({keep.sum()} nodes)")
@@ -143,7 +143,7 @@ def _reconciled_text(summary: dict) -> str:
             f"recon {fmt('reconstructed_end_speed_mps', '.2f')} m/s)")
 
 
-def reconciled_figure(drop: DropFolder) -> Figure:
+def reconciled_figure(drop: DropFolder, *, ax: style.UserAxes | None = None) -> Figure:
     """Reconstruction against the reconciled forward simulation: altitude AGL (m), speed (m/s),
     total angle of attack (deg) and, if reconciled.csv has it, roll rate (deg/s) against flight time
     (s) (left; the nominal-database simulation of nominal.csv too if present), and fitted
@@ -163,7 +163,7 @@ def reconciled_figure(drop: DropFolder) -> Figure:
             (rf.ALPHA_T, r"total angle of attack $\alpha_T$", "deg")]
     if rf.ROLL_RATE in sim:
         rows.append((rf.ROLL_RATE, "roll rate $p$", "deg/s"))
-    fig, axes = style.new_figure(len(rows), 2, (14, 3.1 * len(rows) + 0.6), fixed=True)
+    fig, axes = style.new_figure(len(rows), 2, (14, 3.1 * len(rows) + 0.6), fixed=True, ax=ax)
     for k, (col, label, unit) in enumerate(rows):
         ax, ad = axes[k]
         y = recon[col]

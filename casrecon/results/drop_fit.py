@@ -1,11 +1,12 @@
 """The per-drop result of the public API (``casrecon.fit``, ``casrecon.load_results``): parameters as
-records, the trajectory and residuals as pandas DataFrames, the report, interpolation at flight
-times, and saving to (or loading from) the results folder that ``casrecon fit --out`` writes.
+records, the trajectory, residuals and aero coefficients as pandas DataFrames, lmfit's statistics
+and ``fit_report()``, the report, interpolation at flight times or UTC, and saving to (or loading
+from) the results folder that ``casrecon fit --out`` writes.
 """
 
 from __future__ import annotations
 
-import json
+import datetime
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,8 +28,18 @@ from casrecon.output.fit_results import (
 from casrecon.output.kinematic_check_results import write_kinematic_check
 from casrecon.output.out_folder import input_paths
 from casrecon.output.results import json_values, save_results_folder
+from casrecon.output.results_reader import (
+    PARAMETERS_SHAPE,
+    TRAJECTORY_TIME_COLUMNS,
+    FolderFiles,
+    Table,
+    read_results_folder,
+    read_text,
+)
+from casrecon.physics.aero import DISPERSION_NAMES
 from casrecon.report.results_folder import DropTables
-from casrecon.results.parameters import Parameters, from_document
+from casrecon.results.fit_statistics import FitStatistics
+from casrecon.results.parameters import Parameter, Parameters, fixed_parameter, from_document
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -41,20 +52,14 @@ if TYPE_CHECKING:
 #: Time columns of ``trajectory`` (s): IMU clock, flight time since release, UTC (Unix seconds).
 TIME_COLUMNS = ("time_imu_s", "flight_time_s", TIME_UNIX)
 #: Time columns a per-drop trajectory.csv must have.
-REQUIRED_TIME_COLUMNS = ("time_imu_s", "flight_time_s")
-#: Files without which a folder is not a per-drop results folder.
-REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
+REQUIRED_TIME_COLUMNS = TRAJECTORY_TIME_COLUMNS["drop"]
 
 
-def read_frame(path: Path) -> pd.DataFrame:
-    """A CSV file of casrecon's as a DataFrame, every number parsed exactly as written (the nearest
-    float; pandas 3 does so by default, pandas 2 needs ``float_precision="round_trip"``), the
-    ``utc`` column as tz-aware timestamps (:func:`with_timestamps`)."""
-    import pandas as pd
-
-    if int(pd.__version__.split(".")[0]) < 3:
-        return with_timestamps(pd.read_csv(path, float_precision="round_trip"))
-    return with_timestamps(pd.read_csv(path))
+def read_frame(table: Table) -> pd.DataFrame:
+    """A checked CSV table of a results folder (:func:`casrecon.output.results_reader.read_table`) as a
+    DataFrame, every number parsed exactly as written, the ``utc`` column as tz-aware timestamps
+    (:func:`with_timestamps`)."""
+    return with_timestamps(table.frame())
 
 
 def with_timestamps(frame: pd.DataFrame) -> pd.DataFrame:
@@ -66,20 +71,42 @@ def with_timestamps(frame: pd.DataFrame) -> pd.DataFrame:
     return frame
 
 
-def read_document(path: Path) -> dict:
-    """A JSON file as a dict; InputError naming the file when it is not JSON."""
+def parameters_of(files: FolderFiles, reduced_chi2: float | None, held_dispersions: bool = False) -> Parameters:
+    """The :class:`Parameters` of a checked folder's parameters.json (``reduced_chi2`` for entries without
+    ``sigma_chi2_scaled``; ``held_dispersions``: with records of the aero dispersion factors a 6-DOF fit
+    held at 0, :func:`fixed_dispersions`); InputError naming the file should the document still not
+    make records."""
+    path = files.folder / "parameters.json"
     try:
-        return json.loads(Path(path).read_text())
-    except json.JSONDecodeError as err:
-        raise InputError(path, f"not valid JSON ({err.msg})", line=err.lineno) from None
+        doc = files.documents["parameters.json"]
+        return from_document(doc, reduced_chi2, fixed_dispersions(doc["parameters"]) if held_dispersions else ())
+    except (KeyError, TypeError, ValueError, IndexError) as err:
+        raise InputError(path, f"expected {PARAMETERS_SHAPE} ({type(err).__name__}: {err})") from None
+
+
+def report_text(folder: Path) -> str:
+    """report.txt of a results folder without its final line break ("" without one); InputError
+    naming it when it is not text."""
+    report = folder / "report.txt"
+    return read_text(report, "the text report").rstrip("\n") if report.is_file() and report.stat().st_size else ""
+
+
+def fixed_dispersions(estimated: Sequence[str]) -> tuple[Parameter, ...]:
+    """Records of the aero dispersion factors a 6-DOF fit held at 0 (those of ``DISPERSION_NAMES``
+    not among the ``estimated`` names; a joint fit's ``<drop>.<name>`` counts as estimating ``name``):
+    dimensionless, group ``aero``, ``vary`` False, as the report lists them."""
+    held = set(estimated) | {n.rsplit(".", 1)[-1] for n in estimated}
+    return tuple(fixed_parameter(n, 0.0, "-", "aero") for n in DISPERSION_NAMES if n not in held)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class FolderViews:
+class FolderViews(FitStatistics):
     """What every result held as its results folder's files has and answers alike: the fields
     ``name``, ``params``, ``trajectory``, ``residuals``, ``summary`` and ``report_text`` (each
     subclass documents what its own hold), and ``converged``, ``reduced_chi2``, ``chi2``,
-    ``adequacy``, ``columns`` and ``report()``. Subclasses add the field ``source`` (the folder a
+    ``chisqr``, ``nit``, ``adequacy``, ``columns``, ``report()`` and lmfit's names
+    (:class:`~casrecon.results.fit_statistics.FitStatistics`: ``success``, ``redchi``, ``nfev``,
+    ``covar``, ``correl``, ``fit_report()``). Subclasses add the field ``source`` (the folder a
     loaded result came from) and set the class attribute ``time_columns``."""
 
     name: str
@@ -105,6 +132,17 @@ class FolderViews:
     def chi2(self) -> dict[str, float]:
         """Chi-square per residual group (``imu``, ``gps``, ``prior_aero``, ...), -."""
         return dict(self.summary.get("chi2", {}))
+
+    @property
+    def chisqr(self) -> float:
+        """Total chi-square (the sum of :attr:`chi2` over its groups, priors included), -."""
+        return float(sum(self.chi2.values())) if self.chi2 else float("nan")
+
+    @property
+    def nit(self) -> int | None:
+        """The solver's iteration count (``summary.json`` ``iterations``); None when not recorded."""
+        n = self.summary.get("iterations")
+        return None if n is None else int(n)
 
     @property
     def adequacy(self) -> Adequacy | None:
@@ -164,7 +202,8 @@ class DropFit(FolderViews):
         Problem name.
     params : Parameters
         Estimated parameters in fit order (``params["Cmq_mult"].stderr``, ``params.to_frame()``),
-        each in its ``unit`` as parameters.json holds it (gyro biases in deg/s; ``fit`` keeps SI).
+        each in its ``unit`` as parameters.json holds it (gyro biases in deg/s; ``fit`` keeps SI),
+        then the aero dispersion factors the fit held at 0 (``vary`` False, as the report lists them).
     trajectory : pandas.DataFrame
         ``time_imu_s``, ``flight_time_s`` and ``time_unix_s`` (s), ``utc`` (pandas UTC timestamps;
         the GPS receiver's UTC through the fitted clock offset), the centre of mass's
@@ -199,6 +238,9 @@ class DropFit(FolderViews):
         ``kinematic_check.json`` and ``.csv`` are in :attr:`documents` and :attr:`tables`).
     implied_aero : dict of str to numpy.ndarray or None
         The coefficients that reconstruction implies (``implied_aero.csv``), with the check.
+
+    Also (properties): ``aero_coefficients`` (DataFrame), lmfit's ``success``, ``chisqr``,
+    ``redchi``, ``nfev``, ``nvarys``, ``covar``, ``correl`` and ``fit_report()``.
     """
 
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
@@ -223,7 +265,8 @@ class DropFit(FolderViews):
         tables = {"trajectory.csv": trajectory}
         tables.update({k: pd.DataFrame({c: np.asarray(v, dtype=float) for c, v in t.items()})
                        for k, t in product_tables(products).items()})
-        return cls(name=fit.scenario.config.name, params=from_document(params_doc), trajectory=trajectory,
+        params = from_document(params_doc, fixed=fixed_dispersions(params_doc["parameters"]))
+        return cls(name=fit.scenario.config.name, params=params, trajectory=trajectory,
                    residuals=_residuals_of(tables), summary=summary, report_text=report_text, tables=tables,
                    documents={"parameters.json": params_doc, "summary.json": summary,
                               "imu_sigma.json": dict(products.imu_sigma)},
@@ -232,36 +275,30 @@ class DropFit(FolderViews):
 
     @classmethod
     def load(cls, folder: str | Path) -> DropFit:
-        """Read a per-drop results folder (``casrecon fit --out`` or :meth:`save`).
+        """Read a per-drop results folder (``casrecon fit --out`` or :meth:`save`), every file checked
+        (:func:`casrecon.output.results_reader.read_results_folder`).
 
         Raises
         ------
         InputError
-            The folder does not exist, lacks one of :data:`REQUIRED_FILES`, or holds a malformed one.
+            The folder does not exist, lacks one of its
+            :data:`~casrecon.output.results_reader.REQUIRED_FILES`, or holds a damaged file
+            (the file, the line or key, and what was expected).
         """
-        folder = Path(folder)
-        if not folder.is_dir():
-            raise InputError(folder, "results folder not found")
-        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
-        if missing:
-            raise InputError(folder, f"not a casrecon per-drop results folder: {', '.join(missing)} missing")
-        documents = {p.name: read_document(p) for p in sorted(folder.glob("*.json"))}
-        tables = {p.name: read_frame(p) for p in sorted(folder.glob("*.csv"))}
-        summary = documents["summary.json"]
-        try:
-            params = from_document(documents["parameters.json"], summary.get("reduced_chi2"))
-        except (KeyError, TypeError, ValueError, IndexError) as err:
-            raise InputError(folder / "parameters.json",
-                             f"expected parameters {{name: {{value, sigma, ...}}}} and correlation {{names, "
-                             f"matrix}} ({type(err).__name__}: {err})") from None
-        missing_time = [c for c in REQUIRED_TIME_COLUMNS if c not in tables["trajectory.csv"].columns]
-        if missing_time:
-            raise InputError(folder / "trajectory.csv", f"no column {', '.join(missing_time)}")
-        report = folder / "report.txt"
-        return cls(name=str(summary.get("problem") or folder.name), params=params,
-                   trajectory=tables["trajectory.csv"], residuals=_residuals_of(tables), summary=summary,
-                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
-                   tables=tables, documents=documents, source=folder.resolve())
+        return cls.from_files(read_results_folder(folder, "drop"))
+
+    @classmethod
+    def from_files(cls, files: FolderFiles) -> DropFit:
+        """The result held by a checked per-drop folder (:class:`~casrecon.output.results_reader.FolderFiles`)."""
+        folder = files.folder
+        tables = {name: read_frame(table) for name, table in files.tables.items()}
+        summary = files.summary
+        return cls(name=str(summary.get("problem") or folder.name),
+                   params=parameters_of(files, summary.get("reduced_chi2"), held_dispersions=True),
+                   trajectory=tables["trajectory.csv"],
+                   residuals=_residuals_of(tables), summary=summary,
+                   report_text=report_text(folder), tables=tables, documents=dict(files.documents),
+                   source=folder.resolve())
 
     time_columns = TIME_COLUMNS
 
@@ -269,25 +306,35 @@ class DropFit(FolderViews):
         state = "converged" if self.converged else "NOT converged"
         where = f", from {self.source}" if self.source else ""
         return (f"<DropFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
-                f"{len(self.params)} parameters, {len(self.trajectory)} nodes{where}>")
+                f"{self.nvarys} parameters, {len(self.trajectory)} nodes{where}>")
 
-    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
-               time: str = "flight_time_s") -> pd.DataFrame:
+    @property
+    def aero_coefficients(self) -> pd.DataFrame | None:
+        """``aero_coefficients.csv``: C_A, C_Y, C_N, C_l, C_m, C_n (-) along the flight, reconstructed
+        from the IMU, of the best-fit and of the nominal database, with 3-sigma, against
+        ``time_imu_s`` and ``flight_time_s`` (s), ``alpha_t_deg`` and ``qbar_pa``; None when the fit
+        computed none."""
+        return self.tables.get("aero_coefficients.csv")
+
+    def sample(self, columns: str | Sequence[str], times_s: Any, *, time: str | None = None) -> pd.DataFrame:
         """Time-history columns and their 3-sigma, interpolated linearly between nodes.
 
         Parameters
         ----------
         columns : str or sequence of str
             Names from :attr:`columns` (e.g. ``"alpha_t_deg"``, ``["qbar_pa", "mach"]``).
-        times_s : float or array_like
-            Times, s, on the ``time`` axis, within the fit window.
-        time : {"flight_time_s", "time_imu_s", "time_unix_s"}
-            Flight time since release (default), the IMU clock, or UTC in Unix seconds.
+        times_s : float, array_like, or datetime-like
+            Times, s, on the ``time`` axis, within the fit window; or UTC instants (``datetime``,
+            ``numpy.datetime64``, pandas ``Timestamp``, or a sequence, array, Index or Series of
+            them; naive ones are taken as UTC), sampled on the ``time_unix_s`` axis.
+        time : {"flight_time_s", "time_imu_s", "time_unix_s"}, optional
+            Flight time since release (the default for numbers), the IMU clock, or UTC in Unix seconds.
 
         Returns
         -------
         pandas.DataFrame
-            One row per time: the ``time`` column, then each column and its ``<name>_3sigma``.
+            One row per time: the ``time`` column (for UTC instants the ``utc`` column, pandas UTC
+            timestamps), then each column and its ``<name>_3sigma``.
 
         Raises
         ------
@@ -295,7 +342,7 @@ class DropFit(FolderViews):
             An unknown column or time axis (the message lists the available ones), or a time
             outside the fit window.
         """
-        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
+        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time, "flight_time_s")
 
     def figure_source(self) -> DropTables:
         """The tables as the figure functions of :mod:`casrecon.report` read them (no folder needed)."""
@@ -348,10 +395,33 @@ def history_columns(frame: pd.DataFrame, time_columns: Sequence[str]) -> tuple[s
                  if c not in time_columns and c not in TEXT_COLUMNS and not c.endswith("_3sigma"))
 
 
+def utc_instants(times: Any) -> pd.DatetimeIndex | None:
+    """``times`` as a pandas UTC DatetimeIndex when they are datetime-like (a ``datetime``,
+    ``numpy.datetime64``, pandas ``Timestamp``, or a non-empty sequence, array, Index or Series of
+    them; naive ones taken as UTC), else None (numbers)."""
+    import pandas as pd
+
+    instant = (datetime.datetime, np.datetime64)
+    if isinstance(times, instant):
+        values = [times]
+    elif isinstance(times, (pd.Series, pd.Index, np.ndarray)):
+        if not (pd.api.types.is_datetime64_any_dtype(times.dtype) or
+                (times.dtype == object and len(times) and all(isinstance(x, instant) for x in times))):
+            return None
+        values = times
+    elif isinstance(times, (list, tuple)) and times and all(isinstance(x, instant) for x in times):
+        values = list(times)
+    else:
+        return None
+    return pd.DatetimeIndex(pd.to_datetime(values, utc=True))
+
+
 def sample_frame(name: str, frame: pd.DataFrame, time_columns: Sequence[str], columns: str | Sequence[str],
-                 times_s: float | Sequence[float] | np.ndarray, time: str) -> pd.DataFrame:
+                 times_s: Any, time: str | None, default: str) -> pd.DataFrame:
     """``columns`` of ``frame`` and their ``_3sigma`` interpolated linearly at ``times_s`` on the
-    ``time`` axis (one of ``time_columns``); ValueError naming what is available, or the window."""
+    ``time`` axis (one of ``time_columns``; None: ``default``), or at UTC
+    instants (:func:`utc_instants`) on the ``time_unix_s`` axis, returned in a ``utc`` column;
+    ValueError naming what is available, or the window."""
     import pandas as pd
 
     available = history_columns(frame, time_columns)
@@ -360,14 +430,26 @@ def sample_frame(name: str, frame: pd.DataFrame, time_columns: Sequence[str], co
     if unknown:
         raise ValueError(f"{name}: no time-history column {', '.join(map(repr, unknown))}; "
                          f"available: {', '.join(available)}")
-    if time not in time_columns:
-        raise ValueError(f"time must be one of {', '.join(time_columns)}, got {time!r}")
-    t = np.atleast_1d(np.asarray(times_s, dtype=float))
+    instants = utc_instants(times_s)
+    if instants is not None:
+        if time not in (None, TIME_UNIX):
+            raise ValueError(f"{name}: UTC instants are sampled on {TIME_UNIX}, not {time}; give numbers for {time}")
+        if TIME_UNIX not in frame.columns:
+            raise ValueError(f"{name}: this fit has no UTC time axis ({TIME_UNIX}): its clock is not UTC")
+        time = TIME_UNIX
+        t = np.asarray((instants - pd.Timestamp(0, tz="UTC")) / pd.Timedelta(seconds=1), dtype=float)
+    else:
+        time = default if time is None else time
+        if time not in time_columns:
+            raise ValueError(f"time must be one of {', '.join(time_columns)} (or give UTC instants: datetime, "
+                             f"pandas Timestamp), got {time!r}")
+        t = np.atleast_1d(np.asarray(times_s, dtype=float))
     grid = frame[time].to_numpy()
     outside = t[(t < grid[0]) | (t > grid[-1]) | ~np.isfinite(t)]
     if outside.size:
-        raise ValueError(f"{name}: {time} {outside[0]:g} s is outside the fit window [{grid[0]:.4f}, {grid[-1]:.4f}] s")
-    out: dict[str, Any] = {time: t}
+        raise ValueError(f"{name}: {time} {outside[0]:.6f} s is outside the fit window "
+                         f"[{grid[0]:.4f}, {grid[-1]:.4f}] s")
+    out: dict[str, Any] = {UTC: instants} if instants is not None else {time: t}
     for n in names:
         out[n] = np.interp(t, grid, frame[n].to_numpy())
         if f"{n}_3sigma" in frame:

@@ -9,26 +9,27 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from casrecon.analysis.fit_adequacy import JointAdequacy, joint_adequacy
-from casrecon.io.errors import InputError
 from casrecon.output.joint_results import joint_parameters_document, joint_summary_document, write_joint_results
 from casrecon.output.out_folder import input_paths
 from casrecon.output.results import json_values, save_results_folder
-from casrecon.results.drop_fit import DropFit, adequacy_of, read_document
+from casrecon.output.results_reader import read_results_folder, read_text
+from casrecon.results.drop_fit import DropFit, adequacy_of, fixed_dispersions, parameters_of
+from casrecon.results.fit_statistics import FitStatistics
 from casrecon.results.parameters import Parameters, from_document
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from casrecon.analysis.fit_products import FitProducts
     from casrecon.estimation.sixdof.joint import JointResult
 
-#: Files without which a folder is not a joint results folder (besides ``drops/``).
-REQUIRED_FILES = ("summary.json", "parameters.json")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class JointFit:
+class JointFit(FitStatistics):
     """A joint fit of several drops, from :func:`casrecon.fit_joint` or loaded from a joint folder.
 
     Attributes
@@ -37,7 +38,8 @@ class JointFit:
         Name of the joint fit.
     params : Parameters
         Global parameters in NLP order: shared dispersion factors by their name, each drop's own
-        parameters as ``<drop>.<name>``; ``params[n].shared`` says which; correlations across all.
+        parameters as ``<drop>.<name>``; ``params[n].shared`` says which; correlations across all;
+        then the aero dispersion factors no drop estimates (held at 0, ``vary`` False).
     drops : dict of str to DropFit
         Each drop's part of the joint fit (its trajectory, residuals and parameters as seen by it).
     summary : dict
@@ -55,6 +57,10 @@ class JointFit:
         Drop -> parameter -> 1-sigma of the drop's own fit (output units: gyro biases in deg/s).
     source : Path or None
         The folder a loaded result came from.
+
+    Also (properties): ``trajectory`` and ``aero_coefficients`` (per drop), ``sample()`` (one drop or
+    all), lmfit's ``success``, ``chisqr``, ``redchi``, ``nfev``, ``nvarys``, ``covar``, ``correl`` and
+    ``fit_report()``.
     """
 
     name: str
@@ -82,39 +88,34 @@ class JointFit:
         adequacy = joint_adequacy({n: p.adequacy for n, p in products.items() if p.adequacy is not None})
         doc = json_values(joint_parameters_document(result))
         summary = json_values(joint_summary_document(result, single, reconciled, adequacy))
-        return cls(name=result.config.name, params=from_document(doc), drops=drops, summary=summary,
+        return cls(name=result.config.name, params=from_document(doc, fixed=fixed_dispersions(doc["parameters"])),
+                   drops=drops, summary=summary,
                    tables_md=joint_tables(result, single, reconciled, adequacy), fit=result, products=products,
                    single=single)
 
     @classmethod
     def load(cls, folder: str | Path) -> JointFit:
-        """Read a joint results folder (``casrecon joint --out`` or :meth:`save`).
+        """Read a joint results folder (``casrecon joint --out`` or :meth:`save`), every file of it and
+        of its drops checked (:func:`casrecon.output.results_reader.read_results_folder`).
 
         Raises
         ------
         InputError
-            Not a folder, a missing top-level file, or a drop sub-folder that is not a results folder.
+            Not a folder, a missing top-level file, a drop sub-folder that is not a results folder,
+            or a damaged file (the file, the line or key, and what was expected).
         """
-        folder = Path(folder)
-        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
-        if not (folder / "drops").is_dir():
-            missing.append("drops/")
-        if missing:
-            raise InputError(folder, f"not a casrecon joint results folder: {', '.join(missing)} missing")
-        summary = read_document(folder / "summary.json")
-        try:
-            params = from_document(read_document(folder / "parameters.json"), summary.get("reduced_chi2"))
-        except (KeyError, TypeError, ValueError, IndexError) as err:
-            raise InputError(folder / "parameters.json", f"expected parameters and correlation "
-                                                         f"({type(err).__name__}: {err})") from None
+        files = read_results_folder(folder, "joint")
+        summary = files.summary
         drops = {}
-        for sub in sorted(p for p in (folder / "drops").iterdir() if p.is_dir()):
-            drop = DropFit.load(sub)
+        for sub in files.drops:
+            drop = DropFit.from_files(sub)
             drops[drop.name] = drop
-        tables = folder / "tables.md"
-        return cls(name=str(summary.get("name") or folder.name), params=params, drops=drops, summary=summary,
-                   tables_md=tables.read_text() if tables.is_file() else "",
-                   single=dict(summary.get("single_drop_sigma") or {}), source=folder.resolve())
+        tables = files.folder / "tables.md"
+        return cls(name=str(summary.get("name") or files.folder.name),
+                   params=parameters_of(files, summary.get("reduced_chi2"), held_dispersions=True),
+                   drops=drops, summary=summary,
+                   tables_md=read_text(tables, "the tables") if tables.is_file() and tables.stat().st_size else "",
+                   single=dict(summary.get("single_drop_sigma") or {}), source=files.folder.resolve())
 
     @property
     def converged(self) -> bool:
@@ -130,6 +131,56 @@ class JointFit:
     def reduced_chi2(self) -> float:
         """Joint chi-square over the joint dof, -."""
         return float(self.summary.get("reduced_chi2", float("nan")))
+
+    @property
+    def chisqr(self) -> float:
+        """The joint chi-square (``summary.json`` ``chi2``), -."""
+        return float(self.summary.get("chi2", float("nan")))
+
+    @property
+    def nit(self) -> int | None:
+        """The joint solve's iteration count; None when not recorded."""
+        n = self.summary.get("iterations")
+        return None if n is None else int(n)
+
+    @property
+    def trajectory(self) -> dict[str, pd.DataFrame]:
+        """Each drop's trajectory (:attr:`DropFit.trajectory <casrecon.results.drop_fit.DropFit>`) by drop name."""
+        return {name: drop.trajectory for name, drop in self.drops.items()}
+
+    @property
+    def aero_coefficients(self) -> dict[str, pd.DataFrame | None]:
+        """Each drop's ``aero_coefficients.csv`` as a DataFrame (None where not computed) by drop name."""
+        return {name: drop.aero_coefficients for name, drop in self.drops.items()}
+
+    def sample(self, columns: str | Sequence[str], times_s: Any, *, drop: str | None = None,
+               time: str | None = None) -> pd.DataFrame:
+        """Columns and their 3-sigma interpolated in one drop's trajectory (``drop``) or in every
+        drop's, as :meth:`DropFit.sample <casrecon.results.drop_fit.DropFit.sample>` (flight time by
+        default, the IMU clock, Unix seconds, or UTC instants).
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``drop`` given: that drop's samples. Otherwise every drop's, one after the other, with a
+            first column ``drop`` naming it.
+
+        Raises
+        ------
+        ValueError
+            An unknown drop (the message lists the drops), column or time axis, or a time outside a
+            drop's fit window.
+        """
+        import pandas as pd
+
+        if drop is not None:
+            if drop not in self.drops:
+                raise ValueError(f"{self.name}: no drop {drop!r}; the drops are {', '.join(self.drops)}")
+            return self.drops[drop].sample(columns, times_s, time=time)
+        frames = [d.sample(columns, times_s, time=time) for d in self.drops.values()]
+        for name, frame in zip(self.drops, frames):
+            frame.insert(0, "drop", name)
+        return pd.concat(frames, ignore_index=True)
 
     @property
     def chi2(self) -> dict[str, dict[str, float]]:
@@ -155,7 +206,7 @@ class JointFit:
     def __repr__(self) -> str:
         where = f", from {self.source}" if self.source else ""
         return (f"<JointFit {self.name!r}: {len(self.drops)} drops, {len(self.shared)} shared factors, "
-                f"reduced chi2 {self.reduced_chi2:.4f}, {len(self.params)} parameters{where}>")
+                f"reduced chi2 {self.reduced_chi2:.4f}, {self.nvarys} parameters{where}>")
 
     def write(self, out: Path) -> None:
         """Write this joint fit's results files into the folder ``out`` being made (by :meth:`save`, or

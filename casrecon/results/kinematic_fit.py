@@ -10,15 +10,14 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
 from casrecon.output.kinematic_results import write_kinematic_results
-from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
-from casrecon.results.parameters import from_document
+from casrecon.output.results_reader import read_results_folder
+from casrecon.results.drop_fit import FolderViews, parameters_of, read_frame, report_text, sample_frame
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -58,6 +57,10 @@ class KinematicFit(FolderViews):
         The estimator's result (None when loaded).
     source : Path or None
         The folder a loaded result came from.
+
+    Also (properties, :class:`~casrecon.results.drop_fit.FolderViews`): lmfit's ``success``,
+    ``chisqr``, ``redchi``, ``nfev``, ``nvarys``, ``covar``, ``correl`` and ``fit_report()``; every
+    parameter is estimated (``vary`` True).
     """
 
     fit: KinematicResult | None = None
@@ -79,43 +82,37 @@ class KinematicFit(FolderViews):
 
     @classmethod
     def load(cls, folder: str | Path) -> KinematicFit:
-        """Read a kinematic results folder; InputError naming the folder and what is missing."""
-        folder = Path(folder)
-        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
-        if missing:
-            raise InputError(folder, f"not a casrecon kinematic results folder: {', '.join(missing)} missing")
-        summary = read_document(folder / "summary.json")
-        try:
-            params = from_document(read_document(folder / "parameters.json"), summary.get("reduced_chi2"))
-        except (KeyError, TypeError, ValueError) as err:
-            raise InputError(folder / "parameters.json", f"expected parameters {{name: {{value, sigma}}}} "
-                                                         f"({type(err).__name__}: {err})") from None
-        residuals = {kind: read_frame(folder / f"residuals_{kind}.csv") for kind in ("imu", "gps")
-                     if (folder / f"residuals_{kind}.csv").is_file()}
-        report = folder / "report.txt"
-        return cls(name=str(summary.get("problem") or folder.name), params=params,
-                   trajectory=read_frame(folder / "trajectory.csv"), residuals=residuals, summary=summary,
-                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
-                   source=Path(folder).resolve())
+        """Read a kinematic results folder, every file checked
+        (:func:`casrecon.output.results_reader.read_results_folder`); InputError naming the folder and
+        what is missing, or the damaged file, the line or key, and what was expected."""
+        files = read_results_folder(folder, "kinematic")
+        summary = files.summary
+        residuals = {kind: read_frame(files.tables[f"residuals_{kind}.csv"]) for kind in ("imu", "gps")
+                     if f"residuals_{kind}.csv" in files.tables}
+        return cls(name=str(summary.get("problem") or files.folder.name),
+                   params=parameters_of(files, summary.get("reduced_chi2")),
+                   trajectory=read_frame(files.tables["trajectory.csv"]), residuals=residuals, summary=summary,
+                   report_text=report_text(files.folder), source=files.folder.resolve())
 
     time_columns = TIME_COLUMNS
 
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"
         return (f"<KinematicFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
-                f"{len(self.params)} parameters, {len(self.trajectory)} nodes>")
+                f"{self.nvarys} parameters, {len(self.trajectory)} nodes>")
 
-    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
-               time: str = "time_s") -> pd.DataFrame:
+    def sample(self, columns: str | Sequence[str], times_s: Any, *, time: str | None = None) -> pd.DataFrame:
         """Columns (e.g. ``"vel_d_mps"``, ``"yaw_deg"``) and their 3-sigma interpolated linearly at
-        ``times_s`` (s since the span's start, or UTC Unix seconds with ``time="time_unix_s"``);
-        the Euler angles are unwrapped first and returned in (-180, 180] deg. ValueError for an
-        unknown column (listing the available ones) or a time outside the span."""
+        ``times_s`` (s since the span's start, or UTC Unix seconds with ``time="time_unix_s"``), or
+        at UTC instants (``datetime``, pandas ``Timestamp`` or a sequence of them; naive ones taken
+        as UTC; returned in a ``utc`` column; a clock that is not UTC has none); the Euler angles are
+        unwrapped first and returned in (-180, 180] deg. ValueError for an unknown column (listing
+        the available ones) or a time outside the span."""
         frame = self.trajectory.copy()
         for col in ANGLE_COLUMNS:
             if col in frame:
                 frame[col] = np.rad2deg(np.unwrap(np.deg2rad(frame[col].to_numpy(float))))
-        out = sample_frame(self.name, frame, TIME_COLUMNS, columns, times_s, time)
+        out = sample_frame(self.name, frame, TIME_COLUMNS, columns, times_s, time, "time_s")
         for col in ANGLE_COLUMNS:
             if col in out:
                 out[col] = 180.0 - np.mod(180.0 - out[col].to_numpy(float), 360.0)

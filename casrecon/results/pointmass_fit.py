@@ -9,17 +9,16 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from casrecon.analysis.adequacy import Adequacy
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
-from casrecon.io.errors import InputError
 from casrecon.io.units import TIME_UNIX
 from casrecon.output.pointmass_results import write_pointmass_results
-from casrecon.results.drop_fit import FolderViews, read_document, read_frame, sample_frame
-from casrecon.results.parameters import from_document
+from casrecon.output.results_reader import read_results_folder
+from casrecon.results.drop_fit import FolderViews, parameters_of, read_frame, report_text, sample_frame
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -64,6 +63,10 @@ class PointMassFit(FolderViews):
         None when loaded.
     source : Path or None
         The folder a loaded result came from.
+
+    Also (properties, :class:`~casrecon.results.drop_fit.FolderViews`): lmfit's ``success``,
+    ``chisqr``, ``redchi``, ``nfev``, ``nvarys``, ``covar``, ``correl`` and ``fit_report()``; every
+    parameter is estimated (``vary`` True).
     """
 
     fit: PointMassResult | None = None
@@ -87,25 +90,17 @@ class PointMassFit(FolderViews):
 
     @classmethod
     def load(cls, folder: str | Path) -> PointMassFit:
-        """Read a point-mass results folder; InputError naming the folder and what is missing."""
-        folder = Path(folder)
-        missing = [n for n in REQUIRED_FILES if not (folder / n).is_file()]
-        if missing:
-            raise InputError(folder, f"not a casrecon point-mass results folder: {', '.join(missing)} missing")
-        summary = read_document(folder / "summary.json")
-        try:
-            params = from_document(read_document(folder / "parameters.json"),
-                                   (summary.get("fit") or {}).get("reduced_chi2"))
-        except (KeyError, TypeError, ValueError) as err:
-            raise InputError(folder / "parameters.json", f"expected parameters {{name: {{value, sigma}}}} "
-                                                         f"({type(err).__name__}: {err})") from None
-        residuals = {"gps": read_frame(folder / "residuals_gps.csv")} if (folder / "residuals_gps.csv").is_file() \
-            else {}
-        report = folder / "report.txt"
-        return cls(name=str(summary.get("problem") or folder.name), params=params,
-                   trajectory=read_frame(folder / "trajectory.csv"), residuals=residuals, summary=summary,
-                   report_text=report.read_text().rstrip("\n") if report.is_file() else "",
-                   source=Path(folder).resolve())
+        """Read a point-mass results folder, every file checked
+        (:func:`casrecon.output.results_reader.read_results_folder`); InputError naming the folder and
+        what is missing, or the damaged file, the line or key, and what was expected."""
+        files = read_results_folder(folder, "point-mass")
+        summary = files.summary
+        residuals = {kind: read_frame(files.tables[f"residuals_{kind}.csv"]) for kind in ("gps",)
+                     if f"residuals_{kind}.csv" in files.tables}
+        return cls(name=str(summary.get("problem") or files.folder.name),
+                   params=parameters_of(files, (summary.get("fit") or {}).get("reduced_chi2")),
+                   trajectory=read_frame(files.tables["trajectory.csv"]), residuals=residuals, summary=summary,
+                   report_text=report_text(files.folder), source=files.folder.resolve())
 
     time_columns = TIME_COLUMNS
 
@@ -119,17 +114,24 @@ class PointMassFit(FolderViews):
         """Chi-square per residual group of the fitted model, -."""
         return dict((self.summary.get("fit") or {}).get("chi2", {}))
 
+    @property
+    def nit(self) -> int | None:
+        """The fitted model's iteration count; None when not recorded."""
+        n = (self.summary.get("fit") or {}).get("iterations")
+        return None if n is None else int(n)
+
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"
         return (f"<PointMassFit {self.name!r}: {state}, reduced chi2 {self.reduced_chi2:.4f}, "
-                f"{len(self.params)} parameters, {len(self.trajectory)} fixes>")
+                f"{self.nvarys} parameters, {len(self.trajectory)} fixes>")
 
-    def sample(self, columns: str | Sequence[str], times_s: float | Sequence[float] | np.ndarray, *,
-               time: str = "time_s") -> pd.DataFrame:
+    def sample(self, columns: str | Sequence[str], times_s: Any, *, time: str | None = None) -> pd.DataFrame:
         """Columns (e.g. ``"cda_m2"``) and their 3-sigma interpolated linearly at ``times_s`` (s since the
-        segment start, or UTC Unix seconds with ``time="time_unix_s"``); ValueError for an unknown
-        column (listing the available ones) or a time outside the segment."""
-        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time)
+        segment start, or UTC Unix seconds with ``time="time_unix_s"``), or at UTC instants
+        (``datetime``, pandas ``Timestamp`` or a sequence of them; naive ones taken as UTC; returned
+        in a ``utc`` column); ValueError for an unknown column (listing the available ones) or a
+        time outside the segment."""
+        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time, "time_s")
 
     def write(self, out: Path) -> None:
         """Write this fit's results files into the folder ``out`` being made (by :meth:`save`, or by

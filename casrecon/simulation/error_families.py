@@ -8,7 +8,7 @@ drawn from other shapes, spectra and grids:
 - ``turbulence``: von Karman turbulence (the spectrum of MIL-HDBK-1797's continuous gust model)
   in altitude on a 1 m grid (wind north and east; density a fraction of it), plus gusts in
   time (north, east, down) with the same spectrum, so the air has structure down to metre and
-  tenth-of-a-second scales;
+  tenth-of-a-second scales; ``turbulence-altitude`` and ``turbulence-time`` are its two parts alone;
 - ``fine-grid``: a Gauss-Markov profile error with a 100 m correlation length on a 2 m grid
   (finer and shorter than the fit's 10 m grid and configured length);
 - ``coarse-grid``: a profile error given at 250 m levels and held constant between them (steps:
@@ -25,13 +25,14 @@ drawn from other shapes, spectra and grids:
   normal step of the stated 1-sigma), plus the stated white noise;
 - ``none``: the world is the model (the flown air is the sounding, GPS errors white).
 
-Each family draws from its own random stream ``(seed, 7, k)`` and never touches the simulator's
+Each family draws from its own random stream ``(seed, 7, crc32(name))`` and never touches the simulator's
 main streams, so the IMU and GPS white noise of a drop are the same in every family.
 :func:`family_world` gives the :class:`SyntheticWorld` that :func:`~.synthetic.make_synthetic` flies.
 """
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -140,6 +141,18 @@ def turbulence(span: Span, rng: np.random.Generator, wind_sigma_mps: float = 0.5
                                                  density_sigma * x[:, 2]), gusts=gusts)
 
 
+def turbulence_altitude(span: Span, rng: np.random.Generator) -> SyntheticWorld:
+    """:func:`turbulence`'s profile error alone (no gusts in time)."""
+    world = turbulence(span, rng)
+    return SyntheticWorld("turbulence-altitude", world.profile_error)
+
+
+def turbulence_time(span: Span, rng: np.random.Generator) -> SyntheticWorld:
+    """:func:`turbulence`'s gusts in time alone (the flown profile is the sounding's)."""
+    world = turbulence(span, rng)
+    return SyntheticWorld("turbulence-time", gusts=world.gusts)
+
+
 def fine_grid(span: Span, rng: np.random.Generator, wind_sigma_mps: float = 0.5, density_sigma: float = 0.005,
               length_m: float = 100.0) -> SyntheticWorld:
     """Gauss-Markov profile error of a 100 m length on a 2 m grid."""
@@ -241,6 +254,8 @@ def no_error(span: Span, rng: np.random.Generator) -> SyntheticWorld:
 #: Every family, by name: (span, rng) -> SyntheticWorld.
 FAMILIES: dict[str, Callable[[Span, np.random.Generator], SyntheticWorld]] = {
     "turbulence": turbulence,
+    "turbulence-altitude": turbulence_altitude,
+    "turbulence-time": turbulence_time,
     "fine-grid": fine_grid,
     "coarse-grid": coarse_grid,
     "density-ramp": density_ramp,
@@ -251,13 +266,13 @@ FAMILIES: dict[str, Callable[[Span, np.random.Generator], SyntheticWorld]] = {
     "none": no_error,
 }
 #: The atmosphere families: their data's GPS errors are white (the family is the only model error).
-ATMOSPHERE_FAMILIES = ("turbulence", "fine-grid", "coarse-grid", "density-ramp", "wind-jet")
+ATMOSPHERE_FAMILIES = ("turbulence", "turbulence-altitude", "turbulence-time", "fine-grid", "coarse-grid",
+                       "density-ramp", "wind-jet")
 
 
 def family_world(name: str, span: Span, seed: int) -> SyntheticWorld:
-    """The world of family ``name`` for drop ``seed`` (own random stream ``(seed, 7, k)``, k the
-    family's place in :data:`FAMILIES`). ValueError for an unknown family."""
+    """The world of family ``name`` for drop ``seed`` (own random stream ``(seed, 7, crc32(name))``,
+    so a family's draws do not move when families are added). ValueError for an unknown family."""
     if name not in FAMILIES:
         raise ValueError(f"unknown error family {name!r}; expected one of {', '.join(FAMILIES)}")
-    k = list(FAMILIES).index(name)
-    return FAMILIES[name](span, np.random.default_rng((seed, 7, k)))
+    return FAMILIES[name](span, np.random.default_rng((seed, 7, zlib.crc32(name.encode()))))

@@ -38,6 +38,7 @@ import numpy as np
 import pymap3d
 
 from casrecon.io.baro import write_baro_csv
+from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, write_flysight1
 from casrecon.io.imu import ACCEL_SCALE, GYRO_SCALE, write_imu_csv
 from casrecon.io.units import output_unit
@@ -317,10 +318,12 @@ def world_span(scenario: Scenario) -> Span:
 def make_synthetic(scenario: Scenario, seed: int | None = None, world: SyntheticWorld | None = None) -> SyntheticData:
     """Simulate the truth and make IMU and GPS data; ``seed`` overrides ``[truth] seed``; ``world``
     (:mod:`~.error_families`) replaces the ``[truth]`` profile error and GPS errors where it has its
-    own and adds its gusts."""
+    own and adds its gusts. InputError naming the problem file when it has no ``[truth]`` table."""
     cfg = scenario.config
     if cfg.truth is None:
-        raise ValueError(f"{cfg.path}: synthetic data need a [truth] table")
+        raise InputError(cfg.path, "no [truth] table: synthetic data are simulated from its dispersions, biases "
+                                   "and seed; add one (an empty [truth] is enough: the nominal database, no "
+                                   "biases, seed 0)", field="truth")
     seed = cfg.truth.seed if seed is None else seed
     rng = np.random.default_rng(seed)
     profile = truth_profile_error(scenario, seed)

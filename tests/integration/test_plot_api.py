@@ -5,12 +5,15 @@ real one (12 cases of ees-drop-1 through ``casrecon.montecarlo``); the fits are 
 
 from __future__ import annotations
 
+import io
+import re
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from conftest import PROBLEMS
 from figure_files import assert_figure_file
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 import casrecon
@@ -18,6 +21,7 @@ from casrecon.analysis.observability import Profile
 from casrecon.analysis.sensitivity_documents import design_document, fisher_document, profile_document
 from casrecon.cli_montecarlo import run_montecarlo_command
 from casrecon.output.results import write_json
+from tests.integration.test_report_outputs import make_joint_folder
 from tests.unit.test_plots import make_drop_folder
 
 DROP1 = PROBLEMS / "ees-drop-1"
@@ -101,3 +105,47 @@ def test_sensitivity_figures_from_objects_documents_and_folders(tmp_path):
     write_json(tmp_path / "design.json", design_document(design, "-"))
     lines = casrecon.plot_design_study(tmp_path).axes[0].lines[0]
     assert list(lines.get_xdata()) == [0.0, 60.0] and list(lines.get_ydata()) == [0.2, 0.1]
+
+
+def panels_of(draw, *args) -> int:
+    """How many panels ``draw(*args)`` draws: what its refusal of an empty ``ax`` says."""
+    with pytest.raises(ValueError, match=r"ax: this figure draws \d+ panels?: give") as refusal:
+        draw(*args, ax=[])
+    return int(re.search(r"draws (\d+) panel", str(refusal.value)).group(1))
+
+
+def test_every_plot_function_draws_on_the_callers_axes(tmp_path):
+    """``ax=`` on every ``casrecon.plot_*``: the figure is drawn on the caller's axes (one per panel,
+    row-major) and the caller's figure is returned; a wrong number of axes is refused, saying how
+    many the figure draws."""
+    drop = make_drop_folder(tmp_path / "drop")
+    joint = make_joint_folder(tmp_path / "joint")
+    mc = casrecon.montecarlo(DROP1, 12, seed=4)
+    grid = 0.1 + 0.05 * np.linspace(-4, 4, 9)
+    profile = Profile("Cmq_mult", grid, 9 * ((grid - 0.1) / 0.15) ** 2, 0.1, 0.15, (-0.05, 0.25))
+    design = {"parameter": "Cmq_mult", "pitch_rate": [(0.0, 0.2), (60.0, 0.1)], "altitude": [(800.0, 0.15)],
+              "n_drops": [(1, 0.2), (4, 0.1)]}
+    cases = [("plot_trajectory", (drop,)), ("plot_qbar_alpha_t", (drop,)), ("plot_pitching_moment", (drop,)),
+             ("plot_reconciled", (drop,)), ("plot_residuals", (drop,)), ("plot_residuals", (drop, "gps")),
+             ("plot_correlation", (drop,)), ("plot_correlation", (joint,)), ("plot_aero_coefficients", (drop,)),
+             ("plot_aero_coefficients", (drop, "alpha_t")), ("plot_aero_sigma", (drop,)),
+             ("plot_joint_altitude_speed", (joint,)), ("plot_joint_qbar_alpha_t", (joint,)),
+             ("plot_joint_flow_angles", (joint,)), ("plot_joint_rates", (joint,)),
+             ("plot_joint_pitching_moment", (joint,)), ("plot_shared_correlation", (joint,)),
+             ("plot_montecarlo_histograms", (mc,)), ("plot_montecarlo_impact", (mc,)),
+             ("plot_montecarlo_envelopes", (mc,)), ("plot_fisher_directions", (fake_fit(),)),
+             ("plot_profile_likelihood", (profile,)), ("plot_design_study", (design,))]
+    assert {name for name, _ in cases} == {n for n in casrecon.__all__ if n.startswith("plot_")}
+    for name, args in cases:
+        draw = getattr(casrecon, name)
+        n = panels_of(draw, *args)
+        fig = Figure(figsize=(4.0 * n, 4.0), layout="constrained")
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(1, n, squeeze=False)[0]
+        given = axes[0] if n == 1 else axes
+        assert draw(*args, ax=given) is fig, name
+        for ax in axes:
+            assert ax.lines or ax.collections or ax.images or ax.patches or not ax.get_visible(), (name, ax)
+        fig.savefig(io.BytesIO(), format="png", dpi=40)
+        with pytest.raises(ValueError, match=f"this figure draws {n} panel"):
+            draw(*args, ax=list(axes) + [fig.add_subplot(2, 2, 4)])

@@ -182,3 +182,14 @@ def realdata_problem(tmp_path) -> Path:
     folder = tmp_path / "realdata-fs1-byron"
     shutil.copytree(PROBLEMS / "realdata-fs1-byron", folder)
     return folder
+
+
+@pytest.fixture(scope="session")
+def fitted_drop_folder(tmp_path_factory) -> Path:
+    """The results folder of ``casrecon fit problems/ees-drop-1 --no-figures``, fitted once per session
+    (about 20 s); copy it before changing it."""
+    from casrecon.cli import main
+
+    out = tmp_path_factory.mktemp("fitted") / "ees-drop-1"
+    assert main(["fit", str(PROBLEMS / "ees-drop-1"), "--out", str(out), "--no-figures", "--quiet"]) == 0
+    return out

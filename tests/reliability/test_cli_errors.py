@@ -184,3 +184,23 @@ def test_no_traceback_marker_is_what_python_prints():
 
     proc = subprocess.run([sys.executable, "-c", "raise SystemError('x')"], capture_output=True, text=True)
     assert TRACEBACK in proc.stderr
+
+
+def test_simulate_data_without_a_truth_table_names_the_table_and_that_empty_is_enough(tmp_path, capsys):
+    """``simulate --data`` of a problem without ``[truth]``: exit 2 naming the file and the table and
+    saying that an empty one will do (it was exit 1, "unexpected error ValueError"); nothing written."""
+    text = (DROP / "problem.toml").read_text().replace("../", f"{PROBLEMS.as_posix()}/")
+    start, end = text.index("[truth]"), text.index("[simulation]")
+    problem = tmp_path / "no-truth"
+    problem.mkdir()
+    (problem / "problem.toml").write_text(text[:start] + text[end:])
+    for name in ("data", "sounding.csv"):
+        (problem / name).symlink_to(DROP / name)
+    out = tmp_path / "sim"
+    proc = call_cli(capsys, "simulate", problem, "--data", "--out", out)
+    assert_clean_failure(proc, 2, f"{problem / 'problem.toml'}", "field 'truth'", "no [truth] table",
+                         "an empty [truth] is enough")
+    assert not out.exists() and leftover_temp_folders(tmp_path) == []
+    (problem / "problem.toml").write_text(text[:start] + "[truth]\n\n" + text[end:])
+    assert call_cli(capsys, "simulate", problem, "--data", "--out", out).returncode == 0
+    assert (out / "truth.json").is_file()

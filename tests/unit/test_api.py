@@ -65,7 +65,8 @@ def loaded(tmp_path):
 
 def test_parameter_records(loaded):
     params = loaded.params
-    assert list(params) == list(NAMES)
+    assert params.names == NAMES and list(params)[:len(NAMES)] == list(NAMES)
+    assert all(params[n].fixed for n in list(params)[len(NAMES):])  # the dispersion factors held at 0
     p = params["Cmq_mult"]
     doc = json.loads((loaded.source / "parameters.json").read_text())
     entry = doc["parameters"]["Cmq_mult"]
@@ -77,7 +78,8 @@ def test_parameter_records(loaded):
     assert p.correl["CA_mult"] == matrix[1, 0] and p.correl["wind_bias_n"] == matrix[1, 2]
     assert np.array_equal(params.correlation, matrix)
     frame = params.to_frame()
-    assert list(frame.index) == list(NAMES) and frame.loc["CA_mult", "stderr"] == params["CA_mult"].stderr
+    assert list(frame.index[frame["vary"]]) == list(NAMES)
+    assert frame.loc["CA_mult", "stderr"] == params["CA_mult"].stderr
     with pytest.raises(KeyError, match="CA_mult, Cmq_mult, wind_bias_n"):
         params["nope"]
     assert loaded.converged and loaded.reduced_chi2 == 1.0371 and loaded.chi2 == {"imu": 100.0, "gps": 20.0}
@@ -149,7 +151,8 @@ def test_load_results_on_a_folder_that_is_not_a_results_folder(tmp_path):
         casrecon.load_results(tmp_path / "nowhere")
     folder = make_folder(tmp_path / "bad")
     (folder / "parameters.json").write_text('{"correlation": {}}')
-    with pytest.raises(casrecon.InputError, match=r"bad/parameters.json: expected parameters"):
+    with pytest.raises(casrecon.InputError,
+                       match=r"bad/parameters.json: field .parameters.: expected an object \{name: \{value, sigma"):
         casrecon.load_results(folder)
 
 

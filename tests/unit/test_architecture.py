@@ -69,6 +69,8 @@ ALLOWED_CROSS_ROOM = frozenset({
     # windows and data rules, so the two fits compare); its IMU, clock and barometer parameters are
     # ParameterSpecs; its interval blocks use the collocation's Hermite basis.
     ("kinematic", "sixdof.fitdata"),
+    # ... and checks the barometer and the sounding with the pre-solve consistency checks
+    ("kinematic", "validation.consistency"),
     ("kinematic", "sixdof.parameters"),
     ("kinematic", "sixdof.transcription"),
     # The point-mass fit reuses the 6-DOF mesh (Mesh), layout (DropLayout) and parameters

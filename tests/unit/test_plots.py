@@ -14,6 +14,7 @@ from conftest import PROBLEMS
 from figure_files import AERO_FIGURES, DROP_FIGURES, assert_figure_file, assert_png
 
 from casrecon.analysis import aero_columns as aero
+from casrecon.io.errors import InputError
 from casrecon.io.units import gps_residual_column, gps_sigma_column, imu_residual_column, imu_sigma_key
 from casrecon.report import figure_style
 from casrecon.report.joint_plots import JOINT_FIGURE_NAMES
@@ -200,14 +201,14 @@ def test_missing_decorations_still_draw(tmp_path, no_render):
 def test_not_a_results_folder_names_the_missing_file(tmp_path, required):
     folder = make_drop_folder(tmp_path / "fit")
     (folder / required).unlink()
-    with pytest.raises(FileNotFoundError, match=required):
+    with pytest.raises(InputError, match=f"not a casrecon results folder: {required} missing"):
         draw_figures(folder)
 
 
 def test_empty_or_absent_folder_raises(tmp_path):
-    with pytest.raises(FileNotFoundError, match="summary.json"):
+    with pytest.raises(InputError, match="summary.json"):
         draw_figures(tmp_path)
-    with pytest.raises(FileNotFoundError, match="does not exist"):
+    with pytest.raises(InputError, match="results folder not found"):
         draw_figures(tmp_path / "nowhere")
 
 

@@ -16,7 +16,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from casrecon.estimation.pointmass.segment import SegmentError, find_segment
+from casrecon.estimation.pointmass.segment import (
+    STEADY_ACCEL_MPS2,
+    SegmentError,
+    final_drop_before,
+    find_segment,
+    unsteady_note,
+)
 from casrecon.io.flysight import GpsTrack, read_flysight
 from casrecon.io.gps_rules import good_fixes
 from casrecon.io.pointmass_problem import GpsQuality, SegmentConfig
@@ -191,8 +197,8 @@ def test_fast_run_split_by_a_gap_the_fit_refuses_keeps_the_longer_part():
 def test_no_fast_run_raises():
     with pytest.raises(SegmentError, match="no good fix descends faster than 20"):
         find_segment(track_from(np.full(200, 5.0)), Q, CFG)
-    # fast fixes that are all bad do not count either
-    with pytest.raises(SegmentError, match="no good fix"):
+    # fast fixes that are all bad do not count either; the message names the rule that removed them
+    with pytest.raises(SegmentError, match=r"\[gps\] leaves 0 of \d+ fixes: max_h_acc_m = 10.0 removes"):
         find_segment(track_from(jump_profile(), h_acc=np.full(jump_profile().size, 50.0)), Q, CFG)
 
 
@@ -277,3 +283,35 @@ def test_real_tracks_end_before_the_canopy_opens(path):
 
     assert decel_last_second(CFG) < 3.0
     assert decel_last_second(SegmentConfig(deploy_drop_mps=1e9)) > 10.0    # the old rule: inside the opening
+
+
+def test_a_hand_window_past_the_deployment_names_the_final_drop():
+    """jump_profile: exit at 4 s, 55 m/s from about 9.8 s to 44 s, then the deployment. A window ending
+    after the last 55 m/s fix holds the final drop, which began at that fix; one ending before it does not."""
+    v = jump_profile()
+    tr = track_from(v)
+    good = good_fixes(tr, GpsQuality())
+    onset = int(np.flatnonzero(v >= 55.0)[-1])
+    start, cfg = T0 + 5.0, SegmentConfig()
+    drop = final_drop_before(tr, good, start, tr.time_unix_s[onset] + 4.0, cfg)
+    assert drop is not None and drop.onset_unix_s == pytest.approx(tr.time_unix_s[onset])
+    assert drop.slow_speed_mps <= cfg.min_speed_mps < drop.onset_speed_mps
+    assert final_drop_before(tr, good, start, tr.time_unix_s[onset] - 0.5, cfg) is None
+    assert final_drop_before(tr, good, start, tr.time_unix_s[onset], cfg) is None
+
+
+def test_a_hop_and_pop_segment_is_said_to_be_the_exit_transient():
+    """A body of terminal speed 55 m/s falling from rest (v = vt tanh(g t / vt)): over its first 7 s it
+    accelerates at g (1 - tanh^2) = 3.7 m/s^2 or more (at 6 s, the middle of the last 2 s), so the note says
+    the fall never got steady and gives that acceleration; the same body's 30 s fall gets there (below
+    0.01 m/s^2 from 28 s) and has no note."""
+    g, vt = 9.80665, 55.0
+    t = DT * np.arange(int(40.0 / DT))
+    tr = track_from(vt * np.tanh(g * t / vt))
+    good = good_fixes(tr, GpsQuality())
+    note = unsteady_note(tr, good, T0, T0 + 7.0)
+    lowest = g * (1 - np.tanh(g * 6.0 / vt) ** 2)  # the slope of a line over 5 to 7 s: about the value at 6 s
+    assert note.startswith("the segment never reaches a steady fall") and "exit transient" in note
+    found = float(note.split("is at least ")[1].split(" m/s^2")[0])
+    assert found == pytest.approx(lowest, rel=0.1) and found > STEADY_ACCEL_MPS2
+    assert unsteady_note(tr, good, T0, T0 + 30.0) == ""

@@ -17,6 +17,7 @@ the sensor's lag.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import casadi as ca
@@ -30,6 +31,8 @@ from casrecon.estimation.sixdof.layout import BlockLocals
 from casrecon.estimation.sixdof.parameters import ParameterSpec
 from casrecon.io.baro import read_baro
 from casrecon.io.problem import ProblemConfig
+
+logger = logging.getLogger(__name__)
 
 #: Name of the barometer bias parameter (Pa).
 BIAS = "baro_bias_pa"
@@ -78,6 +81,8 @@ class BaroKind:
         if baro is None or baro.file is None:
             return None
         log = read_baro(baro.file)
+        for note in log.notes:  # the reader's notes (a SENSOR.CSV's dropped $TIME rows), said once
+            logger.info("%s", note)
         receiver = log.clock == "utc"
         t = log.time_s - config.imu.clock_utc_at_zero.timestamp() if receiver else log.time_s
         # the clock offset moves receiver-clock samples by a fraction of a second at most: keep a

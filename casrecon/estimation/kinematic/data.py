@@ -122,6 +122,10 @@ class KinematicData:
     notes : tuple of str
     time_ref_s : float
         Value of the common clock at time 0 of this data (UTC seconds, or the flight computer's).
+    imu_file : str
+        The IMU file, for located errors ("" when unknown).
+    imu_lines : (N,) int array or None
+        Line of each IMU sample in ``imu_file`` (None when unknown).
     """
 
     imu_time_s: np.ndarray
@@ -139,6 +143,8 @@ class KinematicData:
     atmosphere: object | None = None
     notes: tuple[str, ...] = ()
     time_ref_s: float = 0.0
+    imu_file: str = ""
+    imu_lines: np.ndarray | None = None
 
     def noise_sigmas(self, options: KinematicOptions) -> tuple[np.ndarray, np.ndarray]:
         """Per-sample 1-sigma (N, 3) of the gyros and accelerometers, saturated samples inflated."""

@@ -40,6 +40,7 @@ from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.kinds.samples import SampleKind, check_kinds
 from casrecon.estimation.kinematic.covariance import GaugeCovariance
 from casrecon.estimation.kinematic.data import KinematicData, KinematicOptions, local_line
+from casrecon.estimation.kinematic.imu_record import check_piece_rotation
 from casrecon.estimation.kinematic.samples import CLOCK, sample_parameters, sample_terms
 from casrecon.estimation.kinematic.solve import LmResult, levenberg_marquardt
 from casrecon.estimation.kinematic.terms import (
@@ -50,12 +51,7 @@ from casrecon.estimation.kinematic.terms import (
     interval_kind,
 )
 from casrecon.estimation.sixdof.parameters import ParameterSet, ParameterSpec
-from casrecon.physics.preintegration import (
-    IMU_PARAMETERS,
-    MAX_PIECE_ROTATION_RAD,
-    Preintegrated,
-    preintegrate,
-)
+from casrecon.physics.preintegration import IMU_PARAMETERS, Preintegrated, preintegrate
 
 #: IMU noise inflations of the start solves, each from the last one's result, and their iteration limit.
 START_INFLATIONS = (30.0, 10.0, 3.0)
@@ -277,6 +273,8 @@ def fit_kinematic(data: KinematicData, options: KinematicOptions, print_level: i
 
     Raises
     ------
+    InputError
+        An IMU record whose rate is too low for the body's rotation (more than 1 rad between samples).
     FitError
         No convergence, or a singular KKT matrix.
     """
@@ -311,7 +309,7 @@ def _fit_placed(data: KinematicData, options: KinematicOptions, print_level: int
     gyro, accel = data.bridged()
     gyro_sigma, accel_sigma = data.noise_sigmas(options)
     pre = preintegrate(data.imu_time_s, gyro, accel, nodes, gyro_sigma, accel_sigma)
-    _check_piece_rotation(data, gyro)
+    check_piece_rotation(data, gyro)
     has_baro = data.baro_time_s is not None and data.baro_time_s.size > 0
     params, estimated = _parameters(options, has_baro, sample_parameters(kinds))
     k, n_int = nodes.size, nodes.size - 1
@@ -407,15 +405,6 @@ def _ipopt_finish(nlp: Nlp, lm: LmResult, options: KinematicOptions, print_level
         raise FitError(f"the kinematic fit did not converge: Levenberg-Marquardt {lm.status}, then Ipopt "
                        f"{sol.status} after {sol.iterations} iterations; no result written")
     return sol
-
-
-def _check_piece_rotation(data: KinematicData, gyro: np.ndarray) -> None:
-    dt = np.gradient(data.imu_time_s)
-    worst = float(np.max(np.linalg.norm(gyro, axis=1) * dt))
-    if worst > MAX_PIECE_ROTATION_RAD:
-        raise FitError(f"the IMU turns {np.degrees(worst):.0f} deg between samples (more than "
-                       f"{np.degrees(MAX_PIECE_ROTATION_RAD):.0f} deg): its rate is too low for the body's rotation, "
-                       "or the gyro unit is wrong")
 
 
 def _fix_terms(data, options, nodes, params, estimated, theta_cols, state_cols, gyro, accel, n_z):

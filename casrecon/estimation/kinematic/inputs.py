@@ -12,17 +12,20 @@ import numpy as np
 
 from casrecon.estimation.kinds.gps import fix_sigma
 from casrecon.estimation.kinematic.data import KinematicData, KinematicOptions
+from casrecon.estimation.kinematic.imu_record import check_span, read_imu_record
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError, load_fit_data
+from casrecon.estimation.validation.consistency import check_baro, sounding_origin_warning, warn_once
 from casrecon.io.baro import BaroConfig, read_baro
 from casrecon.io.gps_files import read_gps_track
 from casrecon.io.gps_rules import fixes_ned, good_fixes
-from casrecon.io.imu import read_imu_csv
 from casrecon.io.kinematic_problem import KinematicConfig
 from casrecon.io.problem import ProblemConfig
-from casrecon.io.sensor import read_flysight2_sensor
 from casrecon.io.sounding import read_sounding
 from casrecon.physics.atmosphere import Atmosphere
 from casrecon.physics.vehicle import Vehicle
+
+#: A common clock after this (2001-09-09 UTC, Unix seconds) is taken as UTC: the sounding's date is compared.
+UTC_AFTER_S = 1e9
 
 
 def options_from_problem(cfg: ProblemConfig, **overrides) -> KinematicOptions:
@@ -65,7 +68,7 @@ def data_from_problem(cfg: ProblemConfig, fit_data: FitData | None = None,
     sigma = fix_sigma(data, cfg.gps.error_model)  # the error's size the fit assumes
     return KinematicData(data.imu_time_s, data.gyro_imu, data.accel_imu, data.gyro_valid, data.accel_valid,
                          data.gps_time_s - guess, y, sigma, data.window, baro_t, baro_p, noise, atmosphere,
-                         data.notes)
+                         data.notes, imu_file=str(cfg.imu.file))
 
 
 def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOptions]:
@@ -81,17 +84,11 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
         Too few samples or fixes in the span.
     """
     imu = cfg.imu
-    notes: list[str] = []
-    if imu.spec is None:
-        log = read_flysight2_sensor(imu.file)
-        t_imu, gyro, accel = log.imu_time_unix_s, log.imu_gyro_radps, log.imu_accel_mps2
-        gyro_ok = accel_ok = np.ones_like(gyro, bool)
-        if log.clock_fit.dropped:
-            notes.append(log.clock_fit.dropped_note())
-    else:
-        csv = read_imu_csv(imu.file, imu.spec)
-        t_imu, gyro, accel = csv.time_s + imu.utc_at_zero_s, csv.gyro_radps, csv.accel_mps2
-        gyro_ok, accel_ok = ~csv.gyro_saturated, ~csv.accel_saturated
+    record = read_imu_record(imu)
+    m = record.log
+    notes: list[str] = list(record.notes)
+    t_imu, gyro, accel = m.time_s, m.gyro_radps, m.accel_mps2
+    gyro_ok, accel_ok = ~m.gyro_saturated, ~m.accel_saturated
     track = read_gps_track(cfg.gps_file, cfg.gps_date, imu.utc_at_zero_s)
     good = good_fixes(track, cfg.quality)
     notes += list(track.notes)
@@ -109,17 +106,27 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
     notes.append(f"{int(keep.sum())} good fixes of {int(((t_fix >= start) & (t_fix <= end)).sum())} in the span")
     pos, vel, sigma = fixes_ned(track, cfg.site, keep, cfg.velocity_sigma_mps)
     sel = (t_imu >= start - 1.0) & (t_imu <= end + 1.0)
+    notes += check_span(record, start - 1.0, end + 1.0)
+    sounding = None if cfg.sounding is None else read_sounding(cfg.sounding)
     baro_t = baro_p = None
     if cfg.baro_file is not None:
         blog = read_baro(cfg.baro_file)
+        notes += [n for n in blog.notes if n not in notes]  # the IMU's SENSOR.CSV read again: its note once
         tb = blog.time_s + (imu.utc_at_zero_s if blog.clock == "imu" else 0.0)
+        check_baro(blog, tb, (start, end), track, good, cfg.site.ground_alt_msl_m, sounding)
         bk = (tb >= start) & (tb <= end)
         baro_t, baro_p = tb[bk] - start, blog.pressure_pa[bk]
-    atmosphere = (Atmosphere.standard() if cfg.sounding is None else
-                  Atmosphere.from_sounding(read_sounding(cfg.sounding), cfg.site.ground_alt_msl_m, cfg.humidity))
+    if sounding is not None:
+        warning = sounding_origin_warning(sounding, start if start > UTC_AFTER_S else None, cfg.site.lat_deg,
+                                          cfg.site.lon_deg, "the span's start and [site]")
+        if warning is not None:
+            warn_once(warning)
+    atmosphere = (Atmosphere.standard() if sounding is None else
+                  Atmosphere.from_sounding(sounding, cfg.site.ground_alt_msl_m, cfg.humidity))
     data = KinematicData(t_imu[sel] - start, gyro[sel], accel[sel], gyro_ok[sel], accel_ok[sel], t_fix[keep] - start,
                          np.column_stack([pos, vel]), sigma, (0.0, end - start), baro_t, baro_p, cfg.baro_noise_pa,
-                         atmosphere, tuple(notes), time_ref_s=float(start))
+                         atmosphere, tuple(notes), time_ref_s=float(start), imu_file=m.path,
+                         imu_lines=np.flatnonzero(sel) + 2 if m.line_numbers is None else m.line_numbers[sel])
     options = KinematicOptions(
         gyro_noise_radps=imu.gyro_noise_radps, accel_noise_mps2=imu.accel_noise_mps2,
         gyro_bias_sigma_radps=imu.gyro_bias_sigma_radps, accel_bias_sigma_mps2=imu.accel_bias_sigma_mps2,

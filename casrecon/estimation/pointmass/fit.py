@@ -40,7 +40,7 @@ from casrecon.estimation.kinds.disturbance import gauss_markov_terms
 from casrecon.estimation.kinds.drag import CDA_SCALE, SCALE, drag_interval_kind, drag_prior_terms
 from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.pointmass.innovations import filter_innovations, measurement_rows
-from casrecon.estimation.pointmass.segment import SegmentError, find_segment
+from casrecon.estimation.pointmass.segment import SegmentError, final_drop_before, find_segment, unsteady_note
 from casrecon.estimation.sixdof.layout import DropLayout
 from casrecon.estimation.sixdof.parameters import ParameterSet, ParameterSpec
 from casrecon.estimation.sixdof.transcription import Mesh
@@ -135,6 +135,19 @@ def prepare_data(cfg: PointMassConfig) -> PointMassData:
         seg = find_segment(track, cfg.quality, cfg.segment)
     except SegmentError as err:
         raise FitError(str(err)) from None
+    if cfg.segment.end_unix_s is not None:
+        drop = final_drop_before(track, seg.good, seg.start_unix_s, seg.end_unix_s, cfg.segment)
+        if drop is not None:
+            raise InputError(cfg.path, f"the segment ends at {iso_utc(seg.end_unix_s)}, "
+                             f"{seg.end_unix_s - drop.onset_unix_s:.1f} s after the fall's final drop (canopy opening "
+                             f"or impact) began at {iso_utc(drop.onset_unix_s)} (GPS vertical speed "
+                             f"{drop.onset_speed_mps:.1f} m/s, down to {drop.slow_speed_mps:.1f} m/s by "
+                             f"{iso_utc(drop.slow_unix_s)}); expected end_utc at or before "
+                             f"{iso_utc(drop.onset_unix_s - cfg.segment.end_margin_s)} (end_margin_s before it), "
+                             "or no end_utc to find the end from the data", field="segment.end_utc")
+    unsteady = unsteady_note(track, seg.good, seg.start_unix_s, seg.end_unix_s)
+    if unsteady:
+        seg = dataclasses.replace(seg, notes=seg.notes + (unsteady,))
     check_point_mass_data(cfg, track, cfg.quality, (seg.start_unix_s, seg.end_unix_s))
     t = track.time_unix_s
     period = float(np.median(np.diff(t)))

@@ -29,6 +29,10 @@ Checks and thresholds (module constants):
 - **sounding coverage**: the sounding's top level at or above the release altitude (the higher of
   ``[site]`` + ``[release]`` and the highest good fix of the window); point-mass: above the highest
   good fix of the segment. Above its top the atmosphere would be held constant.
+- **inputs against each other** (:mod:`casrecon.estimation.validation.consistency`): the IMU's impact
+  against the end of the GPS's descent; the barometer (``[sensors.baro]``) against the sounding at the
+  GPS altitude; and, a warning only, the sounding's own date and place against the drop's
+  (point-mass: the sounding's only).
 """
 
 from __future__ import annotations
@@ -37,6 +41,8 @@ import logging
 
 import numpy as np
 
+from casrecon.estimation.validation.consistency import check_baro, check_impact_time, sounding_origin_warning, warn_once
+from casrecon.io.baro import read_baro
 from casrecon.io.errors import InputError
 from casrecon.io.flysight import GpsTrack, iso_utc
 from casrecon.io.gps_rules import GpsQuality, good_fixes
@@ -78,6 +84,7 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
     sounding : Sounding, optional
         The problem's sounding file as already read (read here when not given).
     """
+    sounding = read_sounding(cfg.atmosphere.sounding, launch=cfg.atmosphere.launch) if sounding is None else sounding
     span = slice(int(np.searchsorted(imu.time_s, window[0] - 1e-9)),
                  int(np.searchsorted(imu.time_s, window[1] + 1e-9, side="right")))
     for found in imu_findings(imu, cfg.imu.spec, span):
@@ -105,6 +112,15 @@ def check_drop_data(cfg: ProblemConfig, imu: ImuLog, track: GpsTrack, release: f
     in_window = good & (t_gps >= window[0]) & (t_gps <= window[1])
     top_needed = max(ground + cfg.release.h_agl_m, float(track.h_msl_m[in_window].max(initial=-np.inf)))
     check_sounding_top(cfg.atmosphere.sounding, cfg.atmosphere.launch, top_needed, "the release altitude", sounding)
+    check_impact_time(imu.path, track, zero, release, impact)
+    if cfg.baro is not None and cfg.baro.file is not None and cfg.baro.file.exists():  # (missing: the fit says so)
+        log = read_baro(cfg.baro.file)
+        check_baro(log, log.time_s + (0.0 if log.clock == "utc" else zero), (zero + window[0], zero + window[1]),
+                   track, good, ground, sounding)
+    warning = sounding_origin_warning(sounding, cfg.release.time_utc.timestamp(), cfg.site.lat_deg, cfg.site.lon_deg,
+                                      "[release] time_utc and [site]")
+    if warning is not None:
+        warn_once(warning)
 
 
 def _check_release_time(cfg: ProblemConfig, release_utc: float) -> None:
@@ -167,10 +183,16 @@ def check_sounding_top(path, launch: int, altitude_msl_m: float, what: str, soun
 
 def check_point_mass_data(cfg: PointMassConfig, track: GpsTrack, quality: GpsQuality,
                           span_unix_s: tuple[float, float]) -> None:
-    """The point-mass checks: GPS coverage of the segment and the sounding's top above its highest fix."""
+    """The point-mass checks: GPS coverage of the segment, the sounding's top above its highest fix, and
+    (a warning) the sounding's own date and place against the segment's start and ``[site]``."""
     good = good_fixes(track, quality)
     check_coverage(track, good, track.time_unix_s, span_unix_s, "the fitted segment", lambda t: f"{iso_utc(t)}")
     if cfg.sounding is not None:
+        sounding = read_sounding(cfg.sounding)
         seg = good & (track.time_unix_s >= span_unix_s[0]) & (track.time_unix_s <= span_unix_s[1])
         check_sounding_top(cfg.sounding, 0, float(track.h_msl_m[seg].max(initial=-np.inf)),
-                           "the segment's highest good fix")
+                           "the segment's highest good fix", sounding)
+        warning = sounding_origin_warning(sounding, span_unix_s[0], cfg.site.lat_deg, cfg.site.lon_deg,
+                                          "the segment's start and [site]")
+        if warning is not None:
+            warn_once(warning)
