@@ -139,3 +139,9 @@ def test_sixdof_trajectory_has_airspeed_and_speed_with_bands(folders):
     assert np.all(tr["speed_mps_3sigma"] <= vel.max(axis=1) * (1 + 1e-6))
     assert np.all(tr["speed_mps_3sigma"] >= vel.min(axis=1) * (1 - 1e-6) * 0.5)
     assert fit.sample("airspeed_mps", 5.0)["airspeed_mps_3sigma"].iloc[0] > 0
+
+
+def test_sixdof_tables_name_the_body_rates_as_the_trajectory_does(folders):
+    # tables.md labels the body rates p, q, r (trajectory.csv: p_dps, q_dps, r_dps), not the gyro's wx
+    head = next(ln for ln in (folders["6-DOF"][0] / "tables.md").read_text().splitlines() if "phi, deg" in ln)
+    assert "p, deg/s | q, deg/s | r, deg/s" in head and "wx" not in head
