@@ -192,6 +192,47 @@ def ned_to_geodetic(pos_ned: np.ndarray, site: Site) -> tuple[np.ndarray, np.nda
     return np.asarray(lat, dtype=float), np.asarray(lon, dtype=float), np.asarray(h, dtype=float)
 
 
+#: WGS-84 semi-major axis (m) and first eccentricity squared.
+WGS84_A_M = 6378137.0
+WGS84_E2 = 6.69437999014e-3
+
+
+def geodetic_sigmas(latitude_deg, h_m, sigma_ned) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sigmas of latitude and longitude (deg) and of height (m) from the sigmas of NED positions.
+
+    To first order a north error dN moves the latitude by dN / (M + h) rad and an east error dE
+    the longitude by dE / ((N + h) cos(lat)) rad, where M = a (1 - e^2) / (1 - e^2 sin^2 lat)^1.5
+    and N = a / (1 - e^2 sin^2 lat)^0.5 are the WGS-84 meridian and prime-vertical radii of
+    curvature at the point; a down error lowers the height by dD. So the latitude sigma is the
+    north sigma over (M + h) and the longitude sigma the east sigma over (N + h) cos(lat), both
+    converted to deg, and the height sigma is the down sigma. The NED frame's axes are the site's,
+    turned from the point's own by its distance over the Earth radius (1e-3 rad at 6 km), which is
+    neglected; so is the height's geoid undulation (1e-5 relative in the radii).
+
+    Parameters
+    ----------
+    latitude_deg : array_like
+        (n,) latitude of the points, deg.
+    h_m : array_like
+        (n,) height of the points (MSL, taken as ellipsoidal for the radii), m.
+    sigma_ned : array_like
+        (n, 3) sigmas (any multiple: 1- or 3-sigma) of the north, east and down positions, m.
+
+    Returns
+    -------
+    sigma_latitude_deg, sigma_longitude_deg, sigma_h_m : ndarray
+        (n,) each, the same multiple of sigma as ``sigma_ned``.
+    """
+    lat = np.radians(np.asarray(latitude_deg, dtype=float))
+    h = np.asarray(h_m, dtype=float)
+    sig = np.atleast_2d(np.asarray(sigma_ned, dtype=float))
+    w = 1.0 - WGS84_E2 * np.sin(lat) ** 2
+    meridian = WGS84_A_M * (1.0 - WGS84_E2) / w ** 1.5
+    prime = WGS84_A_M / np.sqrt(w)
+    return (np.degrees(sig[:, 0] / (meridian + h)), np.degrees(sig[:, 1] / ((prime + h) * np.cos(lat))),
+            sig[:, 2].copy())
+
+
 def gps_error_model(t: Fields) -> GpsErrorModel:
     """The GPS error model keys of ``[sensors.gps]`` (6-DOF) or ``[gps]`` (point-mass problems)."""
     default = GpsErrorModel()

@@ -63,6 +63,14 @@ TEXT_COLUMNS = {"utc": "UTC, ISO 8601 with microseconds and a Z"}
 #: Time columns added wherever a UTC is known (s since 1970-01-01 UTC; ISO 8601 text).
 TIME_UNIX = "time_unix_s"
 UTC = "utc"
+#: The time bases of every results table, the same names in every problem kind: ``time_unix_s`` and
+#: ``utc`` wherever the clock is UTC (every 6-DOF and point-mass fit; a kinematic one whose clock is
+#: UTC); ``flight_time_s``, s since release, where there is a release (6-DOF); ``segment_time_s``,
+#: s since the first row, where there is none (point-mass, kinematic); ``time_imu_s``, the IMU's
+#: own clock, where it is not UTC (6-DOF; kinematic on a flight computer's clock).
+FLIGHT_TIME = "flight_time_s"
+SEGMENT_TIME = "segment_time_s"
+IMU_TIME = "time_imu_s"
 #: Geodetic columns (WGS-84 latitude and longitude, deg; height above mean sea level, m).
 GEODETIC = ("latitude_deg", "longitude_deg", "h_msl_m")
 

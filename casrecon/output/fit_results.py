@@ -22,9 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.analysis.parameter_estimates import parameter_estimates
-from casrecon.io.gps_rules import ned_to_geodetic
-from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, utc_text
-from casrecon.output.columns import write_table
+from casrecon.io.units import TIME_UNIX, UTC, utc_text
+from casrecon.output.columns import geodetic_columns, write_table
 from casrecon.output.results import write_json
 
 
@@ -96,14 +95,17 @@ def products_summary(products) -> dict:
 def trajectory_table(result) -> dict[str, np.ndarray]:
     """``trajectory.csv`` columns: ``time_imu_s``, ``flight_time_s``, ``time_unix_s`` and ``utc`` (the
     GPS receiver's UTC, :func:`~casrecon.analysis.fit_products.unix_time`), the centre of mass's
-    ``latitude_deg``, ``longitude_deg``, ``h_msl_m`` (:func:`~casrecon.io.gps_rules.ned_to_geodetic`),
-    then each reconstructed column and its ``<name>_3sigma`` (absolute)."""
+    ``latitude_deg``, ``longitude_deg``, ``h_msl_m``, each with its ``_3sigma``
+    (:func:`~casrecon.output.columns.geodetic_columns`), then each reconstructed column and its
+    ``<name>_3sigma`` (absolute)."""
     from casrecon.analysis.fit_products import unix_time  # CasADi only when a fit is written
 
     t_unix = unix_time(result, result.node_time_s)
-    pos = np.column_stack([result.column(c)[0] for c in ("pos_n_m", "pos_e_m", "pos_d_m")])
+    pos = [result.column(c) for c in ("pos_n_m", "pos_e_m", "pos_d_m")]
     cols = {"time_imu_s": result.node_time_s, "flight_time_s": result.flight_time_s, TIME_UNIX: t_unix,
-            UTC: utc_text(t_unix), **dict(zip(GEODETIC, ned_to_geodetic(pos, result.scenario.config.site)))}
+            UTC: utc_text(t_unix), **geodetic_columns(np.column_stack([p[0] for p in pos]),
+                                                      3 * np.column_stack([p[1] for p in pos]),
+                                                      result.scenario.config.site)}
     for i, name in enumerate(result.columns):
         cols[name] = result.table[:, i]
         cols[f"{name}_3sigma"] = 3 * result.table_sigma[:, i]

@@ -1,13 +1,15 @@
 """The results folder of a kinematic (IMU-driven) reconstruction.
 
-Files: ``trajectory.csv`` (time on the problem's clock and since the span's start, UTC when the clock
-is UTC, the IMU's latitude, longitude and h_MSL, NED position and velocity, roll, pitch and yaw of
-the IMU axes, each with its 3-sigma; the attitude's 3-sigma as the NED rotation-vector components
-``att_n/e/d_deg_3sigma``), ``parameters.json`` (IMU errors, clock offset, barometer bias and
-scale: value, 1- and 3-sigma, unit), ``summary.json`` (convergence, chi-square per residual group
-and per measurement, timings, notes), ``residuals_imu.csv`` (the whitened preintegration residual
-of every interval: rotation, velocity, position), ``residuals_gps.csv`` (fix residuals over their
-sigma), ``report.txt``, ``config/problem.toml``. Units in every name (:mod:`casrecon.io.units`).
+Files: ``trajectory.csv`` (``time_unix_s`` and ``utc`` when the clock is UTC, else the clock as
+``time_imu_s``; ``segment_time_s`` since the span's start; the IMU's latitude, longitude and h_MSL,
+NED position and velocity, roll, pitch and yaw of the IMU axes, each with its 3-sigma; the
+attitude's 3-sigma as the NED rotation-vector components ``att_n/e/d_deg_3sigma``),
+``parameters.json`` (IMU errors, clock offset, barometer bias and scale: value, 1- and 3-sigma,
+chi-square-scaled sigma, prior, unit; gyro biases in deg/s and misalignments in deg as in every
+problem kind), ``summary.json`` (convergence, chi-square per residual group and per measurement,
+timings, notes), ``residuals_imu.csv`` (the whitened preintegration residual of every interval, at
+its start's ``segment_time_s``: rotation, velocity, position), ``residuals_gps.csv`` (fix residuals
+over their sigma), ``report.txt``, ``config/problem.toml``. Units in every name (:mod:`casrecon.io.units`).
 """
 
 from __future__ import annotations
@@ -18,10 +20,10 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from casrecon.analysis.parameter_estimates import parameter_estimate
 from casrecon.estimation.kinematic.terms import INTERVAL_RESIDUALS
-from casrecon.io.gps_rules import ned_to_geodetic
-from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, utc_text
-from casrecon.output.columns import write_table
+from casrecon.io.units import IMU_TIME, SEGMENT_TIME, TIME_UNIX, UTC, utc_text
+from casrecon.output.columns import geodetic_columns, write_table
 from casrecon.output.results import write_json
 
 #: Clock values above this are UTC seconds since 1970 (a flight computer's clock counts from boot).
@@ -36,12 +38,31 @@ def euler_deg(quaternions: np.ndarray) -> np.ndarray:
 
 
 def time_columns(result) -> dict[str, np.ndarray]:
-    """Times of the nodes: on the problem's clock, since the span's start, and UTC when the clock is UTC."""
+    """Times of the nodes (:mod:`casrecon.io.units`' time bases): ``time_unix_s`` and ``utc`` when the
+    problem's clock is UTC, else that clock as ``time_imu_s`` (a flight computer's); then
+    ``segment_time_s``, s since the span's first node (an IMU-driven span has no release, so no
+    ``flight_time_s``)."""
     clock = result.node_time_s + result.data.time_ref_s
-    cols = {"time_s": result.node_time_s, "clock_s": clock}
+    segment = result.node_time_s - result.node_time_s[0]
     if result.data.time_ref_s > UTC_CLOCK_MIN_S:
-        cols = {TIME_UNIX: clock, UTC: utc_text(clock), "time_s": result.node_time_s}
-    return cols
+        return {TIME_UNIX: clock, UTC: utc_text(clock), SEGMENT_TIME: segment}
+    return {IMU_TIME: clock, SEGMENT_TIME: segment}
+
+
+def parameters_document(result) -> dict:
+    """``parameters.json``: each IMU error, clock and barometer parameter in its output unit
+    (:func:`~casrecon.analysis.parameter_estimates.parameter_estimate`: gyro biases in deg/s,
+    misalignments in deg, as in every problem kind), with 1- and 3-sigma, the chi-square-scaled
+    sigma and the prior; the correlations when the covariance was computed."""
+    scale = float(np.sqrt(result.reduced_chi2))
+    params = {s.name: parameter_estimate(s, v, sg, scale).record()
+              for s, v, sg in zip(result.params.specs, result.values, result.sigma)}
+    doc = {"parameters": params}
+    if result.parameter_covariance is not None:
+        sd = np.sqrt(np.diag(result.parameter_covariance))
+        doc["correlation"] = {"names": list(params),
+                              "matrix": (result.parameter_covariance / np.outer(sd, sd)).tolist()}
+    return doc
 
 
 def write_kinematic_results(out: Path, result, report_text: str, site, problem_path: Path | None,
@@ -64,7 +85,7 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
     """
     out = Path(out)
     cols = dict(time_columns(result))
-    cols.update(dict(zip(GEODETIC, ned_to_geodetic(result.states[:, :3], site))))
+    cols.update(geodetic_columns(result.states[:, :3], 3 * result.state_sigma[:, :3], site))
     for i, column in enumerate(STATE_COLUMNS):
         cols[column], cols[f"{column}_3sigma"] = result.states[:, i], 3 * result.state_sigma[:, i]
     for column, values in zip(("roll_deg", "pitch_deg", "yaw_deg"), euler_deg(result.states[:, 6:10]).T):
@@ -74,20 +95,12 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
     write_table(out / "trajectory.csv", cols)
     r = result.nlp.residual_vector(result.z)
     interval = r[result.nlp.groups["imu"]].reshape(-1, 9)
-    write_table(out / "residuals_imu.csv", {"time_s": result.node_time_s[:-1],
+    write_table(out / "residuals_imu.csv", {SEGMENT_TIME: cols[SEGMENT_TIME][:-1],
                                             **{f"{n}_z": interval[:, i] for i, n in enumerate(INTERVAL_RESIDUALS)}})
     gps = r[result.nlp.groups["gps"]].reshape(-1, 6)
     names = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
     write_table(out / "residuals_gps.csv", {f"{n}_z": gps[:, i] for i, n in enumerate(names)})
-    params = {s.name: {"value": float(v), "sigma": float(sg), "three_sigma": 3 * float(sg), "unit": s.unit,
-                       "prior_sigma": s.prior_sigma}
-              for s, v, sg in zip(result.params.specs, result.values, result.sigma)}
-    doc = {"parameters": params}
-    if result.parameter_covariance is not None:
-        sd = np.sqrt(np.diag(result.parameter_covariance))
-        doc["correlation"] = {"names": list(params),
-                              "matrix": (result.parameter_covariance / np.outer(sd, sd)).tolist()}
-    write_json(out / "parameters.json", doc)
+    write_json(out / "parameters.json", parameters_document(result))
     write_json(out / "summary.json", {
         "problem": name, "kind": "kinematic", "converged": result.solver.converged, "status": result.solver.status,
         "iterations": result.solver.iterations, "chi2": result.chi2, "n_measurements": result.n_measurements,

@@ -1,12 +1,14 @@
 """The results folder of a GPS-only (point-mass) fit: the fitted model (usually the drag-area
 spline) next to the constant-drag model, so the residuals show what the constant model misses.
 
-Files: ``trajectory.csv`` (UTC, the antenna's latitude, longitude and h_MSL, NED position and
-velocity, drag area, each with 3-sigma), ``parameters.json``, ``summary.json`` (convergence,
-chi-square per group, normalised-residual RMS and lag-1 autocorrelation per component for both
-models, timings, segment notes, the fitted model's model-adequacy verdict), ``residuals_gps.csv``
-(normalised residuals of both models, ``_z``),
-``gps_fixes.csv``, ``report.txt``, ``figures/``. Units in every name (:mod:`casrecon.io.units`).
+Files: ``trajectory.csv`` (``time_unix_s`` and ``utc``, ``segment_time_s`` (s since the segment's
+first fix; a GPS-only segment has no release, so no ``flight_time_s``), the antenna's latitude,
+longitude and h_MSL, NED position and velocity, drag area, each with 3-sigma), ``parameters.json``,
+``summary.json`` (convergence, chi-square per group, normalised-residual RMS and lag-1
+autocorrelation per component for both models, timings, segment notes, the fitted model's
+model-adequacy verdict), ``residuals_gps.csv`` (normalised residuals of both models, ``_z``),
+``gps_fixes.csv`` (both with ``time_unix_s`` and ``segment_time_s``), ``report.txt``, ``figures/``.
+Units in every name (:mod:`casrecon.io.units`).
 """
 
 from __future__ import annotations
@@ -15,9 +17,8 @@ import shutil
 from pathlib import Path
 
 from casrecon.analysis.adequacy import Adequacy
-from casrecon.io.gps_rules import ned_to_geodetic
-from casrecon.io.units import GEODETIC, GPS_COMPONENT_UNITS, TIME_UNIX, UTC, utc_text
-from casrecon.output.columns import write_table
+from casrecon.io.units import GPS_COMPONENT_UNITS, SEGMENT_TIME, TIME_UNIX, UTC, utc_text
+from casrecon.output.columns import geodetic_columns, write_table
 from casrecon.output.results import write_json
 
 NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
@@ -48,10 +49,9 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
         for ``summary.json`` (``adequacy``).
     """
     out = Path(out)
-    t0 = main.t_unix[0]
-    times = {TIME_UNIX: main.t_unix, "time_s": main.t_unix - t0}
-    cols = {TIME_UNIX: main.t_unix, UTC: utc_text(main.t_unix), "time_s": main.t_unix - t0,
-            **dict(zip(GEODETIC, ned_to_geodetic(main.states[:, :3], main.config.site)))}
+    times = {TIME_UNIX: main.t_unix, SEGMENT_TIME: main.t_unix - main.t_unix[0]}
+    cols = {TIME_UNIX: main.t_unix, UTC: utc_text(main.t_unix), SEGMENT_TIME: times[SEGMENT_TIME],
+            **geodetic_columns(main.states[:, :3], 3 * main.state_sigma[:, :3], main.config.site)}
     for i, n in enumerate(NAMES):
         name = f"{n}_{GPS_COMPONENT_UNITS[n]}"
         cols[name], cols[f"{name}_3sigma"] = main.states[:, i], 3 * main.state_sigma[:, i]

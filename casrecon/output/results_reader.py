@@ -13,9 +13,10 @@ checked against what the writers produce:
 - CSV: a header row of distinct names; every row with as many cells as the header, none empty, the
   file ending with a line break (a row cut mid-line is refused); every cell outside the text columns
   (``utc``) a number; the time columns a table must have (``time_imu_s`` and ``flight_time_s`` of a
-  per-drop ``trajectory.csv``, ``time_s`` and ``time_unix_s`` of a point-mass or kinematic one)
-  present and finite. Other cells may be NaN: the writers write NaN where a quantity does not
-  exist (a missing GPS component, C_m outside its validity range).
+  per-drop ``trajectory.csv``, ``segment_time_s`` and ``time_unix_s`` of a point-mass one,
+  ``segment_time_s`` of a kinematic one, whose clock need not be UTC) present and finite. Other
+  cells may be NaN: the writers write NaN where a quantity does not exist (a missing GPS
+  component, C_m outside its validity range).
 
 Any damage is an :class:`~casrecon.io.errors.InputError` naming the file, the line (1-based, the
 header being line 1) or key, and what was expected: exit status 2 from the command line.
@@ -51,8 +52,8 @@ REQUIRED_FILES = {"drop": ("summary.json", "parameters.json", "trajectory.csv"),
 KIND_LABELS = {"drop": "per-drop", "joint": "joint", "point-mass": "point-mass", "kinematic": "kinematic"}
 #: Time columns a ``trajectory.csv`` must have, finite at every row, by kind.
 TRAJECTORY_TIME_COLUMNS = {"drop": ("time_imu_s", "flight_time_s"),
-                           "point-mass": ("time_s", "time_unix_s"),
-                           "kinematic": ("time_s", "time_unix_s")}
+                           "point-mass": ("segment_time_s", "time_unix_s"),
+                           "kinematic": ("segment_time_s",)}
 #: summary.json keys the readers use, with the JSON types they must have when present.
 SUMMARY_TYPES = {"problem": (str,), "name": (str,), "kind": (str,), "converged": (bool,),
                  "reduced_chi2": (int, float), "release_imu_s": (int, float), "impact_imu_s": (int, float),

@@ -20,7 +20,7 @@ def plot_kinematic(folder: Path, formats: Sequence[str] = style.DEFAULT_FORMATS)
     tr, imu, gps = (read_csv(folder / n) for n in ("trajectory.csv", "residuals_imu.csv", "residuals_gps.csv"))
     summary = json.loads((folder / "summary.json").read_text())
     fig, ax = style.new_figure(3, 2, (13, 10.5), sharex=False)
-    t = tr["time_s"]
+    t = tr["segment_time_s"]
     c = style.RECONSTRUCTED_COLOR
     style.band(ax[0, 0], t, -tr["pos_d_m"], tr["pos_d_m_3sigma"], c, "reconstructed", style.PM3SIGMA)
     ax[0, 0].set_ylabel("height above the site, m")
@@ -30,7 +30,7 @@ def plot_kinematic(folder: Path, formats: Sequence[str] = style.DEFAULT_FORMATS)
     ax[0, 1].set_aspect("equal", adjustable="datalim")
     for comp, color in zip(("n", "e", "d"), ("tab:blue", "tab:green", "tab:red")):
         style.band(ax[1, 0], t, tr[f"vel_{comp}_mps"], tr[f"vel_{comp}_mps_3sigma"], color, f"$v_{comp.upper()}$")
-        ax[2, 0].plot(imu["time_s"], imu[f"vel_{'xyz'['ned'.index(comp)]}_z"], ".", ms=2, color=color,
+        ax[2, 0].plot(imu["segment_time_s"], imu[f"vel_{'xyz'['ned'.index(comp)]}_z"], ".", ms=2, color=color,
                       label=f"velocity residual {'xyz'['ned'.index(comp)]}")
     ax[1, 0].set_ylabel("velocity, m/s")
     for name, color in zip(("roll", "pitch", "yaw"), ("tab:purple", "tab:orange", "tab:gray")):

@@ -1,11 +1,13 @@
 """The text report of a kinematic reconstruction: span, convergence, chi-square per residual group,
-the IMU parameters against their priors (those beyond 3 sigma named), the bands' sizes and the
+the IMU parameters against their priors (those beyond 3 sigma named; gyro biases in deg/s and
+misalignments in deg, :func:`~casrecon.analysis.parameter_estimates.parameter_estimate`), the bands' sizes and the
 model-adequacy verdict (per-channel reduced chi-square, lag-1 and Ljung-Box)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from casrecon.analysis.parameter_estimates import parameter_estimate
 from casrecon.report.adequacy_block import report_lines
 
 #: A parameter whose estimate lies this many prior sigmas from its prior mean is named.
@@ -34,11 +36,12 @@ def kinematic_report(result, name: str = "", adequacy=None) -> str:
     lines += ["", f"{'parameter':18s} {'value':>12s} {'3-sigma':>11s} {'prior 1-sigma':>14s} {'z':>6s}  unit"]
     flagged = []
     for spec, value, sigma in zip(result.params.specs, result.values, result.sigma):
-        z = value / spec.prior_sigma if spec.prior_sigma else float("nan")
+        e = parameter_estimate(spec, value, sigma, 1.0)  # in its output unit (deg/s, deg)
+        z = e.value / e.prior_sigma if e.prior_sigma else float("nan")
         if np.isfinite(z) and abs(z) >= PRIOR_Z_LIMIT:
             flagged.append(f"{spec.name} ({z:+.1f})")
-        lines.append(f"{spec.name:18s} {value:12.5g} {3 * sigma:11.3g} {spec.prior_sigma or float('nan'):14.3g} "
-                     f"{z:6.1f}  {spec.unit}")
+        lines.append(f"{spec.name:18s} {e.value:12.5g} {e.three_sigma:11.3g} {e.prior_sigma or float('nan'):14.3g} "
+                     f"{z:6.1f}  {e.unit}")
     sig = result.state_sigma
     lines += ["", "median 3-sigma bands: position N/E/D "
               + " / ".join(f"{3 * np.median(sig[:, i]):.2f}" for i in range(3)) + " m, velocity "

@@ -46,21 +46,21 @@ def track_fit_figure(folder: Path) -> Figure:
     name = json.loads((folder / "summary.json").read_text()).get("problem", folder.name)
     fig, ax = style.new_figure(3, 2, (13, 10.5))
     used = fix["used"] > 0.5
-    t = tr["time_s"]
+    t = tr["segment_time_s"]
     gps = dict(ls="none", marker=".", ms=3, color=style.MEASUREMENT_COLOR, label="GPS fix")
     fit = dict(color=style.RECONSTRUCTED_COLOR, lw=1.2, label="fit (fitted drag area)")
-    ax[0, 0].plot(fix["time_s"][used], -fix["pos_d_m"][used], **gps)
+    ax[0, 0].plot(fix["segment_time_s"][used], -fix["pos_d_m"][used], **gps)
     ax[0, 0].plot(t, -tr["pos_d_m"], **fit)
     ax[0, 0].set_ylabel("height above ground, m")
-    ax[0, 1].plot(fix["time_s"][used], fix["vel_d_mps"][used], **gps)
+    ax[0, 1].plot(fix["segment_time_s"][used], fix["vel_d_mps"][used], **gps)
     ax[0, 1].plot(t, tr["vel_d_mps"], **fit)
     ax[0, 1].set_ylabel("vertical speed $v_D$ (down), m/s")
     three = dict(color=style.SIGMA_COLOR, ls=":", lw=0.9, label=style.PM3SIGMA)
     for k, (comp, label) in enumerate((("pos_d", "down position"), ("vel_d", "$v_D$"))):
         a = ax[1, k]
-        a.plot(res["time_s"], res[f"{comp}_constant_z"], ".", ms=3, color=style.NOMINAL_COLOR,
+        a.plot(res["segment_time_s"], res[f"{comp}_constant_z"], ".", ms=3, color=style.NOMINAL_COLOR,
                label="residual, constant drag area")
-        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=3, color=style.RECONSTRUCTED_COLOR,
+        a.plot(res["segment_time_s"], res[f"{comp}_fit_z"], ".", ms=3, color=style.RECONSTRUCTED_COLOR,
                label="residual, fitted drag area")
         for s in (-3, 3):
             a.axhline(s, **three)
@@ -68,7 +68,8 @@ def track_fit_figure(folder: Path) -> Figure:
         residual_axis(a)
     a = ax[2, 0]
     for comp, c in zip(("pos_n", "pos_e", "vel_n", "vel_e"), COMPONENT_COLORS):
-        a.plot(res["time_s"], res[f"{comp}_fit_z"], ".", ms=2, color=c, label=f"residual {COMPONENT_LABELS[comp]}")
+        a.plot(res["segment_time_s"], res[f"{comp}_fit_z"], ".", ms=2, color=c,
+               label=f"residual {COMPONENT_LABELS[comp]}")
     for s in (-3, 3):
         a.axhline(s, **three)
     a.set_ylabel("horizontal residual / $\\sigma$ (fitted drag area)")

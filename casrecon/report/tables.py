@@ -9,7 +9,7 @@ from casrecon.physics.aero import DISPERSION_NAMES
 
 TABLE3_COLUMNS = (("h_agl_m", "h_agl, m"), ("vel_n_mps", "Vn, m/s"), ("vel_e_mps", "Ve, m/s"),
                   ("vel_d_mps", "Vd, m/s"), ("roll_deg", "phi, deg"), ("pitch_deg", "theta, deg"),
-                  ("yaw_deg", "psi, deg"), ("p_dps", "wx, deg/s"), ("q_dps", "wy, deg/s"), ("r_dps", "wz, deg/s"))
+                  ("yaw_deg", "psi, deg"), ("p_dps", "p, deg/s"), ("q_dps", "q, deg/s"), ("r_dps", "r, deg/s"))
 TABLE4_EXTRA = (("alpha_t_deg", "alpha_T, deg"), ("qbar_pa", "qbar, Pa"))
 
 

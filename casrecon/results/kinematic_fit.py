@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from casrecon.io.units import TIME_UNIX
+from casrecon.io.units import IMU_TIME, SEGMENT_TIME, TIME_UNIX
 from casrecon.output.kinematic_results import write_kinematic_results
 from casrecon.output.results_reader import read_results_folder
 from casrecon.results.drop_fit import FolderViews, parameters_of, read_frame, report_text, sample_frame
@@ -25,10 +25,13 @@ if TYPE_CHECKING:
     from casrecon.estimation.kinematic.fit import KinematicResult
     from casrecon.physics.dynamics import Site
 
-#: Time columns of ``trajectory`` (s): UTC (Unix seconds; only when the clock is UTC) and time since the span's start.
-TIME_COLUMNS = (TIME_UNIX, "time_s")
+#: Time columns of ``trajectory`` (s): UTC (Unix seconds; only when the clock is UTC), time since the
+#: span's start, and the IMU's clock (only when it is not UTC).
+TIME_COLUMNS = (TIME_UNIX, SEGMENT_TIME, IMU_TIME)
 #: Attitude columns (deg), unwrapped before :meth:`KinematicFit.sample` interpolates them.
 ANGLE_COLUMNS = ("roll_deg", "pitch_deg", "yaw_deg")
+#: Names of the time axes before issue 52, taken by :meth:`KinematicFit.sample`'s ``time``.
+OLD_TIME_NAMES = {"time_s": SEGMENT_TIME, "clock_s": IMU_TIME}
 REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
 
 
@@ -41,11 +44,12 @@ class KinematicFit(FolderViews):
     ----------
     name : str
     params : Parameters
-        IMU biases (rad/s, m/s^2), scale factors (-) and misalignments (rad), and the clock offset
+        IMU biases (deg/s, m/s^2), scale factors (-) and misalignments (deg), and the clock offset
         (s) and barometer bias (Pa) and height scale (-) when estimated, with their correlations.
     trajectory : pandas.DataFrame
-        ``time_unix_s`` and ``utc`` (when the clock is UTC), ``time_s`` (s since the span's
-        start), ``latitude_deg``, ``longitude_deg``, ``h_msl_m``, NED position (m) and velocity
+        ``time_unix_s`` and ``utc`` (when the clock is UTC, else the clock as ``time_imu_s``),
+        ``segment_time_s`` (s since the span's start), ``latitude_deg``, ``longitude_deg``,
+        ``h_msl_m`` (each with ``_3sigma``), NED position (m) and velocity
         (m/s) of the IMU, roll, pitch and yaw of the IMU axes (deg), each with ``_3sigma`` (the
         attitude's as NED rotation-vector components ``att_n_deg_3sigma``...).
     residuals : dict of str to pandas.DataFrame
@@ -103,7 +107,8 @@ class KinematicFit(FolderViews):
 
     def sample(self, columns: str | Sequence[str], times_s: Any, *, time: str | None = None) -> pd.DataFrame:
         """Columns (e.g. ``"vel_d_mps"``, ``"yaw_deg"``) and their 3-sigma interpolated linearly at
-        ``times_s`` (s since the span's start, or UTC Unix seconds with ``time="time_unix_s"``), or
+        ``times_s`` (s since the span's start, ``segment_time_s``; ``time="time_s"``, its name before
+        issue 52, is taken for it; or UTC Unix seconds with ``time="time_unix_s"``), or
         at UTC instants (``datetime``, pandas ``Timestamp`` or a sequence of them; naive ones taken
         as UTC; returned in a ``utc`` column; a clock that is not UTC has none); the Euler angles are
         unwrapped first and returned in (-180, 180] deg. ValueError for an unknown column (listing
@@ -112,7 +117,8 @@ class KinematicFit(FolderViews):
         for col in ANGLE_COLUMNS:
             if col in frame:
                 frame[col] = np.rad2deg(np.unwrap(np.deg2rad(frame[col].to_numpy(float))))
-        out = sample_frame(self.name, frame, TIME_COLUMNS, columns, times_s, time, "time_s")
+        out = sample_frame(self.name, frame, TIME_COLUMNS, columns, times_s, OLD_TIME_NAMES.get(time, time),
+                           SEGMENT_TIME)
         for col in ANGLE_COLUMNS:
             if col in out:
                 out[col] = 180.0 - np.mod(180.0 - out[col].to_numpy(float), 360.0)

@@ -15,7 +15,7 @@ import numpy as np
 
 from casrecon.analysis.adequacy import Adequacy
 from casrecon.analysis.fit_adequacy import pointmass_adequacy
-from casrecon.io.units import TIME_UNIX
+from casrecon.io.units import SEGMENT_TIME, TIME_UNIX
 from casrecon.output.pointmass_results import write_pointmass_results
 from casrecon.output.results_reader import read_results_folder
 from casrecon.results.drop_fit import FolderViews, parameters_of, read_frame, report_text, sample_frame
@@ -26,7 +26,9 @@ if TYPE_CHECKING:
     from casrecon.estimation.pointmass.fit import PointMassResult
 
 #: Time columns of ``trajectory`` (s): UTC (Unix seconds, us resolution) and time since the segment start.
-TIME_COLUMNS = (TIME_UNIX, "time_s")
+TIME_COLUMNS = (TIME_UNIX, SEGMENT_TIME)
+#: Names of the time axes before issue 52, taken by :meth:`PointMassFit.sample`'s ``time``.
+OLD_TIME_NAMES = {"time_s": SEGMENT_TIME}
 REQUIRED_FILES = ("summary.json", "parameters.json", "trajectory.csv")
 
 
@@ -41,8 +43,8 @@ class PointMassFit(FolderViews):
         Estimated parameters (wind bias, drag-area spline weights, ...); no correlations are
         recorded for point-mass fits (``correl`` empty).
     trajectory : pandas.DataFrame
-        ``time_unix_s`` (UTC, s), ``utc`` (pandas UTC timestamps), ``time_s`` (s since the segment
-        start), the antenna's ``latitude_deg``, ``longitude_deg``, ``h_msl_m``, NED position (m) and
+        ``time_unix_s`` (UTC, s), ``utc`` (pandas UTC timestamps), ``segment_time_s`` (s since the
+        segment start), the antenna's ``latitude_deg``, ``longitude_deg``, ``h_msl_m``, NED position (m) and
         velocity (m/s), drag area ``cda_m2`` (and lift areas, m^2; with ``[model_error]`` also the
         area processes' parts ``cda_process_m2``, ``lift_n_process_m2``, ``lift_e_process_m2``),
         each with ``_3sigma``: trajectory.csv as written (9 significant digits, UTC to 1 us), also
@@ -127,11 +129,13 @@ class PointMassFit(FolderViews):
 
     def sample(self, columns: str | Sequence[str], times_s: Any, *, time: str | None = None) -> pd.DataFrame:
         """Columns (e.g. ``"cda_m2"``) and their 3-sigma interpolated linearly at ``times_s`` (s since the
-        segment start, or UTC Unix seconds with ``time="time_unix_s"``), or at UTC instants
+        segment start, ``segment_time_s``; ``time="time_s"``, its name before issue 52, is taken for it;
+        or UTC Unix seconds with ``time="time_unix_s"``), or at UTC instants
         (``datetime``, pandas ``Timestamp`` or a sequence of them; naive ones taken as UTC; returned
         in a ``utc`` column); ValueError for an unknown column (listing the available ones) or a
         time outside the segment."""
-        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s, time, "time_s")
+        return sample_frame(self.name, self.trajectory, TIME_COLUMNS, columns, times_s,
+                            OLD_TIME_NAMES.get(time, time), SEGMENT_TIME)
 
     def write(self, out: Path) -> None:
         """Write this fit's results files into the folder ``out`` being made (by :meth:`save`, or by

@@ -98,7 +98,7 @@ def test_trajectory_has_drag_area_with_three_sigma(fitted):
     period = np.median(np.diff(t))
     assert period in (pytest.approx(0.2, abs=2e-3), pytest.approx(0.1, abs=2e-3))
     assert np.allclose(np.diff(t), period, atol=2e-3)
-    assert np.allclose(col["time_s"], t - t[0], atol=2e-3)
+    assert np.allclose(col["segment_time_s"], t - t[0], atol=2e-3)
     # at top speed a head-down speed skydiver's drag area (for the assumed 80 kg) is small and known
     # to a few per cent; over the whole segment it spans belly (large) to head-down (small)
     top = np.argmax(col["vel_d_mps"])

@@ -53,7 +53,7 @@ def test_point_mass_fit_saves_and_loads(tmp_path):
     assert isinstance(result, casrecon.PointMassFit) and result.converged
     assert "cda_m2" in result.columns and dict(result.params[next(iter(result.params))].correl) == {}
     s = result.sample("cda_m2", [1.0, 5.0])
-    assert list(s.columns) == ["time_s", "cda_m2", "cda_m2_3sigma"] and np.all(s["cda_m2_3sigma"] > 0)
+    assert list(s.columns) == ["segment_time_s", "cda_m2", "cda_m2_3sigma"] and np.all(s["cda_m2_3sigma"] > 0)
     folder = result.save(tmp_path / "pm")
     assert (folder / "trajectory.csv").is_file() and not (folder / "figures").exists()
     again = casrecon.load_results(folder)
@@ -79,7 +79,7 @@ def test_kinematic_fit_saves_and_loads(tmp_path):
     bias = result.params["gyro_bias_z"]
     assert bias.stderr > 0 and bias.correl and abs(bias.correl["gyro_scale_z"]) <= 1.0
     s = result.sample(["vel_d_mps", "yaw_deg"], [1.0, 5.0])
-    assert list(s.columns) == ["time_s", "vel_d_mps", "vel_d_mps_3sigma", "yaw_deg"]
+    assert list(s.columns) == ["segment_time_s", "vel_d_mps", "vel_d_mps_3sigma", "yaw_deg"]
     assert np.all(s["vel_d_mps_3sigma"] > 0) and np.all(np.abs(s["yaw_deg"]) <= 180.0)
     with pytest.raises(ValueError, match="available: "):
         result.sample("alpha_t_deg", 1.0)

@@ -68,6 +68,6 @@ def test_cli_fits_the_rocket_drogue_descent_kinematically(tmp_path):
         assert by_group[group] < 2.0, (group, by_group)
     assert summary["reduced_chi2"] < 2.0
     tr = pd.read_csv(out / "trajectory.csv")
-    late = tr[tr["time_s"] > 70.0]
+    late = tr[tr["segment_time_s"] > 70.0]
     assert late["vel_d_mps"].between(20.0, 30.0).all()
     assert np.all(np.isfinite(tr["att_d_deg_3sigma"]))

@@ -9,7 +9,7 @@ from casrecon.results.parameters import Parameters
 
 
 def test_yaw_is_interpolated_across_the_wrap():
-    frame = pd.DataFrame({"time_s": [0.0, 1.0, 2.0], "yaw_deg": [170.0, -170.0, -150.0],
+    frame = pd.DataFrame({"segment_time_s": [0.0, 1.0, 2.0], "yaw_deg": [170.0, -170.0, -150.0],
                           "vel_d_mps": [1.0, 2.0, 3.0], "vel_d_mps_3sigma": [0.3, 0.3, 0.3]})
     fit = KinematicFit("wrap", Parameters((), np.zeros((0, 0))), frame, {}, {}, "")
     s = fit.sample(["yaw_deg", "vel_d_mps"], [0.5, 0.75, 1.5])
@@ -19,7 +19,7 @@ def test_yaw_is_interpolated_across_the_wrap():
 
 def test_sample_at_utc_instants_on_a_utc_clock_and_a_clear_refusal_without_one():
     t0 = 1726601120.0
-    frame = pd.DataFrame({"time_unix_s": t0 + np.arange(3.0), "time_s": [0.0, 1.0, 2.0],
+    frame = pd.DataFrame({"time_unix_s": t0 + np.arange(3.0), "segment_time_s": [0.0, 1.0, 2.0],
                           "yaw_deg": [170.0, -170.0, -150.0], "vel_d_mps": [1.0, 2.0, 3.0]})
     fit = KinematicFit("utc", Parameters((), np.zeros((0, 0))), frame, {}, {}, "")
     at = pd.Timestamp(t0 + 0.5, unit="s", tz="UTC")

@@ -1,5 +1,7 @@
 """Reconstructed time history with marginal 3-sigma bands (delta method through the null-space
-covariance): position, altitude, velocity, Euler angles, body rates, flow angles, qbar, Mach."""
+covariance): position, altitude, velocity, Euler angles, body rates, flow angles, qbar, Mach,
+airspeed (the model's: the speed relative to the air, wind and gusts included) and speed |v|
+(relative to the ground)."""
 
 from __future__ import annotations
 
@@ -17,7 +19,10 @@ COLUMNS = (("pos_n_m", 1.0), ("pos_e_m", 1.0), ("pos_d_m", 1.0), ("h_agl_m", 1.0
            ("roll_deg", 180 / np.pi), ("pitch_deg", 180 / np.pi), ("yaw_deg", 180 / np.pi),
            ("p_dps", 180 / np.pi), ("q_dps", 180 / np.pi), ("r_dps", 180 / np.pi),
            ("alpha_deg", 180 / np.pi), ("beta_deg", 180 / np.pi), ("alpha_t_deg", 180 / np.pi),
-           ("qbar_pa", 1.0), ("mach", 1.0))
+           ("qbar_pa", 1.0), ("mach", 1.0), ("airspeed_mps", 1.0), ("speed_mps", 1.0))
+#: Added under the square root of the speed |v| (m^2/s^2) so that its derivative stays finite at
+#: rest (a drop released from a hover): changes the speed by at most 1e-6 m/s.
+SPEED_FLOOR_M2PS2 = 1e-12
 
 
 #: Column names and unit factors of the disturbance entries (DISTURBANCE_NAMES order).
@@ -80,7 +85,8 @@ def _output_function(model: FlightModel, part: DropLayout) -> ca.Function:
     out = model.outputs_d(x, node_parameters(part, x, theta, zg, base), disturbance_selection(active) @ u)
     idx = OUTPUT_NAMES.index
     y = ca.vertcat(x[0:3], out[idx("h_agl")], x[3:6], out[idx("roll"):idx("yaw") + 1], x[10:13],
-                   out[idx("alpha")], out[idx("beta")], out[idx("alpha_t")], out[idx("qbar")], out[idx("mach")], u)
+                   out[idx("alpha")], out[idx("beta")], out[idx("alpha_t")], out[idx("qbar")], out[idx("mach")],
+                   out[idx("airspeed")], ca.sqrt(ca.sumsqr(x[3:6]) + SPEED_FLOOR_M2PS2), u)
     y = y * ca.DM([f for _, f in COLUMNS] + [DISTURBANCE_COLUMNS[i][1] for i in active])
     v = ca.vertcat(zx, zt, zu, zg)
     return ca.Function("outputs_with_jacobian", [zx, zt, zu, zg, base],
