@@ -110,14 +110,14 @@ def point_mass_folder(folder: Path, n: int = 120) -> Path:
         np.savetxt(folder / name, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols),
                    comments="", fmt="%.9g")
 
-    write("trajectory.csv", {"time_s": t, "pos_d_m": pd_m, "vel_d_mps": vd, "cda_m2": cda,
+    write("trajectory.csv", {"segment_time_s": t, "pos_d_m": pd_m, "vel_d_mps": vd, "cda_m2": cda,
                              "cda_m2_3sigma": 0.02 + 0 * t})
-    res = {"time_s": t}
+    res = {"segment_time_s": t}
     for comp in ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d"):
         res[f"{comp}_fit_z"] = rng.normal(0, 1, n)
         res[f"{comp}_constant_z"] = 40 * np.sin(t / 5) + rng.normal(0, 1, n)
     write("residuals_gps.csv", res)
-    write("gps_fixes.csv", {"time_s": t, "pos_d_m": pd_m, "vel_d_mps": vd, "used": 1 + 0 * t})
+    write("gps_fixes.csv", {"segment_time_s": t, "pos_d_m": pd_m, "vel_d_mps": vd, "used": 1 + 0 * t})
     (folder / "summary.json").write_text(json.dumps({"problem": "tiny-track"}))
     return folder
 
