@@ -66,6 +66,11 @@ def test_a_gps_correlation_time_at_the_end_of_its_search_is_no_gross_error():
     not identifiable and its times land at the longest searched (100 s x 5, 0.6 s x 5)."""
     white = GpsErrorModel(500.0, 3.0, 0.42, 0.02, 1.35, 0.99)
     assert implausible(estimate(gps=white), 300.0, (100.0, 0.6)) == ()
+    # the estimate's line says the times are not sized by the data (a note, not a verdict finding)
+    line = GpsErrorEstimate(FITTED, white, {"gps position white": 10.3}, ("position", "velocity")).text()
+    assert "the position correlation time is at the end of its search: not sized by the data" in line
+    assert "the velocity correlation time is at the end" in line
+    assert "end of its search" not in GpsErrorEstimate(FITTED, white, {"gps position white": 10.3}).text()
 
 
 def test_a_gross_error_fails_the_verdict_first_in_its_line():

@@ -74,10 +74,13 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
         challenger = most_evident(build, others, best[4].x) if others else None
         if challenger is not None and challenger[0] < best[0]:
             best = challenger
+    base_times = own_times if configured_times_s is None else configured_times_s
     if search:
-        base_times = own_times if configured_times_s is None else configured_times_s
         best = time_search(build, best, errors, own_times, base_times)
     _, times, length, model, fit, names = best
+    at_end = tuple(g for k, g in enumerate(("position", "velocity"))
+                   if search and times[k] != own_times[k] and base_times[k] > 0
+                   and any(np.isclose(times[k], f * base_times[k]) for f in (min(TIME_FACTORS), max(TIME_FACTORS))))
     ratio = np.exp(fit.x)
     value = -fit.fun
     n_profile = len(names) - len([n for n in names if n.startswith("gps ")])
@@ -90,7 +93,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
             ratio[k] = 0.0
     base, _ = own_model.log_evidence(np.zeros(len(names)))
     gps_ratios = {n: float(r) for n, r in zip(names[n_profile:], ratio[n_profile:])}
-    gps = GpsErrorEstimate(errors, model_from(errors, gps_ratios, times), gps_ratios)
+    gps = GpsErrorEstimate(errors, model_from(errors, gps_ratios, times), gps_ratios, at_end)
     if grid is None:
         return ps.ProfileSigmaEstimate({}, {}, max(0.0, value - base), (), {}, fallback, 0.0, 0.0, gps)
     prior = dict(zip([PROFILE_COMPONENTS[c] for c in grid.components], grid.prior))

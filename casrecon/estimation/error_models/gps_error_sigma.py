@@ -54,11 +54,16 @@ class GpsErrorEstimate:
         The model the fit used and the one of the estimate (:func:`model_from`).
     ratios : dict of str to float
         Group (:data:`GROUPS`) -> the ratio of its estimated sigma to the fit's.
+    at_search_end : tuple of str
+        The groups ("position", "velocity") whose estimated correlation time is the shortest or
+        longest searched: a time the data do not size (with white errors the correlated share is not
+        identifiable and its time lands anywhere); the line says so, it is no gross error.
     """
 
     fitted: GpsErrorModel
     estimated: GpsErrorModel
     ratios: dict[str, float]
+    at_search_end: tuple[str, ...] = ()
 
     @property
     def refit(self) -> bool:
@@ -71,8 +76,10 @@ class GpsErrorEstimate:
     def text(self) -> str:
         """One line: the estimated model against the fit's."""
         ratios = ", ".join(f"{g[4:]} sigma x {r:.3g}" for g, r in self.ratios.items())
+        edges = "".join(f"; the {g} correlation time is at the end of its search: not sized by the data"
+                        for g in self.at_search_end)
         return (f"GPS error model the data say (type-II maximum likelihood; {ratios}): "
-                f"{self.estimated.describe()} (fitted with {self.fitted.describe()})")
+                f"{self.estimated.describe()} (fitted with {self.fitted.describe()}){edges}")
 
 
 def part_sigmas(model: GpsErrorModel) -> np.ndarray:
