@@ -1,10 +1,12 @@
 """The default fit on drops whose world is the plain model and on GPS errors of other shapes
-(issue 49; docs/studies/error-families.md), fresh seeds 200 and 201 (seed 100 chose the change):
+(issue 49; docs/studies/error-families.md), fresh seeds 200 and 202 (seed 100 chose the change):
 every fit converges, its parameter NEES is inside the 95 % interval and the truth lies in the 3-sigma
 bands of position, velocity and attitude at >= 98 % of nodes, with a trusted verdict.
 
 Before the change (a GPS correlation time at the end of its search taken for a gross error) the
-exact-model drop kept its 99 %-correlated GPS model: NEES 52 on 19, position bands 30 %.
+exact-model drop of seed 202 kept its 99 %-correlated GPS model: NEES 271 on 19, position bands 19 %,
+attitude 0 %, not trusted (seed 100: NEES 52, position 30 %); seed 200's estimate did not reach the
+end of its search and passed before too.
 
 Run: pytest -m slow tests/slow/test_error_families.py (about 2 min).
 """
@@ -27,7 +29,7 @@ def _bench():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family,seed", [("none", 200), ("none", 201), ("gps-steps", 200)])
+@pytest.mark.parametrize("family,seed", [("none", 200), ("none", 202), ("gps-steps", 200)])
 def test_the_default_fit_is_honest_where_the_world_is_the_plain_model(family, seed):
     bench = _bench()
     case = bench.run_case(family, "ees", ("default",), seed)
