@@ -8,7 +8,7 @@ exact-model drop of seed 202 kept its 99 %-correlated GPS model: NEES 271 on 19,
 attitude 0 %, not trusted (seed 100: NEES 52, position 30 %); seed 200's estimate did not reach the
 end of its search and passed before too.
 
-Run: pytest -m slow tests/slow/test_error_families.py (about 2 min).
+Run: pytest -m slow tests/slow/test_error_family_study.py (about 2 min).
 """
 
 from __future__ import annotations
