@@ -78,6 +78,8 @@ def vehicle_scenario(name: str) -> Scenario:
 
 def fit_variant(scenario: Scenario, variant: str) -> Scenario:
     """The scenario's fit configuration for ``variant`` (see the module)."""
+    if variant not in VARIANTS:
+        raise ValueError(f"unknown variant {variant!r}; expected one of {VARIANTS}")
     cfg = scenario.config
     d = AtmosphereConfig
     atm = dataclasses.replace(cfg.atmosphere, profile_wind_sigma_mps=d.profile_wind_sigma_mps,
@@ -94,8 +96,6 @@ def fit_variant(scenario: Scenario, variant: str) -> Scenario:
         atm = dataclasses.replace(atm, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0,
                                   profile_sigma_from_data=False)
         gps = dataclasses.replace(gps, error_model=GpsErrorModel.white(), error_model_from_data=False)
-    elif variant not in ("default", "fixed", "gusts"):
-        raise ValueError(f"unknown variant {variant!r}; expected one of {VARIANTS}")
     return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps, estimation=estimation))
 
 

@@ -30,34 +30,34 @@ def estimate(wind=0.515, density=0.00482, length=300.0, gps: GpsErrorModel | Non
 def test_the_shipped_estimate_is_plausible():
     """ees-drop-3-model-error's estimate, its white GPS position part at the search's floor (no white
     part) included, is within the limits: it is refitted with as before."""
-    assert implausible(estimate(), 300.0, (20.0, 2.0)) == ()
-    assert implausible(estimate(wind=1.0, density=0.01, length=900.0), 300.0, (20.0, 2.0)) == ()
+    assert implausible(estimate(), 300.0) == ()
+    assert implausible(estimate(wind=1.0, density=0.01, length=900.0), 300.0) == ()
     # a smooth error smaller than the configured one (a sounding's temperature off by a share growing
     # with height) is what the longest length is searched for
-    assert implausible(estimate(wind=0.0, density=0.003, length=3000.0), 300.0, (20.0, 2.0)) == ()
+    assert implausible(estimate(wind=0.0, density=0.003, length=3000.0), 300.0) == ()
 
 
 def test_a_gps_accuracy_scale_beyond_a_receiver_names_the_clock():
     """The issue's 1 s clock error: position accuracies x 10.3."""
-    found = implausible(estimate(gps=GpsErrorModel(20.0, 2.0, 0.999, 0.999, 10.3, 1.2)), 300.0, (20.0, 2.0))
+    found = implausible(estimate(gps=GpsErrorModel(20.0, 2.0, 0.999, 0.999, 10.3, 1.2)), 300.0)
     assert len(found) == 1 and "GPS position errors 10.3 times" in found[0]
     assert "utc_at_zero" in found[0] and "units" in found[0]
-    small = implausible(estimate(gps=GpsErrorModel(20.0, 2.0, 0.999, 0.999, 1.0, 0.2)), 300.0, (20.0, 2.0))
+    small = implausible(estimate(gps=GpsErrorModel(20.0, 2.0, 0.999, 0.999, 1.0, 0.2)), 300.0)
     assert len(small) == 1 and "velocity errors 0.2 times" in small[0] and "units" in small[0]
     edge = GpsErrorModel(20.0, 2.0, 0.999, 0.999, MAX_ACCURACY_SCALE * 0.99, 1 / MAX_ACCURACY_SCALE * 1.01)
-    assert implausible(estimate(gps=edge), 300.0, (20.0, 2.0)) == ()
+    assert implausible(estimate(gps=edge), 300.0) == ()
 
 
 def test_estimates_at_the_edge_of_their_search_are_findings():
     """Measured with utc_at_zero 1 s late: profile 1.62 m/s, 2.09 % over 3000 m, GPS velocity over 10 s."""
     found = implausible(estimate(1.62, 0.0209, 3000.0, GpsErrorModel(20.0, 10.0, 0.999, 0.999, 1.13, 2.79)),
-                        300.0, (20.0, 2.0))
+                        300.0)
     assert len(found) == 1, found
     assert "correlated over 3000 m, the longest searched" in found[0] and "utc_at_zero" in found[0]
     assert "sounding of another day or place" in found[0] and "datum or ground altitude" in found[0]
-    at_bound = implausible(estimate(wind=10.0), 300.0, (20.0, 2.0))
+    at_bound = implausible(estimate(wind=10.0), 300.0)
     assert len(at_bound) == 1 and "wind sigma 20 times the fit's, the top of its search" in at_bound[0]
-    gps_bound = implausible(estimate(ratios={"gps velocity white": 50.0}), 300.0, (20.0, 2.0))
+    gps_bound = implausible(estimate(ratios={"gps velocity white": 50.0}), 300.0)
     assert len(gps_bound) == 1 and "velocity white sigma at 50 times" in gps_bound[0]
 
 
@@ -65,7 +65,7 @@ def test_a_gps_correlation_time_at_the_end_of_its_search_is_no_gross_error():
     """White GPS errors (benchmarks/error_families.py, family none, seed 100): the correlated share is
     not identifiable and its times land at the longest searched (100 s x 5, 0.6 s x 5)."""
     white = GpsErrorModel(500.0, 3.0, 0.42, 0.02, 1.35, 0.99)
-    assert implausible(estimate(gps=white), 300.0, (100.0, 0.6)) == ()
+    assert implausible(estimate(gps=white), 300.0) == ()
     # the estimate's line says the times are not sized by the data (a note, not a verdict finding)
     line = GpsErrorEstimate(FITTED, white, {"gps position white": 10.3}, ("position", "velocity")).text()
     assert "the position correlation time is at the end of its search: not sized by the data" in line

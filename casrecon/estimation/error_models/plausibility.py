@@ -61,18 +61,17 @@ CAUSES = {
     "gps_small": "the units of the GPS accuracy columns (hAcc, vAcc, sAcc)",
     "profile": "a sounding of another day or place, a datum or ground altitude of the sounding or site, the IMU "
                "clock ([sensors.imu.clock] utc_at_zero), or the sounding's units",
-    "profile_length": "a sounding of another day or place, a datum or ground altitude of the sounding or site, the "
-                      "IMU clock ([sensors.imu.clock] utc_at_zero), the sounding's units, or air that differs from "
-                      "the sounding in ways the profile model does not hold (turbulence, gusts)",
 }
+#: A profile error over the longest length searched may also be air the profile model does not hold.
+CAUSES["profile_length"] = (CAUSES["profile"] + "; or air that differs from the sounding in ways the profile "
+                            "model does not hold (turbulence, gusts)")
 
 
 def _at_top(value: float, top: float) -> bool:
     return bool(value >= top * (1.0 - 1e-6))
 
 
-def implausible(estimate: ps.ProfileSigmaEstimate, configured_length_m: float | None = None,
-                configured_times_s: tuple[float, float] | None = None) -> tuple[str, ...]:
+def implausible(estimate: ps.ProfileSigmaEstimate, configured_length_m: float | None = None) -> tuple[str, ...]:
     """The findings (one sentence each, with the likely cause) of an error-model estimate beyond the
     plausibility limits of the module docstring; () when it is within them.
 
@@ -83,8 +82,6 @@ def implausible(estimate: ps.ProfileSigmaEstimate, configured_length_m: float | 
     configured_length_m : float, optional
         The problem's profile correlation length, m (the search's lengths are multiples of it;
         default the fit's).
-    configured_times_s : (float, float), optional
-        The problem's GPS position and velocity correlation times, s (default the fit's).
     """
     out = []
     gps = estimate.gps

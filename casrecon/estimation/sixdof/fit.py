@@ -372,8 +372,7 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
                 f"{'configured' if intended is None else 'last estimated'} ones",))
         if not estimate.differs_from(estimate.fitted if intended is None else intended):
             return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
-        findings = implausible(estimate, cfg.atmosphere.profile_length_m,
-                               (errors.position_time_s, errors.velocity_time_s))
+        findings = implausible(estimate, cfg.atmosphere.profile_length_m)
         if findings:  # a gross error in the inputs, not a model to refit with: this fit stands, flagged
             return dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
                                        gross_errors=result.gross_errors + findings)
