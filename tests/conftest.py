@@ -7,6 +7,7 @@ about 0.3 s at the problems' own 500 Hz settings.
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import json
 import shutil
 from pathlib import Path
@@ -83,6 +84,29 @@ def ees_runs():
         sc = Scenario.load(PROBLEMS / name)
         out[name] = (sc, sim_problem(sc))
     return out
+
+
+def script_module(path: Path):
+    """The module of a script that is not in a package (a benchmark, a problems/tools script),
+    imported from ``path`` under its file name."""
+    spec = importlib.util.spec_from_file_location(Path(path).stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def chicago_kinematic_15s(folder: Path) -> Path:
+    """The shipped Chicago kinematic problem cut to its first 15 s (exit and dive), written into
+    ``folder``/chicago-15s with absolute data paths; returns that problem folder."""
+    src = PROBLEMS / "realdata-fs2-chicago-kinematic" / "problem.toml"
+    data = (PROBLEMS / "realdata-fs2-chicago").as_posix()
+    text = src.read_text().replace("../realdata-fs2-chicago", data).replace("end_s = 1726601170.0",
+                                                                              "end_s = 1726601135.0")
+    assert data in text and "1726601135.0" in text
+    problem = Path(folder) / "chicago-15s"
+    problem.mkdir()
+    (problem / "problem.toml").write_text(text)
+    return problem
 
 
 @pytest.fixture()

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import chicago_kinematic_15s
 
 import casrecon
 from casrecon.cli import main
@@ -65,15 +66,7 @@ def test_point_mass_fit_saves_and_loads(tmp_path):
 def test_kinematic_fit_saves_and_loads(tmp_path):
     """The IMU-driven reconstruction through the API (15 s of the real Chicago jump): records with
     correlations, sampling with the Euler angles unwrapped, save and load back unchanged."""
-    src = ROOT / "problems" / "realdata-fs2-chicago-kinematic" / "problem.toml"
-    data = (ROOT / "problems" / "realdata-fs2-chicago").as_posix()
-    text = src.read_text().replace("../realdata-fs2-chicago", data).replace("end_s = 1726601170.0",
-                                                                              "end_s = 1726601135.0")
-    assert data in text and "1726601135.0" in text
-    problem = tmp_path / "chicago-15s"
-    problem.mkdir()
-    (problem / "problem.toml").write_text(text)
-    result = casrecon.fit(problem)
+    result = casrecon.fit(chicago_kinematic_15s(tmp_path))
     assert isinstance(result, casrecon.KinematicFit) and result.converged
     assert result.adequacy is not None and "gps" in result.chi2
     bias = result.params["gyro_bias_z"]

@@ -4,12 +4,12 @@ joint`` exists in the API, and a command reads each ``problem.toml`` once."""
 
 from __future__ import annotations
 
-import importlib.util
 import inspect
 import tomllib
 from pathlib import Path
 
 import pytest
+from conftest import script_module
 
 import casrecon
 from casrecon.cli import build_parser, main
@@ -17,9 +17,7 @@ from casrecon.cli import build_parser, main
 ROOT = Path(__file__).resolve().parents[2]
 PROBLEMS = ROOT / "problems"
 
-_spec = importlib.util.spec_from_file_location("results_identity", ROOT / "problems" / "tools" / "results_identity.py")
-results_identity = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(results_identity)
+results_identity = script_module(ROOT / "problems" / "tools" / "results_identity.py")
 
 
 def differing_files(api: Path, cli: Path) -> list[str]:

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import PROBLEMS, short_window
+from conftest import PROBLEMS, chicago_kinematic_15s, short_window
 
 import casrecon
 from casrecon.io.units import OUTPUT_UNITS, unit_of
@@ -31,25 +31,12 @@ ANGLE_WORDS = ("roll", "pitch", "yaw", "alpha", "beta", "att_", "latitude", "lon
 RADIUS_M = 6_371_000.0
 
 
-def kinematic_problem(tmp_path: Path) -> Path:
-    """The shipped Chicago kinematic problem, cut to 15 s (as tests/integration/test_api_fit.py)."""
-    src = PROBLEMS / "realdata-fs2-chicago-kinematic" / "problem.toml"
-    data = (PROBLEMS / "realdata-fs2-chicago").as_posix()
-    text = src.read_text().replace("../realdata-fs2-chicago", data).replace("end_s = 1726601170.0",
-                                                                              "end_s = 1726601135.0")
-    assert data in text and "1726601135.0" in text
-    problem = tmp_path / "chicago-15s"
-    problem.mkdir()
-    (problem / "problem.toml").write_text(text)
-    return problem
-
-
 @pytest.fixture(scope="module")
 def folders(tmp_path_factory) -> dict[str, tuple[Path, object]]:
     tmp = tmp_path_factory.mktemp("units-agree")
     fits = {"6-DOF": casrecon.fit(short_window("ees-drop-1", 3.0, 8.0)),
             "point-mass": casrecon.fit(PROBLEMS / "realdata-fs1-byron"),
-            "kinematic": casrecon.fit(kinematic_problem(tmp))}
+            "kinematic": casrecon.fit(chicago_kinematic_15s(tmp))}
     return {kind: (fit.save(tmp / kind.replace("-", "")), fit) for kind, fit in fits.items()}
 
 

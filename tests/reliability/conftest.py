@@ -193,3 +193,10 @@ def fitted_drop_folder(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("fitted") / "ees-drop-1"
     assert main(["fit", str(PROBLEMS / "ees-drop-1"), "--out", str(out), "--no-figures", "--quiet"]) == 0
     return out
+
+
+def edit_text(path: Path, old: str, new: str) -> None:
+    """Replace the first ``old`` in the text file ``path`` by ``new`` (asserting it is there)."""
+    text = path.read_text()
+    assert old in text, f"{old!r} not in {path}"
+    path.write_text(text.replace(old, new, 1))

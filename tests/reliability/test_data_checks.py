@@ -5,7 +5,7 @@ realdata-skyderby-411, with one thing corrupted) is refused before any NLP is bu
 check alone takes under 1 s. Also the cases the check must let through (every shipped problem, rows
 without a fix that are dropped with a note), the inspect warnings and the error texts.
 
-Self-contained helpers (no tests/reliability/conftest.py needed).
+Its helpers are its own, but for ``edit_text`` (tests/reliability/conftest.py).
 """
 
 from __future__ import annotations
@@ -33,6 +33,8 @@ from casrecon.io.imu import ImuCsvSpec, read_imu_csv
 from casrecon.io.inspect import inspect_file
 from casrecon.io.pointmass_problem import load_point_mass
 from casrecon.io.vehicle_files import load_aero
+
+from .conftest import edit_text
 
 REPO = Path(__file__).resolve().parents[2]
 PROBLEMS = REPO / "problems"
@@ -68,12 +70,6 @@ def problems(pristine, tmp_path) -> Path:
     root = tmp_path / "problems"
     shutil.copytree(pristine, root)
     return root
-
-
-def edit_text(path: Path, old: str, new: str) -> None:
-    text = path.read_text()
-    assert old in text, f"{old!r} not in {path}"
-    path.write_text(text.replace(old, new, 1))
 
 
 def add_estimation_key(folder: Path, line: str) -> None:

@@ -24,7 +24,7 @@ from casrecon.estimation.validation.precheck import check_problem
 from casrecon.io.errors import InputError
 from casrecon.io.inspect import inspect_file
 
-from .conftest import assert_clean_failure, call_cli, leftover_temp_folders, tree_checksums
+from .conftest import assert_clean_failure, call_cli, edit_text, leftover_temp_folders, tree_checksums
 
 REPO = Path(__file__).resolve().parents[2]
 PROBLEMS = REPO / "problems"
@@ -55,12 +55,6 @@ def problems(pristine, tmp_path) -> Path:
     root = tmp_path / "problems"
     shutil.copytree(pristine, root)
     return root
-
-
-def edit_text(path: Path, old: str, new: str) -> None:
-    text = path.read_text()
-    assert old in text, f"{old!r} not in {path}"
-    path.write_text(text.replace(old, new, 1))
 
 
 def pressure_in_hpa(path: Path) -> None:

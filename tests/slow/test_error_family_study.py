@@ -13,25 +13,18 @@ Run: pytest -m slow tests/slow/test_error_family_study.py (about 2 min).
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import pytest
+from conftest import script_module
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "error_families.py"
-
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("error_families", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("family,seed", [("none", 200), ("none", 202), ("gps-steps", 200)])
 def test_the_default_fit_is_honest_where_the_world_is_the_plain_model(family, seed):
-    bench = _bench()
+    bench = script_module(BENCH)
     case = bench.run_case(family, "ees", ("default",), seed)
     fit = case["default"]
     assert "failed" not in fit, fit.get("failed")

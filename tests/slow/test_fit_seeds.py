@@ -16,25 +16,18 @@ Run: pytest -m slow tests/slow/test_fit_seeds.py -s
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import script_module
 
 BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "fit_seeds.py"
 
 
-def _fit_seeds_module():
-    spec = importlib.util.spec_from_file_location("fit_seeds", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.mark.slow
 def test_normalised_errors_over_seeds(tmp_path):
-    fs = _fit_seeds_module()
+    fs = script_module(BENCH)
     res = fs.run_seeds("ees-drop-3", range(100, 120), tmp_path)
     s = fs.summarise(res)
     fs.print_summary(res, s)
