@@ -32,7 +32,8 @@ class KinematicOptions:
     gyro_misalignment_sigma, accel_misalignment_sigma : float
         Prior 1-sigma of each axis's sensitivity to the other axes (rad; 0: held at zero).
     saturated_gyro_sigma_radps, saturated_accel_sigma_mps2 : float
-        Noise 1-sigma given to a saturated (clipped) sample, whose value is bridged by interpolation.
+        Noise 1-sigma given to a saturated (clipped) sample, whose value is bridged by interpolation,
+        and to a sample of an aliased stretch (``KinematicData.imu_aliased``), whose value is kept.
     gps_lever_m : (3,) tuple
         GPS antenna minus IMU position, IMU axes, m.
     latitude_rad, ground_alt_msl_m : float
@@ -126,6 +127,9 @@ class KinematicData:
         The IMU file, for located errors ("" when unknown).
     imu_lines : (N,) int array or None
         Line of each IMU sample in ``imu_file`` (None when unknown).
+    imu_aliased : (N,) bool array or None
+        True where a sample lies in a stretch whose rotation the sampling does not resolve
+        (:func:`~casrecon.estimation.kinematic.imu_record.aliased_samples`); None: no such sample.
     """
 
     imu_time_s: np.ndarray
@@ -145,11 +149,16 @@ class KinematicData:
     time_ref_s: float = 0.0
     imu_file: str = ""
     imu_lines: np.ndarray | None = None
+    imu_aliased: np.ndarray | None = None
 
     def noise_sigmas(self, options: KinematicOptions) -> tuple[np.ndarray, np.ndarray]:
-        """Per-sample 1-sigma (N, 3) of the gyros and accelerometers, saturated samples inflated."""
+        """Per-sample 1-sigma (N, 3) of the gyros and accelerometers, saturated and aliased samples
+        inflated to the saturated-sample noise (rad/s, m/s^2)."""
         gyro = np.where(self.gyro_valid, options.gyro_noise_radps, options.saturated_gyro_sigma_radps)
         accel = np.where(self.accel_valid, options.accel_noise_mps2, options.saturated_accel_sigma_mps2)
+        if self.imu_aliased is not None:
+            gyro = np.where(self.imu_aliased[:, None], np.maximum(gyro, options.saturated_gyro_sigma_radps), gyro)
+            accel = np.where(self.imu_aliased[:, None], np.maximum(accel, options.saturated_accel_sigma_mps2), accel)
         return gyro, accel
 
     def bridged(self) -> tuple[np.ndarray, np.ndarray]:

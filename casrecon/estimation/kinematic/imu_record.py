@@ -16,6 +16,17 @@ IMU CSV onto the common clock, saturated samples flagged against ``[imu] accel_l
   midpoints with its neighbours, so a short gap is bridged by its neighbouring samples and the gaps
   are counted in a note (number, longest, its time and line). A gap longer than
   :data:`MAX_IMU_GAP_S` is refused with its line: the motion over it is not measured.
+- **aliased stretches** (:func:`aliased_samples`): where the rate changes so much between two
+  consecutive samples that the turns over the step between them, taken from one sample's rate or
+  from the other's, differ by more than :data:`MAX_TURN_DIFFERENCE_RAD` (0.25 rad, 14.3 deg), the
+  samples do not resolve the rotation (it is aliased: the path between them could be any): a
+  parachute's opening shock sampled at 13 Hz. Such steps closer than :data:`ALIASED_JOIN_S` make
+  one stretch, from the first step's first sample to the last step's second; its samples keep
+  their values but are weighted with the saturated-sample noise (gyros and accelerometers: the
+  specific force is sampled as coarsely and turned by the unresolved rotation), and a note names
+  each stretch's times and lines (however many: a record aliased over most of its span leaves the
+  attitude to the fixes, and the note says where). A sample turning more than 1 rad is refused by
+  the rate rule below.
 - **rate** (:func:`check_piece_rotation`, run by the fit on the bridged record): more than
   ``MAX_PIECE_ROTATION_RAD`` (1 rad, 57 deg) of turn over one sample's time is refused as bad input
   (exit status 2) naming the file and the sample's line: a rate too low for the body's rotation, or
@@ -40,6 +51,18 @@ from casrecon.physics.preintegration import MAX_PIECE_ROTATION_RAD
 #: (``[estimation] max_node_spacing_s``), so a longer gap leaves a whole interval of the mesh
 #: without a sample of its own; at a skydiver's 100 deg/s, 50 deg of turn unmeasured.
 MAX_IMU_GAP_S = 0.5
+#: Largest difference between the turns over one step between samples taken from either sample's
+#: rate, |w[k+1] - w[k]| (t[k+1] - t[k]), rad, before the step counts as aliased. Measured: the
+#: shipped FlySight 2 jump (13 Hz) reaches 0.18 rad (10.1 deg) in the exit's tumble, which its fit
+#: resolves (over the first 40 s every IMU parameter stays within 1 prior sigma), and 0.95 rad
+#: (54.7 deg) in the canopy opening, whose samples bent the gyro scale z to +5.9 sigma; the rocket
+#: drogue record (100 Hz, spinning at 20 rad/s) 0.017 rad. A judgment between them, not a derived bound.
+MAX_TURN_DIFFERENCE_RAD = 0.25
+#: Aliased steps less than this apart (s) are one stretch: the fit's default node spacing, so no
+#: clean piece shorter than a node interval is left between two aliased ones.
+ALIASED_JOIN_S = 0.5
+#: How many stretches a note names one by one.
+NAMED_STRETCHES = 5
 #: How a FlySight 2 SENSOR.CSV's IMU rows are named and in which units its limits are given.
 SENSOR_COLUMNS = {"time_column": "time", "accel_columns": ("ax", "ay", "az"), "gyro_columns": ("wx", "wy", "wz"),
                   "accel_unit": "g", "gyro_unit": "deg/s"}
@@ -151,3 +174,70 @@ def check_piece_rotation(data: KinematicData, gyro: np.ndarray) -> None:
                          f"samples at t = {data.time_ref_s + data.imu_time_s[k]:.3f} s (more than "
                          f"{np.degrees(MAX_PIECE_ROTATION_RAD):.0f} deg): its rate is too low for the body's rotation, "
                          "or the gyro unit is wrong", line=line)
+
+
+def aliased_stretches(time_s: np.ndarray, gyro_radps: np.ndarray, limit_rad: float = MAX_TURN_DIFFERENCE_RAD,
+                      join_s: float = ALIASED_JOIN_S) -> list[tuple[int, int]]:
+    """The stretches of an IMU record whose rotation the sampling does not resolve.
+
+    Parameters
+    ----------
+    time_s : (N,) array
+        Sample times, s, increasing.
+    gyro_radps : (N, 3) array
+        Angular rates, rad/s.
+    limit_rad : float
+        A step from sample k to k + 1 is aliased when ``|w[k+1] - w[k]| (t[k+1] - t[k])`` exceeds
+        it, rad (:data:`MAX_TURN_DIFFERENCE_RAD`).
+    join_s : float
+        Aliased steps whose samples are at most this far apart, s, are one stretch.
+
+    Returns
+    -------
+    list of (int, int)
+        First and last sample index (inclusive) of each stretch, in time order; empty when none.
+    """
+    if time_s.size < 2:
+        return []
+    turn_difference = np.linalg.norm(np.diff(gyro_radps, axis=0), axis=1) * np.diff(time_s)
+    stretches: list[tuple[int, int]] = []
+    for k in np.flatnonzero(turn_difference > limit_rad):
+        k = int(k)
+        if stretches and time_s[k] - time_s[stretches[-1][1]] <= join_s:
+            stretches[-1] = (stretches[-1][0], k + 1)
+        else:
+            stretches.append((k, k + 1))
+    return stretches
+
+
+def aliased_samples(record: ImuRecord, start_s: float, end_s: float) -> tuple[np.ndarray, tuple[str, ...]]:
+    """The samples from ``start_s`` to ``end_s`` (common clock, s) in aliased stretches
+    (:func:`aliased_stretches`) and the note naming them.
+
+    Returns
+    -------
+    aliased : (n,) bool array
+        For each sample of the span, True when it lies in an aliased stretch.
+    notes : tuple of str
+        One note naming the stretches' times, lines and largest turn difference (none when none).
+    """
+    m = record.log
+    span = slice(int(np.searchsorted(m.time_s, start_s)), int(np.searchsorted(m.time_s, end_s, side="right")))
+    t, gyro = m.time_s[span], m.gyro_radps[span]
+    aliased = np.zeros(t.size, bool)
+    stretches = aliased_stretches(t, gyro)
+    if not stretches:
+        return aliased, ()
+    for a, b in stretches:
+        aliased[a:b + 1] = True
+    worst = float(np.max(np.linalg.norm(np.diff(gyro, axis=0), axis=1) * np.diff(t)))
+    limit = (f"the rate changes between consecutive samples by more than {np.degrees(MAX_TURN_DIFFERENCE_RAD):.1f} "
+             f"deg of turn over the step, up to {np.degrees(worst):.1f} deg")
+    named = [f"t = {t[a]:.3f} to {t[b]:.3f} s (lines {line_of(span.start + a, m)} to {line_of(span.start + b, m)})"
+             for a, b in stretches[:NAMED_STRETCHES]]
+    more = f" and {len(stretches) - NAMED_STRETCHES} more" if len(stretches) > NAMED_STRETCHES else ""
+    plural = "s" if len(stretches) > 1 else ""
+    return aliased, (f"{int(aliased.sum())} IMU samples in {len(stretches)} stretch{'es' if plural else ''} whose "
+                     f"rotation the sampling does not resolve ({limit}: aliased, as in a parachute's opening "
+                     f"shock): {', '.join(named)}{more}; their gyro and accelerometer values kept and weighted "
+                     "with the saturated-sample noise",)

@@ -12,7 +12,7 @@ import numpy as np
 
 from casrecon.estimation.kinds.gps import fix_sigma
 from casrecon.estimation.kinematic.data import KinematicData, KinematicOptions
-from casrecon.estimation.kinematic.imu_record import check_span, read_imu_record
+from casrecon.estimation.kinematic.imu_record import aliased_samples, check_span, read_imu_record
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.validation.consistency import check_baro, sounding_origin_warning, warn_once
 from casrecon.io.baro import BaroConfig, read_baro
@@ -79,7 +79,7 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
     Raises
     ------
     InputError
-        A file that cannot be read (located).
+        A file that cannot be read, or an IMU span its checks refuse (:mod:`.imu_record`); located.
     FitDataError
         Too few samples or fixes in the span.
     """
@@ -107,6 +107,8 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
     pos, vel, sigma = fixes_ned(track, cfg.site, keep, cfg.velocity_sigma_mps)
     sel = (t_imu >= start - 1.0) & (t_imu <= end + 1.0)
     notes += check_span(record, start - 1.0, end + 1.0)
+    aliased, aliased_notes = aliased_samples(record, start - 1.0, end + 1.0)
+    notes += aliased_notes
     sounding = None if cfg.sounding is None else read_sounding(cfg.sounding)
     baro_t = baro_p = None
     if cfg.baro_file is not None:
@@ -126,7 +128,8 @@ def inputs_from_config(cfg: KinematicConfig) -> tuple[KinematicData, KinematicOp
     data = KinematicData(t_imu[sel] - start, gyro[sel], accel[sel], gyro_ok[sel], accel_ok[sel], t_fix[keep] - start,
                          np.column_stack([pos, vel]), sigma, (0.0, end - start), baro_t, baro_p, cfg.baro_noise_pa,
                          atmosphere, tuple(notes), time_ref_s=float(start), imu_file=m.path,
-                         imu_lines=np.flatnonzero(sel) + 2 if m.line_numbers is None else m.line_numbers[sel])
+                         imu_lines=np.flatnonzero(sel) + 2 if m.line_numbers is None else m.line_numbers[sel],
+                         imu_aliased=aliased if aliased.any() else None)
     options = KinematicOptions(
         gyro_noise_radps=imu.gyro_noise_radps, accel_noise_mps2=imu.accel_noise_mps2,
         gyro_bias_sigma_radps=imu.gyro_bias_sigma_radps, accel_bias_sigma_mps2=imu.accel_bias_sigma_mps2,
