@@ -26,6 +26,7 @@ from casrecon.cli import main
 from casrecon.cli_montecarlo import run_montecarlo_command
 from casrecon.estimation.sixdof.joint import JointConfig, fit_joint
 from casrecon.io.flysight import read_flysight
+from casrecon.io.truth_trajectory import read_truth_trajectory
 from casrecon.io.units import unit_of, unnamed_columns, unnamed_json_numbers
 from casrecon.output.consistency import write_consistency
 from casrecon.report.results_folder import read_csv
@@ -145,9 +146,12 @@ def test_simulated_trajectory_is_on_the_release_utc_and_site(simulate_folder):
     import pandas as pd
 
     tr = pd.read_csv(simulate_folder / "trajectory.csv", parse_dates=["utc"])
+    # issue 52: the flight time has the name every kind gives it (casrecon/io/units.py), no alias
+    assert [c for c in tr.columns if "time" in c] == ["flight_time_s", "time_unix_s"]
+    pd.testing.assert_frame_equal(read_truth_trajectory(simulate_folder / "trajectory.csv"), tr)
     cfg = Scenario.load(PROBLEMS / "ees-drop-2").config
     assert tr["utc"].iloc[0] == pd.Timestamp(cfg.release.time_utc)
-    np.testing.assert_allclose(tr["time_unix_s"] - tr["time_s"], cfg.release.time_utc.timestamp(), atol=1e-6)
+    np.testing.assert_allclose(tr["time_unix_s"] - tr["flight_time_s"], cfg.release.time_utc.timestamp(), atol=1e-6)
     lat, lon, h = pymap3d.ned2geodetic(tr["pos_n_m"], tr["pos_e_m"], tr["pos_d_m"], cfg.site.lat_deg,
                                        cfg.site.lon_deg, cfg.site.ground_alt_msl_m)
     np.testing.assert_allclose(tr["latitude_deg"], lat, rtol=0, atol=1e-8)
