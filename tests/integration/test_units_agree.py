@@ -100,6 +100,26 @@ def test_time_columns_have_one_name_per_quantity_and_agree(folders, kind):
         assert not {"time_s", "clock_s"} & set(table.columns), name
 
 
+def test_kinematic_residual_files_have_the_time_columns_of_the_other_kinds(folders):
+    """Issue 52: residuals_gps.csv of a kinematic fit had no time column; now both residual files
+    have the clock (``time_unix_s`` here, a UTC clock) and ``segment_time_s``, as a point-mass fit's."""
+    folder, fit = folders["kinematic"]
+    tr = pd.read_csv(folder / "trajectory.csv")
+    for name in ("residuals_imu.csv", "residuals_gps.csv"):
+        res = pd.read_csv(folder / name)
+        assert [c for c in res.columns if c in TIME_NAMES] == ["time_unix_s", "segment_time_s"], name
+        np.testing.assert_allclose(res["segment_time_s"], res["time_unix_s"] - tr["time_unix_s"].iloc[0], rtol=0,
+                                   atol=2e-6)
+        assert res["segment_time_s"].is_monotonic_increasing and res["segment_time_s"].iloc[0] >= 0.0
+    # every interval residual is at its start node; the nodes sit on the fixes: every fix residual at a node
+    imu = pd.read_csv(folder / "residuals_imu.csv")
+    np.testing.assert_allclose(imu["segment_time_s"], tr["segment_time_s"].iloc[:-1], rtol=0, atol=1e-6)
+    gps = pd.read_csv(folder / "residuals_gps.csv")
+    gap = np.abs(gps["segment_time_s"].to_numpy()[:, None] - tr["segment_time_s"].to_numpy()[None, :]).min(axis=1)
+    assert gap.max() < 1e-6 and len(gps) > 100
+    assert {"time_unix_s", "segment_time_s"} <= set(fit.residuals["gps"].columns)
+
+
 @pytest.mark.parametrize("kind", ["6-DOF", "point-mass", "kinematic"])
 def test_geodetic_columns_have_three_sigma_bands(folders, kind):
     tr = pd.read_csv(folders[kind][0] / "trajectory.csv")
