@@ -248,6 +248,27 @@ def test_trajectory_utc_is_the_gps_receiver_clock(drop_folder):
     assert (fit.trajectory["utc"] == casrecon.load_results(folder).trajectory["utc"]).all()
 
 
+def test_joint_folder_has_a_report_in_the_one_style(joint_folder):
+    """Issue 52: a joint folder has report.txt (it had only the Markdown tables.md) in the report style of
+    every kind, which the API's fit_report() gives back; so has each drop's folder."""
+    text = (joint_folder / "report.txt").read_text().rstrip("\n")
+    loaded = casrecon.load_results(joint_folder)
+    assert loaded.fit_report() == loaded.report() == text
+    lines = text.splitlines()
+    titles = [ln.split("]]")[0] + "]]" for ln in lines if ln.startswith("[[")]
+    assert titles == ["[[Fit Statistics]]", "[[Variables]]", "[[Correlations]]", "[[Solver]]", "[[Drops]]",
+                      "[[Joint vs single-drop sigma]]", "[[Model adequacy]]"]
+    assert lines[1] == "    fit                = pair (joint 6-DOF of 2 drops)"
+    assert lines[-1] == f"    VERDICT: {loaded.adequacy.line}"
+    p = loaded.params["CA_mult"]
+    line = next(ln for ln in lines if ln.startswith("    CA_mult:"))
+    assert f" {p.value: .6g} +/- {p.stderr:.4g} (1-sigma), +/- {3 * p.stderr:.4g} (3-sigma) [-]" in line
+    assert any(ln.startswith("    ees-drop-2.gyro_bias_x:") and "[deg/s]" in ln for ln in lines)
+    for name, drop in loaded.drops.items():
+        assert drop.fit_report() == drop.report() == (joint_folder / "drops" / name / "report.txt").read_text().rstrip()
+        assert drop.report().startswith(f"[[Fit Statistics]]\n    fit                = {name} (6-DOF)")
+
+
 def test_joint_summary_reduced_chi2_is_over_the_joint_dof(joint_folder):
     s = json.loads((joint_folder / "summary.json").read_text())
     assert s["reduced_chi2"] == pytest.approx(s["chi2"] / s["dof"], rel=1e-12)
