@@ -65,7 +65,7 @@ def parts(problem: Path, runs: int, figures: bool) -> dict[str, list[float]]:
     from casrecon.analysis.fit_products import fit_products
     from casrecon.estimation.sixdof.fit import fit_drop
     from casrecon.output.fit_results import write_fit_results
-    from casrecon.report.fit_report import fit_report
+    from casrecon.report.fit_report import sixdof_sections
     from casrecon.report.plots import draw_figures
     from casrecon.report.tables import drop_tables
     from casrecon.scenario import Scenario
@@ -85,7 +85,7 @@ def parts(problem: Path, runs: int, figures: bool) -> dict[str, list[float]]:
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
             products = fit_products(result, concurrent=True)
-            report = fit_report(result, products.adequacy)
+            report = sixdof_sections(result, products.adequacy)
             t1 = time.perf_counter()
             write_fit_results(Path(tmp), result, products, report, drop_tables(result, products))
             t2 = time.perf_counter()

@@ -187,7 +187,7 @@ def _joint(args: argparse.Namespace) -> int:
         return fit_failed(f"joint fit {problem.config.name}", err)
     _save(result, args)
     if not args.quiet:
-        print(result.tables_md)
+        print(result.report())
     print(f"results -> {args.out} (total {time.perf_counter() - t0:.2f} s)")
     return 0
 

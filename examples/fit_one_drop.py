@@ -2,8 +2,8 @@
 
 Run: python examples/fit_one_drop.py
 
-It loads the shipped problem (synthetic data from a known truth), runs the collocation fit,
-prints the lmfit-style report and asserts that
+It fits the shipped problem (synthetic data from a known truth) as ``casrecon fit`` does, prints
+the report (the lmfit-style one of every problem kind) and asserts on the estimator's own result that
 - Ipopt converged and the reduced chi-square is close to 1 (the noise model is right);
 - every estimated parameter's truth lies within its reported 3-sigma;
 - the final 3-sigma of position, velocity and attitude beat the EES paper's reconstruction
@@ -14,18 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.estimation.sixdof.fit import fit_drop
-from casrecon.report.fit_report import fit_report
-from casrecon.scenario import Scenario
+import casrecon
 from casrecon.simulation.synthetic import truth_parameters_by_name
 
 PROBLEM = Path(__file__).resolve().parents[1] / "problems" / "ees-drop-3"
 
 
 def main() -> None:
-    scenario = Scenario.load(PROBLEM)
-    result = fit_drop(scenario)
-    print(fit_report(result))
+    drop = casrecon.fit(PROBLEM)  # the pipeline of `casrecon fit`: fit, residuals, report
+    print(drop.fit_report())
+    result, scenario = drop.fit, drop.fit.scenario  # the estimator's own result (CasADi, covariance)
 
     assert result.converged, result.solver.status
     assert 0.95 < result.reduced_chi2 < 1.05, result.reduced_chi2

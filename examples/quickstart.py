@@ -34,12 +34,12 @@ def main() -> None:
     strongest = max(ca.correl, key=lambda n: abs(ca.correl[n]))
     print(f"CA_mult is most correlated with {strongest}: {ca.correl[strongest]:+.3f}")
     print(result.params.to_frame()[["value", "stderr", "unit", "vary"]])
-    print(result.report())  # the report `casrecon fit` prints
 
     # %% lmfit's names and report: success, chisqr, redchi, nfev (the solver's iterations), fit_report()
     assert result.success and result.redchi == result.reduced_chi2 and result.nfev >= 1
     assert result.chisqr == sum(result.chi2.values())
-    report = result.fit_report()
+    report = result.fit_report()  # one report style for every kind of fit
+    assert report == result.report()  # the report.txt `casrecon fit` writes and prints
     print(report)
     line = next(x for x in report.splitlines() if x.strip().startswith("CA_mult:"))
     assert f"+/- {ca.stderr:.4g} (1-sigma), +/- {3 * ca.stderr:.4g} (3-sigma)" in line, line

@@ -1,7 +1,7 @@
 """The results folder of a joint fit: global parameters and correlations, a Table 5, per-drop
 summary, the model-adequacy verdict and a sigma comparison with single-drop fits at the top
-(:mod:`casrecon.report.joint_tables`); one per-drop results folder (the same files as a per-drop
-fit) under ``drops/<name>/``."""
+(:mod:`casrecon.report.joint_tables`), the text report (``report.txt``); one per-drop results
+folder (the same files as a per-drop fit) under ``drops/<name>/``."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from casrecon.analysis.parameter_estimates import parameter_estimate
 from casrecon.io.units import output_unit
 from casrecon.output.fit_results import write_fit_results
 from casrecon.output.results import write_json
-from casrecon.report.fit_report import fit_report
 from casrecon.report.joint_tables import joint_tables
 from casrecon.report.tables import drop_tables
 
@@ -70,7 +69,8 @@ def joint_summary_document(result, single: dict[str, dict[str, float]], reconcil
             **({} if adequacy is None else {"adequacy": adequacy.to_dict()}), "reconciled": reconciled}
 
 
-def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], products: dict) -> None:
+def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], products: dict, report_text: str,
+                        drop_reports: dict[str, str]) -> None:
     """Write the joint results folder into ``out`` (an atomic temporary folder).
 
     Parameters
@@ -83,6 +83,10 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
         Drop name -> parameter -> 1-sigma of the drop's own fit, output unit (empty when not run).
     products : dict of str to casrecon.analysis.fit_products.FitProducts
         Drop name -> the residuals and reconciled simulations of its part of the joint fit.
+    report_text : str
+        Written as ``report.txt`` (:meth:`casrecon.results.joint_fit.JointFit.fit_report`).
+    drop_reports : dict of str to str
+        Drop name -> its ``drops/<name>/report.txt``.
     """
     out = Path(out)
     reconciled = {}
@@ -90,10 +94,10 @@ def write_joint_results(out: Path, result, single: dict[str, dict[str, float]], 
         name = d.scenario.config.name
         sub = out / "drops" / name
         sub.mkdir(parents=True)
-        write_fit_results(sub, d, products[name], fit_report(d, products[name].adequacy),
-                          drop_tables(d, products[name]))
+        write_fit_results(sub, d, products[name], drop_reports[name], drop_tables(d, products[name]))
         reconciled[name] = products[name].reconciled_summary
     adequacy = joint_adequacy({n: p.adequacy for n, p in products.items() if p.adequacy is not None})
     write_json(out / "parameters.json", joint_parameters_document(result))
     write_json(out / "summary.json", joint_summary_document(result, single, reconciled, adequacy))
     (out / "tables.md").write_text(joint_tables(result, single, reconciled, adequacy))
+    (out / "report.txt").write_text(report_text + "\n")

@@ -8,8 +8,10 @@ attitude's 3-sigma as the NED rotation-vector components ``att_n/e/d_deg_3sigma`
 chi-square-scaled sigma, prior, unit; gyro biases in deg/s and misalignments in deg as in every
 problem kind), ``summary.json`` (convergence, chi-square per residual group and per measurement,
 timings, notes), ``residuals_imu.csv`` (the whitened preintegration residual of every interval, at
-its start's ``segment_time_s``: rotation, velocity, position), ``residuals_gps.csv`` (fix residuals
-over their sigma), ``report.txt``, ``config/problem.toml``. Units in every name (:mod:`casrecon.io.units`).
+its start's ``time_unix_s`` (or ``time_imu_s``) and ``segment_time_s``: rotation, velocity,
+position), ``residuals_gps.csv`` (fix residuals over their sigma, at the fix's ``time_unix_s`` (or
+``time_imu_s``) and ``segment_time_s``, as the other kinds' residual files), ``report.txt``,
+``config/problem.toml``. Units in every name (:mod:`casrecon.io.units`).
 """
 
 from __future__ import annotations
@@ -37,16 +39,26 @@ def euler_deg(quaternions: np.ndarray) -> np.ndarray:
     return Rotation.from_quat(np.column_stack([q[:, 1:], q[:, 0]])).as_euler("ZYX", degrees=True)[:, ::-1]
 
 
-def time_columns(result) -> dict[str, np.ndarray]:
-    """Times of the nodes (:mod:`casrecon.io.units`' time bases): ``time_unix_s`` and ``utc`` when the
-    problem's clock is UTC, else that clock as ``time_imu_s`` (a flight computer's); then
-    ``segment_time_s``, s since the span's first node (an IMU-driven span has no release, so no
-    ``flight_time_s``)."""
-    clock = result.node_time_s + result.data.time_ref_s
-    segment = result.node_time_s - result.node_time_s[0]
+def time_columns(result, times_s: np.ndarray | None = None, utc: bool = True) -> dict[str, np.ndarray]:
+    """Times (:mod:`casrecon.io.units`' time bases) of the nodes, or of ``times_s`` (s on the fit's
+    time axis, :attr:`~casrecon.estimation.kinematic.fit.KinematicResult.node_time_s`'s):
+    ``time_unix_s`` (and ``utc`` if ``utc``) when the problem's clock is UTC, else that clock as
+    ``time_imu_s`` (a flight computer's); then ``segment_time_s``, s since the span's first node (an
+    IMU-driven span has no release, so no ``flight_time_s``)."""
+    t = result.node_time_s if times_s is None else np.asarray(times_s, dtype=float)
+    clock = t + result.data.time_ref_s
+    segment = t - result.node_time_s[0]
     if result.data.time_ref_s > UTC_CLOCK_MIN_S:
-        return {TIME_UNIX: clock, UTC: utc_text(clock), SEGMENT_TIME: segment}
+        return {TIME_UNIX: clock, **({UTC: utc_text(clock)} if utc else {}), SEGMENT_TIME: segment}
     return {IMU_TIME: clock, SEGMENT_TIME: segment}
+
+
+def fix_times(result) -> np.ndarray:
+    """Times (s, the fit's time axis) of the fixes the fit used, in the order of its GPS residuals:
+    those inside the span, each where the last placement put it (its stamp shifted by the clock
+    offset the fixes were placed with)."""
+    t, nodes = result.data.fix_time_s, result.node_time_s
+    return t[(t >= nodes[0] - 1e-9) & (t <= nodes[-1] + 1e-9)]
 
 
 def parameters_document(result) -> dict:
@@ -95,11 +107,15 @@ def write_kinematic_results(out: Path, result, report_text: str, site, problem_p
     write_table(out / "trajectory.csv", cols)
     r = result.nlp.residual_vector(result.z)
     interval = r[result.nlp.groups["imu"]].reshape(-1, 9)
-    write_table(out / "residuals_imu.csv", {SEGMENT_TIME: cols[SEGMENT_TIME][:-1],
+    write_table(out / "residuals_imu.csv", {**time_columns(result, result.node_time_s[:-1], utc=False),
                                             **{f"{n}_z": interval[:, i] for i, n in enumerate(INTERVAL_RESIDUALS)}})
     gps = r[result.nlp.groups["gps"]].reshape(-1, 6)
     names = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d")
-    write_table(out / "residuals_gps.csv", {f"{n}_z": gps[:, i] for i, n in enumerate(names)})
+    fixes = fix_times(result)
+    if fixes.size != gps.shape[0]:
+        raise ValueError(f"{fixes.size} fixes in the span but {gps.shape[0]} GPS residual rows")
+    write_table(out / "residuals_gps.csv", {**time_columns(result, fixes, utc=False),
+                                            **{f"{n}_z": gps[:, i] for i, n in enumerate(names)}})
     write_json(out / "parameters.json", parameters_document(result))
     write_json(out / "summary.json", {
         "problem": name, "kind": "kinematic", "converged": result.solver.converged, "status": result.solver.status,

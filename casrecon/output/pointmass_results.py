@@ -43,7 +43,7 @@ def write_pointmass_results(out: Path, main, constant, report_text: str, adequac
     main, constant : casrecon.estimation.pointmass.fit.PointMassResult
         The fitted model and the constant-drag model (the same object when the model is constant).
     report_text : str
-        Written as ``report.txt`` (:func:`casrecon.report.pointmass_report.pointmass_report`).
+        Written as ``report.txt`` (:meth:`casrecon.results.pointmass_fit.PointMassFit.fit_report`).
     adequacy : Adequacy
         The model-adequacy verdict of ``main`` (:func:`~casrecon.analysis.fit_adequacy.pointmass_adequacy`)
         for ``summary.json`` (``adequacy``).

@@ -9,20 +9,23 @@ import numpy as np
 
 from casrecon.io.gps_rules import ned_to_geodetic
 from casrecon.io.problem import ProblemConfig
-from casrecon.io.units import GEODETIC, TIME_UNIX, UTC, utc_text
+from casrecon.io.units import FLIGHT_TIME, GEODETIC, TIME_UNIX, UTC, utc_text
 from casrecon.output.columns import write_table
 
 
 def simulation_columns(traj, cfg: ProblemConfig) -> dict[str, np.ndarray]:
-    """``time_s`` (flight time since release, s), ``time_unix_s`` and ``utc`` (the release's
+    """``flight_time_s`` (s since release; ``time_s`` before issue 52: the name every kind uses,
+    :mod:`casrecon.io.units`; :func:`casrecon.io.truth_trajectory.read_truth_trajectory` reads
+    both), ``time_unix_s`` and ``utc`` (the release's
     ``[release] time_utc`` plus the flight time: the truth's UTC, as the synthetic GPS is stamped),
     ``latitude_deg``, ``longitude_deg`` and ``h_msl_m`` of the centre of mass, then the columns of
     :meth:`~casrecon.simulation.simulate.Trajectory.table`."""
     names, table = traj.table()
     cols = dict(zip(names, table.T))
-    t_unix = cfg.release.time_utc.timestamp() + cols["time_s"]
+    flight_time = cols.pop("time_s")  # the Trajectory's own name
+    t_unix = cfg.release.time_utc.timestamp() + flight_time
     pos = np.column_stack([cols["pos_n_m"], cols["pos_e_m"], cols["pos_d_m"]])
-    head = {"time_s": cols.pop("time_s"), TIME_UNIX: t_unix, UTC: utc_text(t_unix),
+    head = {FLIGHT_TIME: flight_time, TIME_UNIX: t_unix, UTC: utc_text(t_unix),
             **dict(zip(GEODETIC, ned_to_geodetic(pos, cfg.site)))}
     return {**head, **cols}
 
@@ -30,7 +33,7 @@ def simulation_columns(traj, cfg: ProblemConfig) -> dict[str, np.ndarray]:
 def write_simulation_trajectory(path: str | Path, traj, cfg: ProblemConfig, every: int = 1) -> None:
     """Write :func:`simulation_columns` as CSV, every ``every``-th sample and the last (impact)."""
     cols = simulation_columns(traj, cfg)
-    n = cols["time_s"].size
+    n = cols[FLIGHT_TIME].size
     rows = np.unique(np.r_[0:n:every, n - 1])
     write_table(path, {k: np.asarray(v)[rows] for k, v in cols.items()})
 

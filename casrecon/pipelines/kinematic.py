@@ -24,12 +24,12 @@ def fit_kinematic_problem(problem: str | Path | TomlDocument, options: FitOption
     from casrecon.estimation.kinematic.fit import fit_kinematic
     from casrecon.estimation.kinematic.inputs import inputs_from_config
     from casrecon.io.kinematic_problem import load_kinematic
-    from casrecon.report.kinematic_report import kinematic_report
+    from casrecon.report.kinematic_report import kinematic_sections
 
     cfg = load_kinematic(problem)
     data, fit_options = inputs_from_config(cfg)
     result = fit_kinematic(data, fit_options, print_level=options.print_level,
                            sample_kinds=kinematic_sample_kinds(cfg))
     adequacy = kinematic_adequacy(result)
-    report = kinematic_report(result, cfg.name, adequacy)
-    return KinematicFit.from_fit(result, report, cfg.site, cfg.path, cfg.name, adequacy.to_dict())
+    sections = kinematic_sections(result, adequacy)
+    return KinematicFit.from_fit(result, sections, cfg.site, cfg.path, cfg.name, adequacy.to_dict())

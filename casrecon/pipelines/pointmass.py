@@ -26,9 +26,9 @@ def fit_point_mass(problem: str | Path | TomlDocument, options: FitOptions = DEF
     from casrecon.analysis.fit_adequacy import pointmass_adequacy
     from casrecon.estimation.pointmass.fit import fit_with_comparison
     from casrecon.io.pointmass_problem import load_point_mass
-    from casrecon.report.pointmass_report import pointmass_report
+    from casrecon.report.pointmass_report import pointmass_sections
 
     main, constant = fit_with_comparison(load_point_mass(problem), print_level=options.print_level)
     with stage(LOG, "model adequacy"):
         adequacy = pointmass_adequacy(main)  # once: the report and summary.json read this verdict
-    return PointMassFit.from_fit(main, constant, pointmass_report(main, constant, adequacy), adequacy)
+    return PointMassFit.from_fit(main, constant, pointmass_sections(main, constant, adequacy), adequacy)

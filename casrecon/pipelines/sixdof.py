@@ -39,14 +39,14 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
     from casrecon.analysis.fit_products import fit_products
     from casrecon.estimation.kinds.sample_registry import sixdof_sample_kinds
     from casrecon.estimation.sixdof.fit import FitError, fit_drop
-    from casrecon.report.fit_report import fit_report
+    from casrecon.report.fit_report import sixdof_sections
 
     t0 = time.perf_counter()
     scenario = problem if isinstance(problem, Scenario) else Scenario.load(problem)
     result = fit_drop(scenario, **options.solver_overrides, sample_kinds=sixdof_sample_kinds(scenario.config))
     with stage(LOG, "residuals, reconciled simulations, aerodynamic coefficients and model adequacy"):
         products = fit_products(result, concurrent=options.concurrent)
-    report = fit_report(result, products.adequacy)  # the verdict of these products, not computed again
+    sections = sixdof_sections(result, products.adequacy)  # the verdict of these products, not computed again
     check = None
     if options.kinematic_check:
         from casrecon.analysis.kinematic_check import kinematic_check
@@ -56,7 +56,7 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
                 _, implied, verdict = kinematic_check(result, products.aero_coefficients)
         except FitError as err:
             raise FitError(f"kinematic check: {err}") from err
-        report = f"{report.rstrip()}\n{verdict.verdict()}\n"
+        sections = f"{sections.rstrip()}\n{verdict.verdict()}\n"
         check = (implied, verdict)
     result.timings["total_s"] = time.perf_counter() - t0
-    return DropFit.from_fit(result, products, report, check)
+    return DropFit.from_fit(result, products, sections, check)

@@ -37,6 +37,7 @@ from casrecon.output.results_reader import (
     read_text,
 )
 from casrecon.physics.aero import DISPERSION_NAMES
+from casrecon.report.fit_report import FIXED_DISPERSION_NOTE
 from casrecon.report.results_folder import DropTables
 from casrecon.results.fit_statistics import FitStatistics
 from casrecon.results.parameters import Parameter, Parameters, fixed_parameter, from_document
@@ -157,7 +158,8 @@ class FolderViews(FitStatistics):
         return history_columns(self.trajectory, self.time_columns)
 
     def report(self) -> str:
-        """The text report of ``casrecon fit``."""
+        """The text report of ``casrecon fit`` (``report.txt``): in the one style of every kind, the
+        text of :meth:`fit_report` with its default arguments."""
         return self.report_text
 
     def problem_paths(self) -> list[Path]:
@@ -220,7 +222,7 @@ class DropFit(FolderViews):
         ``summary.json``: convergence, chi-square per group, dof, timings (s), the model-adequacy
         verdict (:attr:`adequacy`), reconciled simulation.
     report_text : str
-        The text report (``report.txt``).
+        The text report (``report.txt``; :mod:`casrecon.report.report_style`).
     tables : dict of str to pandas.DataFrame
         Every table of the results folder by file name (``trajectory.csv``, ``gps_fixes.csv``, ...);
         a fresh fit holds ``reconciled.csv`` and ``nominal.csv`` at every sample, the files every 5th.
@@ -253,10 +255,12 @@ class DropFit(FolderViews):
 
     # ---- construction -------------------------------------------------------------------------
     @classmethod
-    def from_fit(cls, fit: FitResult, products: FitProducts, report_text: str,
+    def from_fit(cls, fit: FitResult, products: FitProducts, sections: str,
                  kinematic_check: tuple[dict[str, np.ndarray], KinematicCheck] | None = None) -> DropFit:
         """Wrap a converged :class:`~casrecon.estimation.sixdof.fit.FitResult` and its products (and the
-        ``(implied coefficients, check)`` of a kinematic check, when made)."""
+        ``(implied coefficients, check)`` of a kinematic check, when made); the report is the head of
+        :meth:`report_head` and the fit's own ``sections``
+        (:func:`casrecon.report.fit_report.sixdof_sections`, and the check's verdict)."""
         import pandas as pd
 
         params_doc = json_values(parameters_document(fit))  # exactly what parameters.json holds
@@ -267,11 +271,11 @@ class DropFit(FolderViews):
                        for k, t in product_tables(products).items()})
         params = from_document(params_doc, fixed=fixed_dispersions(params_doc["parameters"]))
         return cls(name=fit.scenario.config.name, params=params, trajectory=trajectory,
-                   residuals=_residuals_of(tables), summary=summary, report_text=report_text, tables=tables,
+                   residuals=_residuals_of(tables), summary=summary, report_text="", tables=tables,
                    documents={"parameters.json": params_doc, "summary.json": summary,
                               "imu_sigma.json": dict(products.imu_sigma)},
                    fit=fit, products=products, kinematic_check=None if kinematic_check is None else kinematic_check[1],
-                   implied_aero=None if kinematic_check is None else kinematic_check[0])
+                   implied_aero=None if kinematic_check is None else kinematic_check[0]).with_sections(sections)
 
     @classmethod
     def load(cls, folder: str | Path) -> DropFit:
@@ -301,6 +305,8 @@ class DropFit(FolderViews):
                    source=folder.resolve())
 
     time_columns = TIME_COLUMNS
+    report_kind = "6-DOF"
+    fixed_note = FIXED_DISPERSION_NOTE
 
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"

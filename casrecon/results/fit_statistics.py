@@ -1,27 +1,26 @@
 """What an lmfit user reads off a result, shared by every result object: ``success``, ``chisqr``,
 ``redchi``, ``nfev``, ``nvarys``, ``covar`` and ``correl`` (labelled DataFrames) and ``fit_report()``,
-one report style for every problem kind with the 1- and 3-sigma named.
+in the one report style of every problem kind (:mod:`casrecon.report.report_style`), so that
+``fit_report()`` reads as the ``report.txt`` the command writes (with the default arguments, it is
+that text).
 
 :class:`FitStatistics` is a mixin: a result class that has ``name``, ``params``
 (:class:`~casrecon.results.parameters.Parameters`), ``converged``, ``reduced_chi2``, ``chisqr``,
-``nit`` and ``adequacy`` gets the rest from it.
+``nit``, ``adequacy`` and ``report_text``, and sets ``report_kind`` (and ``fixed_note``), gets the rest
+from it.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+import dataclasses
+from typing import TYPE_CHECKING, ClassVar
 
-import numpy as np
+from casrecon.report.report_style import MAX_CORREL, MIN_CORREL, FitSummary, compose, report_head, sections_after
 
 if TYPE_CHECKING:
     import pandas as pd
 
     from casrecon.results.parameters import Parameters
-
-#: Correlations at or above this magnitude are listed by :meth:`FitStatistics.fit_report` by default.
-MIN_CORREL = 0.5
-#: At most this many correlations are listed by :meth:`FitStatistics.fit_report` by default.
-MAX_CORREL = 10
 
 
 class FitStatistics:
@@ -33,6 +32,12 @@ class FitStatistics:
     reduced_chi2: float
     chisqr: float
     nit: int | None
+    report_text: str
+
+    #: What kind of fit, for ``[[Fit Statistics]]`` (``"6-DOF"``, ...).
+    report_kind: ClassVar[str] = ""
+    #: Why the parameters held fixed are fixed (the line after them in ``[[Variables]]``).
+    fixed_note: ClassVar[str] = ""
 
     @property
     def success(self) -> bool:
@@ -68,8 +73,10 @@ class FitStatistics:
         return self.params.correl
 
     def fit_report(self, min_correl: float = MIN_CORREL, max_correl: int = MAX_CORREL) -> str:
-        """An lmfit-style report: fit statistics, every parameter with its 1-sigma and 3-sigma (the
-        fixed ones marked), the largest correlations, and the model-adequacy verdict.
+        """The report in the one style of every problem kind (:mod:`casrecon.report.report_style`): fit
+        statistics, every parameter with its 1-sigma and 3-sigma named (the fixed ones marked), the
+        largest correlations, then the kind's own sections and the model-adequacy verdict. With the
+        default arguments it is :meth:`report` (``report.txt``).
 
         Parameters
         ----------
@@ -78,43 +85,26 @@ class FitStatistics:
         max_correl : int
             At most this many correlations are listed, largest first.
         """
-        return report_text(self, min_correl, max_correl)
+        return compose(self.report_head(min_correl, max_correl), self.report_sections())
 
+    def report_head(self, min_correl: float = MIN_CORREL, max_correl: int = MAX_CORREL) -> str:
+        """``[[Fit Statistics]]``, ``[[Variables]]`` and ``[[Correlations]]`` of the report, from
+        :attr:`params` and the statistics (:func:`casrecon.report.report_style.report_head`)."""
+        fit = FitSummary(self.name, self.report_kind, self.success, self.nit, self.chisqr, self.redchi)
+        params = self.params
+        return report_head(fit, list(params.values()), params.var_names, params.correlation, min_correl,
+                           max_correl, self.fixed_note)
 
-def report_text(result: FitStatistics, min_correl: float = MIN_CORREL, max_correl: int = MAX_CORREL) -> str:
-    """The text of :meth:`FitStatistics.fit_report` for ``result``."""
-    params = result.params
-    fixed = len(params) - result.nvarys
-    lines = ["[[Fit Statistics]]",
-             f"    fit                = {result.name} ({type(result).__name__})",
-             f"    success            = {result.success}",
-             f"    iterations         = {'not recorded' if result.nit is None else result.nit}",
-             f"    # variables        = {result.nvarys}" + (f" (and {fixed} fixed)" if fixed else ""),
-             f"    chi-square         = {result.chisqr:.8g}",
-             f"    reduced chi-square = {result.redchi:.6g}",
-             "[[Variables]] value +/- 1-sigma (absolute), +/- 3-sigma, [unit]"]
-    width = max([1, *map(len, params)]) + 1
-    for p in (params[n] for n in params):
-        label = f"{p.name}:"
-        if p.vary:
-            lines.append(f"    {label:<{width}} {p.value: .6g} +/- {p.stderr:.4g} (1-sigma), +/- {p.three_sigma:.4g} "
-                         f"(3-sigma) [{p.unit or '-'}]")
-        else:
-            lines.append(f"    {label:<{width}} {p.value: .6g} (fixed) [{p.unit or '-'}]")
-    lines.append(f"[[Correlations]] (unreported correlations are < {min_correl:.3f})")
-    lines += correlation_lines(params, min_correl, max_correl)
-    adequacy = getattr(result, "adequacy", None)
-    if adequacy is not None:
-        lines += ["[[Model adequacy]]", f"    {adequacy.line}"]
-    return "\n".join(lines)
+    def report_sections(self) -> str:
+        """The kind's own sections and the verdict: ``report.txt`` after its head; for a report written
+        in another style (a folder from before issue 52), the model-adequacy verdict alone."""
+        sections = sections_after(self.report_text, self.report_head())
+        if sections is not None:
+            return sections
+        adequacy = self.adequacy
+        return "" if adequacy is None else f"[[Model adequacy]]\n    VERDICT: {adequacy.line}"
 
-
-def correlation_lines(params: Parameters, min_correl: float, max_correl: int) -> list[str]:
-    """``C(a, b) = +0.912`` lines of the largest correlations (|r| >= ``min_correl``), at most ``max_correl``."""
-    names, c = params.var_names, params.correlation
-    if len(names) > 1 and np.all(np.isnan(c[~np.eye(len(names), dtype=bool)])):
-        return ["    not recorded for this kind of fit"]
-    n = len(names)
-    pairs = sorted(((abs(c[i, j]), names[i], names[j], c[i, j]) for i in range(n) for j in range(i + 1, n)
-                    if np.isfinite(c[i, j]) and abs(c[i, j]) >= min_correl), reverse=True)
-    return [f"    C({a}, {b}) = {r:+.3f}" for _, a, b, r in pairs[:max_correl]] or ["    none"]
+    def with_sections(self, sections: str):
+        """A copy whose ``report_text`` is the whole report: the head of :meth:`report_head` and the
+        kind's own ``sections`` (its solver, data notes, ..., model-adequacy verdict)."""
+        return dataclasses.replace(self, report_text=compose(self.report_head(), sections))

@@ -16,7 +16,8 @@ from casrecon.output.joint_results import joint_parameters_document, joint_summa
 from casrecon.output.out_folder import input_paths
 from casrecon.output.results import json_values, save_results_folder
 from casrecon.output.results_reader import read_results_folder, read_text
-from casrecon.results.drop_fit import DropFit, adequacy_of, fixed_dispersions, parameters_of
+from casrecon.report.fit_report import FIXED_DISPERSION_NOTE
+from casrecon.results.drop_fit import DropFit, adequacy_of, fixed_dispersions, parameters_of, report_text
 from casrecon.results.fit_statistics import FitStatistics
 from casrecon.results.parameters import Parameters, from_document
 
@@ -49,6 +50,9 @@ class JointFit(FitStatistics):
         (:attr:`adequacy`), reconciled-simulation differences per drop.
     tables_md : str
         ``tables.md``: shared factors (Table 5 style), per-drop summary, joint vs single sigmas.
+    report_text : str
+        ``report.txt``, the text report in the one style of every kind
+        (:mod:`casrecon.report.report_style`); empty for a folder written before it existed.
     fit : casrecon.estimation.sixdof.joint.JointResult or None
         The estimator's result; None when loaded.
     products : dict of str to FitProducts or None
@@ -72,26 +76,33 @@ class JointFit(FitStatistics):
     products: dict[str, FitProducts] | None = field(default=None)
     single: dict[str, dict[str, float]] = field(default_factory=dict)
     source: Path | None = None
+    report_text: str = ""
+
+    fixed_note = FIXED_DISPERSION_NOTE
 
     @classmethod
     def from_fit(cls, result: JointResult, products: dict[str, FitProducts],
                  single: dict[str, dict[str, float]] | None = None) -> JointFit:
-        """Wrap a :class:`~casrecon.estimation.sixdof.joint.JointResult` and each drop's products."""
-        from casrecon.report.fit_report import fit_report
+        """Wrap a :class:`~casrecon.estimation.sixdof.joint.JointResult` and each drop's products; the
+        report is the head of :meth:`report_head` and the joint fit's own sections
+        (:func:`casrecon.report.joint_report.joint_sections`), each drop's its own."""
+        from casrecon.report.fit_report import sixdof_sections
+        from casrecon.report.joint_report import joint_sections
         from casrecon.report.joint_tables import joint_tables
 
         single = single or {}
         drops = {d.scenario.config.name: DropFit.from_fit(d, products[d.scenario.config.name],
-                                                          fit_report(d, products[d.scenario.config.name].adequacy))
+                                                          sixdof_sections(d, products[d.scenario.config.name].adequacy))
                  for d in result.drops}
         reconciled = {n: products[n].reconciled_summary for n in drops}
         adequacy = joint_adequacy({n: p.adequacy for n, p in products.items() if p.adequacy is not None})
         doc = json_values(joint_parameters_document(result))
         summary = json_values(joint_summary_document(result, single, reconciled, adequacy))
-        return cls(name=result.config.name, params=from_document(doc, fixed=fixed_dispersions(doc["parameters"])),
-                   drops=drops, summary=summary,
-                   tables_md=joint_tables(result, single, reconciled, adequacy), fit=result, products=products,
-                   single=single)
+        joint = cls(name=result.config.name, params=from_document(doc, fixed=fixed_dispersions(doc["parameters"])),
+                    drops=drops, summary=summary,
+                    tables_md=joint_tables(result, single, reconciled, adequacy), fit=result, products=products,
+                    single=single)
+        return joint.with_sections(joint_sections(result, single, reconciled, adequacy))
 
     @classmethod
     def load(cls, folder: str | Path) -> JointFit:
@@ -115,12 +126,18 @@ class JointFit(FitStatistics):
                    params=parameters_of(files, summary.get("reduced_chi2"), held_dispersions=True),
                    drops=drops, summary=summary,
                    tables_md=read_text(tables, "the tables") if tables.is_file() and tables.stat().st_size else "",
-                   single=dict(summary.get("single_drop_sigma") or {}), source=files.folder.resolve())
+                   single=dict(summary.get("single_drop_sigma") or {}), source=files.folder.resolve(),
+                   report_text=report_text(files.folder))
 
     @property
     def converged(self) -> bool:
         """Whether the joint solve converged (always True for a fit that returned)."""
         return bool(self.summary.get("converged"))
+
+    @property
+    def report_kind(self) -> str:
+        """What kind of fit, for ``[[Fit Statistics]]``."""
+        return f"joint 6-DOF of {len(self.drops)} drops"
 
     @property
     def shared(self) -> tuple[str, ...]:
@@ -194,8 +211,11 @@ class JointFit(FitStatistics):
         return adequacy_of(self.summary, self.source, JointAdequacy.from_dict)
 
     def report(self) -> str:
-        """Text report: the joint chi-square and the model-adequacy verdict, then ``tables.md`` (shared
-        factors, per-drop summary, each drop's verdict)."""
+        """The text report of ``casrecon joint`` (``report.txt``): in the one style of every kind, the
+        text of :meth:`fit_report` with its default arguments. A folder written before report.txt
+        existed: the joint chi-square and the model-adequacy verdict, then ``tables.md``."""
+        if self.report_text:
+            return self.report_text
         head = (f"[[Joint fit: {self.name}]] {len(self.drops)} drops, shared {', '.join(self.shared) or 'none'}; "
                 f"chi-square {self.summary.get('chi2', float('nan')):.1f}, dof {self.summary.get('dof')}, "
                 f"reduced chi-square {self.reduced_chi2:.4f}")
@@ -214,7 +234,8 @@ class JointFit(FitStatistics):
         ValueError for a loaded result (:meth:`save` copies its folder)."""
         if self.fit is None or self.products is None:
             raise ValueError(f"{self.name}: a loaded result has no fit to write; save() copies its folder")
-        write_joint_results(out, self.fit, self.single, self.products)
+        write_joint_results(out, self.fit, self.single, self.products, self.report_text,
+                            {name: drop.report_text for name, drop in self.drops.items()})
 
     def draw(self, out: Path, formats: Sequence[str] | None = None, notes: list[str] | None = None) -> None:
         """Draw every drop's and the joint figures of the folder ``out`` (written by :meth:`write`), in

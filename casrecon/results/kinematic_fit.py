@@ -73,16 +73,17 @@ class KinematicFit(FolderViews):
     site: Site | None = None
 
     @classmethod
-    def from_fit(cls, result: KinematicResult, report_text: str, site: Site, problem_path: Path | None,
+    def from_fit(cls, result: KinematicResult, sections: str, site: Site, problem_path: Path | None,
                  name: str, adequacy: dict | None) -> KinematicFit:
         """Wrap a fresh result (through its results files, so a fresh and a loaded result hold the
-        same tables)."""
+        same tables); the report is the head of :meth:`report_head` and the fit's own ``sections``
+        (:func:`casrecon.report.kinematic_report.kinematic_sections`)."""
         with tempfile.TemporaryDirectory(prefix="casrecon-kin-") as tmp:
-            write_kinematic_results(Path(tmp), result, report_text, site, problem_path, name, adequacy)
+            write_kinematic_results(Path(tmp), result, sections, site, problem_path, name, adequacy)
             loaded = cls.load(tmp)
         return cls(name=loaded.name, params=loaded.params, trajectory=loaded.trajectory,
-                   residuals=loaded.residuals, summary=loaded.summary, report_text=loaded.report_text,
-                   fit=result, problem_path=problem_path, site=site)
+                   residuals=loaded.residuals, summary=loaded.summary, report_text="",
+                   fit=result, problem_path=problem_path, site=site).with_sections(sections)
 
     @classmethod
     def load(cls, folder: str | Path) -> KinematicFit:
@@ -99,6 +100,7 @@ class KinematicFit(FolderViews):
                    report_text=report_text(files.folder), source=files.folder.resolve())
 
     time_columns = TIME_COLUMNS
+    report_kind = "kinematic, IMU-driven"
 
     def __repr__(self) -> str:
         state = "converged" if self.converged else "NOT converged"

@@ -92,10 +92,12 @@ class Parameters(Mapping[str, Parameter]):
     """The parameters of a fit: a read-only mapping name -> :class:`Parameter`, the estimated ones in
     fit order, then those held fixed (``vary`` False), as lmfit's ``Parameters`` holds both.
 
-    Iterating gives every name; ``var_names`` (also ``names``), ``values``, ``stderr`` (also
-    ``sigma``) and ``correlation`` give the estimated parameters' names and arrays in fit order;
-    :meth:`valuesdict` every value; :attr:`covar` and :attr:`correl` the covariance and correlation
-    as labelled DataFrames; :meth:`to_frame` a DataFrame of every record; :meth:`pretty_print` a table.
+    As a Mapping, iterating gives every name and ``keys()``, ``values()`` (the :class:`Parameter`
+    records) and ``items()`` cover every parameter; ``var_names`` (also ``names``), ``var_values``,
+    ``stderr`` (also ``sigma``) and ``correlation`` give the estimated parameters' names and arrays
+    in fit order; :meth:`valuesdict` every value by name; :attr:`covar` and :attr:`correl` the
+    covariance and correlation as labelled DataFrames; :meth:`to_frame` a DataFrame of every record;
+    :meth:`pretty_print` a table.
     """
 
     def __init__(self, records: tuple[Parameter, ...], correlation: np.ndarray):
@@ -144,8 +146,9 @@ class Parameters(Mapping[str, Parameter]):
         return self.var_names
 
     @property
-    def values(self) -> np.ndarray:
-        """Estimates in fit order (each in its unit), of the estimated parameters."""
+    def var_values(self) -> np.ndarray:
+        """Estimates of the estimated parameters (``vary`` True) in fit order, as an ndarray (each in
+        its unit); the order of :attr:`var_names`. (``values()`` is the Mapping's: every record.)"""
         return np.array([self._records[n].value for n in self.var_names])
 
     @property

@@ -77,18 +77,19 @@ class PointMassFit(FolderViews):
     fit_verdict: Adequacy | None = None
 
     @classmethod
-    def from_fit(cls, main: PointMassResult, constant: PointMassResult, report_text: str,
+    def from_fit(cls, main: PointMassResult, constant: PointMassResult, sections: str,
                  adequacy: Adequacy | None = None) -> PointMassFit:
         """Wrap the fitted and the constant-drag results (through their results files, so a fresh
         and a loaded result hold the same tables) and the fitted model's verdict (computed here from
-        ``main`` when not given)."""
+        ``main`` when not given); the report is the head of :meth:`report_head` and the fit's own
+        ``sections`` (:func:`casrecon.report.pointmass_report.pointmass_sections`)."""
         adequacy = pointmass_adequacy(main) if adequacy is None else adequacy
         with tempfile.TemporaryDirectory(prefix="casrecon-pm-") as tmp:
-            write_pointmass_results(Path(tmp), main, constant, report_text, adequacy)
+            write_pointmass_results(Path(tmp), main, constant, sections, adequacy)
             loaded = cls.load(tmp)
         return cls(name=loaded.name, params=loaded.params, trajectory=loaded.trajectory,
-                   residuals=loaded.residuals, summary=loaded.summary, report_text=loaded.report_text,
-                   fit=main, constant=constant, fit_verdict=adequacy)
+                   residuals=loaded.residuals, summary=loaded.summary, report_text="",
+                   fit=main, constant=constant, fit_verdict=adequacy).with_sections(sections)
 
     @classmethod
     def load(cls, folder: str | Path) -> PointMassFit:
@@ -105,6 +106,7 @@ class PointMassFit(FolderViews):
                    report_text=report_text(files.folder), source=files.folder.resolve())
 
     time_columns = TIME_COLUMNS
+    report_kind = "point-mass, GPS-only"
 
     @property
     def reduced_chi2(self) -> float:

@@ -26,6 +26,7 @@ from casrecon.cli import main
 from casrecon.cli_montecarlo import run_montecarlo_command
 from casrecon.estimation.sixdof.joint import JointConfig, fit_joint
 from casrecon.io.flysight import read_flysight
+from casrecon.io.truth_trajectory import read_truth_trajectory
 from casrecon.io.units import unit_of, unnamed_columns, unnamed_json_numbers
 from casrecon.output.consistency import write_consistency
 from casrecon.report.results_folder import read_csv
@@ -145,9 +146,12 @@ def test_simulated_trajectory_is_on_the_release_utc_and_site(simulate_folder):
     import pandas as pd
 
     tr = pd.read_csv(simulate_folder / "trajectory.csv", parse_dates=["utc"])
+    # issue 52: the flight time has the name every kind gives it (casrecon/io/units.py), no alias
+    assert [c for c in tr.columns if "time" in c] == ["flight_time_s", "time_unix_s"]
+    pd.testing.assert_frame_equal(read_truth_trajectory(simulate_folder / "trajectory.csv"), tr)
     cfg = Scenario.load(PROBLEMS / "ees-drop-2").config
     assert tr["utc"].iloc[0] == pd.Timestamp(cfg.release.time_utc)
-    np.testing.assert_allclose(tr["time_unix_s"] - tr["time_s"], cfg.release.time_utc.timestamp(), atol=1e-6)
+    np.testing.assert_allclose(tr["time_unix_s"] - tr["flight_time_s"], cfg.release.time_utc.timestamp(), atol=1e-6)
     lat, lon, h = pymap3d.ned2geodetic(tr["pos_n_m"], tr["pos_e_m"], tr["pos_d_m"], cfg.site.lat_deg,
                                        cfg.site.lon_deg, cfg.site.ground_alt_msl_m)
     np.testing.assert_allclose(tr["latitude_deg"], lat, rtol=0, atol=1e-8)
@@ -242,6 +246,27 @@ def test_trajectory_utc_is_the_gps_receiver_clock(drop_folder):
     seconds = (tr["utc"] - pd.Timestamp("1970-01-01", tz="UTC")).dt.total_seconds()
     np.testing.assert_allclose(seconds, tr["time_unix_s"], rtol=0, atol=1e-6)
     assert (fit.trajectory["utc"] == casrecon.load_results(folder).trajectory["utc"]).all()
+
+
+def test_joint_folder_has_a_report_in_the_one_style(joint_folder):
+    """Issue 52: a joint folder has report.txt (it had only the Markdown tables.md) in the report style of
+    every kind, which the API's fit_report() gives back; so has each drop's folder."""
+    text = (joint_folder / "report.txt").read_text().rstrip("\n")
+    loaded = casrecon.load_results(joint_folder)
+    assert loaded.fit_report() == loaded.report() == text
+    lines = text.splitlines()
+    titles = [ln.split("]]")[0] + "]]" for ln in lines if ln.startswith("[[")]
+    assert titles == ["[[Fit Statistics]]", "[[Variables]]", "[[Correlations]]", "[[Solver]]", "[[Drops]]",
+                      "[[Joint vs single-drop sigma]]", "[[Model adequacy]]"]
+    assert lines[1] == "    fit                = pair (joint 6-DOF of 2 drops)"
+    assert lines[-1] == f"    VERDICT: {loaded.adequacy.line}"
+    p = loaded.params["CA_mult"]
+    line = next(ln for ln in lines if ln.startswith("    CA_mult:"))
+    assert f" {p.value: .6g} +/- {p.stderr:.4g} (1-sigma), +/- {3 * p.stderr:.4g} (3-sigma) [-]" in line
+    assert any(ln.startswith("    ees-drop-2.gyro_bias_x:") and "[deg/s]" in ln for ln in lines)
+    for name, drop in loaded.drops.items():
+        assert drop.fit_report() == drop.report() == (joint_folder / "drops" / name / "report.txt").read_text().rstrip()
+        assert drop.report().startswith(f"[[Fit Statistics]]\n    fit                = {name} (6-DOF)")
 
 
 def test_joint_summary_reduced_chi2_is_over_the_joint_dof(joint_folder):

@@ -46,6 +46,7 @@ from casrecon.io.errors import InputError
 from casrecon.io.kinematic_problem import load_kinematic
 from casrecon.io.sample_sensors import SampleSensor
 from casrecon.io.toml_fields import Fields, read_toml
+from casrecon.io.truth_trajectory import read_truth_trajectory
 from casrecon.physics.rotations import dcm_body_to_ned, dcm_body_to_ned_array
 from casrecon.scenario import Scenario
 
@@ -89,13 +90,11 @@ class SecondAntenna:
 def truth_samples(lever_body_m: np.ndarray, seed: int = 48) -> SampleSet:
     """Antenna-2 positions at RATE_HZ over ees-drop-1's flight from its truth trajectory (centre of
     mass, body to NED), stamped on the receiver's clock, with BIAS_TRUE and white noise."""
-    import pandas as pd
-
-    tr = pd.read_csv(PROBLEMS / "ees-drop-1" / "data" / "trajectory.csv")
-    t_rel, t_end = float(tr["time_unix_s"].iloc[0]), float(tr["time_s"].iloc[-1])
+    tr = read_truth_trajectory(PROBLEMS / "ees-drop-1" / "data" / "trajectory.csv")
+    t_rel, t_end = float(tr["time_unix_s"].iloc[0]), float(tr["flight_time_s"].iloc[-1])
     t = np.arange(0.1, t_end - 0.1, 1.0 / RATE_HZ)  # flight time, s (between the GPS fixes)
-    pos = np.column_stack([np.interp(t, tr["time_s"], tr[f"pos_{a}_m"]) for a in AXES])
-    q = np.column_stack([np.interp(t, tr["time_s"], tr[f"q{i}"]) for i in range(4)])
+    pos = np.column_stack([np.interp(t, tr["flight_time_s"], tr[f"pos_{a}_m"]) for a in AXES])
+    q = np.column_stack([np.interp(t, tr["flight_time_s"], tr[f"q{i}"]) for i in range(4)])
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     c = dcm_body_to_ned_array(q)
     rng = np.random.default_rng(seed)
@@ -270,11 +269,9 @@ def test_a_kind_needing_the_air_velocity_refuses_the_kinematic_fit(scenario):
 def test_a_kind_needing_the_air_velocity_fits_in_the_sixdof_fit(scenario):
     """The airspeed kind in the 6-DOF fit, its samples the truth's airspeed with 0.3 m/s noise: the
     air velocity the flight model gives at the samples whitens them to unit variance."""
-    import pandas as pd
-
-    tr = pd.read_csv(PROBLEMS / "ees-drop-1" / "data" / "trajectory.csv")
-    t = np.arange(0.15, float(tr["time_s"].iloc[-1]) - 0.1, 0.2)
-    speed = np.interp(t, tr["time_s"], tr["airspeed_mps"]) + 0.3 * np.random.default_rng(5).normal(size=t.size)
+    tr = read_truth_trajectory(PROBLEMS / "ees-drop-1" / "data" / "trajectory.csv")
+    t = np.arange(0.15, float(tr["flight_time_s"].iloc[-1]) - 0.1, 0.2)
+    speed = np.interp(t, tr["flight_time_s"], tr["airspeed_mps"]) + 0.3 * np.random.default_rng(5).normal(size=t.size)
     kind = Pitot(SampleSet(float(tr["time_unix_s"].iloc[0]) + t, speed[:, None], np.full((t.size, 1), 0.3), "pitot"))
     result = fit_drop(scenario, sample_kinds=(kind,))
     n = result.n_measurements["pitot"]

@@ -70,8 +70,8 @@ def test_every_angle_and_rate_column_and_parameter_is_in_degrees(folders, kind):
         assert params["gyro_bias_z"]["sigma"] == pytest.approx(np.degrees(raw.sigma[i]), rel=1e-12)
         assert fit.params["gyro_bias_z"].value == params["gyro_bias_z"]["value"]
         assert fit.params["gyro_bias_z"].unit == "deg/s"
-        line = next(ln for ln in fit.report().splitlines() if ln.startswith("gyro_bias_z "))
-        assert line.endswith("deg/s") and f"{np.degrees(raw.values[i]):.5g}" in line
+        line = next(ln for ln in fit.report().splitlines() if ln.startswith("    gyro_bias_z:"))
+        assert "[deg/s]" in line and f"{np.degrees(raw.values[i]): .6g}" in line
 
 
 @pytest.mark.parametrize("kind", ["6-DOF", "point-mass", "kinematic"])
@@ -98,6 +98,55 @@ def test_time_columns_have_one_name_per_quantity_and_agree(folders, kind):
         assert fit.sample(column, t, time="time_s")[column].equals(fit.sample(column, t)[column])
     for name, table in fit.tables.items() if hasattr(fit, "tables") else ():
         assert not {"time_s", "clock_s"} & set(table.columns), name
+
+
+@pytest.mark.parametrize("kind", ["6-DOF", "point-mass", "kinematic"])
+def test_every_kind_writes_one_report_style_and_fit_report_is_report_txt(folders, kind):
+    """Issue 52: report.txt of every kind starts with [[Fit Statistics]], [[Variables]] (value, 1- and
+    3-sigma named) and [[Correlations]], then the kind's own sections and the verdict last; the API's
+    fit_report() is that text, fresh and loaded."""
+    folder, fit = folders[kind]
+    text = (folder / "report.txt").read_text().rstrip("\n")
+    loaded = casrecon.load_results(folder)
+    assert fit.fit_report() == fit.report() == text == loaded.fit_report() == loaded.report()
+    lines = text.splitlines()
+    titles = [ln.split("]]")[0] + "]]" for ln in lines if ln.startswith("[[")]
+    assert titles[:3] == ["[[Fit Statistics]]", "[[Variables]]", "[[Correlations]]"]
+    assert titles[-1] == "[[Model adequacy]]" and lines[-1] == f"    VERDICT: {fit.adequacy.line}"
+    assert len(titles) > 4  # the kind's own sections
+    assert f"    reduced chi-square = {fit.redchi:.6g}" in lines and f"    iterations         = {fit.nfev}" in lines
+    variables = lines[lines.index(next(ln for ln in lines if ln.startswith("[[Variables]]"))) + 1:]
+    for name in fit.params:
+        p = fit.params[name]
+        line = next(ln for ln in variables if ln.startswith(f"    {name}:"))
+        if p.fixed:
+            assert line.endswith(f" {p.value: .6g} (fixed) [{p.unit}]"), line
+        else:
+            assert f" {p.value: .6g} +/- {p.stderr:.4g} (1-sigma), +/- {3 * p.stderr:.4g} (3-sigma) [{p.unit}]" in line
+    # other correlation limits change the list, not the rest
+    fewer = fit.fit_report(min_correl=0.999, max_correl=1)
+    assert fewer.split("[[Correlations]]")[0] == text.split("[[Correlations]]")[0]
+    assert fewer.split("\n[[", 3)[-1] == text.split("\n[[", 3)[-1]
+
+
+def test_kinematic_residual_files_have_the_time_columns_of_the_other_kinds(folders):
+    """Issue 52: residuals_gps.csv of a kinematic fit had no time column; now both residual files
+    have the clock (``time_unix_s`` here, a UTC clock) and ``segment_time_s``, as a point-mass fit's."""
+    folder, fit = folders["kinematic"]
+    tr = pd.read_csv(folder / "trajectory.csv")
+    for name in ("residuals_imu.csv", "residuals_gps.csv"):
+        res = pd.read_csv(folder / name)
+        assert [c for c in res.columns if c in TIME_NAMES] == ["time_unix_s", "segment_time_s"], name
+        np.testing.assert_allclose(res["segment_time_s"], res["time_unix_s"] - tr["time_unix_s"].iloc[0], rtol=0,
+                                   atol=2e-6)
+        assert res["segment_time_s"].is_monotonic_increasing and res["segment_time_s"].iloc[0] >= 0.0
+    # every interval residual is at its start node; the nodes sit on the fixes: every fix residual at a node
+    imu = pd.read_csv(folder / "residuals_imu.csv")
+    np.testing.assert_allclose(imu["segment_time_s"], tr["segment_time_s"].iloc[:-1], rtol=0, atol=1e-6)
+    gps = pd.read_csv(folder / "residuals_gps.csv")
+    gap = np.abs(gps["segment_time_s"].to_numpy()[:, None] - tr["segment_time_s"].to_numpy()[None, :]).min(axis=1)
+    assert gap.max() < 1e-6 and len(gps) > 100
+    assert {"time_unix_s", "segment_time_s"} <= set(fit.residuals["gps"].columns)
 
 
 @pytest.mark.parametrize("kind", ["6-DOF", "point-mass", "kinematic"])

@@ -88,6 +88,17 @@ def test_parameter_records(loaded):
     assert set(loaded.residuals) == {"imu"} and "ax_residual_mps2" in loaded.residuals["imu"]
 
 
+def test_parameters_is_a_mapping_whose_values_are_the_records(loaded):
+    """Issue 52: ``values()`` is the Mapping's method (every record, the fixed ones included), not an
+    ndarray property hiding it; the estimated values in fit order are ``var_values``."""
+    params = loaded.params
+    assert list(params.values()) == [params[n] for n in params]
+    assert list(params.items()) == [(n, params[n]) for n in params] and list(params.keys()) == list(params)
+    assert dict(params) == {n: params[n] for n in params}
+    np.testing.assert_array_equal(params.var_values, [params[n].value for n in params.var_names])
+    assert params.var_values.shape == (len(NAMES),)
+
+
 def test_sample_interpolates_values_and_3sigma(loaded):
     t = [1.0, 1.5, 10.99]
     out = loaded.sample(["h_agl_m", "alpha_t_deg"], t)

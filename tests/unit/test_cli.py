@@ -21,11 +21,11 @@ def test_simulate_writes_trajectory_and_summary(tmp_path, capsys):
     assert isinstance(summary["flight_time_s"], float) and isinstance(summary["impact_speed_mps"], float)
     assert len(summary["impact_euler_deg"]) == 3 and len(summary["max_abs_rate_dps"]) == 3
     header = (out / "trajectory.csv").read_text().splitlines()[0].split(",")
-    assert header[:6] == ["time_s", "time_unix_s", "utc", "latitude_deg", "longitude_deg", "h_msl_m"]
+    assert header[:6] == ["flight_time_s", "time_unix_s", "utc", "latitude_deg", "longitude_deg", "h_msl_m"]
     tr = read_csv(out / "trajectory.csv")
     # 500 Hz samples, the last one at impact with the summary's time and speed
-    assert np.diff(tr["time_s"][1:-1]) == pytest.approx(0.002, abs=1e-9)
-    assert tr["time_s"][-1] == pytest.approx(summary["flight_time_s"], abs=1e-6)
+    assert np.diff(tr["flight_time_s"][1:-1]) == pytest.approx(0.002, abs=1e-9)
+    assert tr["flight_time_s"][-1] == pytest.approx(summary["flight_time_s"], abs=1e-6)
     speed = np.linalg.norm([tr[f"vel_{c}_mps"][-1] for c in "ned"])
     assert speed == pytest.approx(summary["impact_speed_mps"], rel=1e-6)
     assert abs(tr["h_agl_m"][-1]) < 1e-6
@@ -54,4 +54,4 @@ def test_every_thins_the_history_but_keeps_impact(tmp_path):
     assert main(["simulate", str(src / "ees-drop-2"), "--out", str(out), "--every", "50"]) == 0
     tr = read_csv(out / "trajectory.csv")
     assert abs(tr["h_agl_m"][-1]) < 1e-6  # impact row kept
-    assert np.diff(tr["time_s"][1:-1]) == pytest.approx(0.1, abs=1e-9)
+    assert np.diff(tr["flight_time_s"][1:-1]) == pytest.approx(0.1, abs=1e-9)
