@@ -140,11 +140,12 @@ def test_sounding_pair_differences_have_real_size():
 
 
 def test_a_pair_of_other_days_or_sites_is_refused(tmp_path):
-    days = SoundingPair("Norman 2011-05-22 and 2023-05-22", "20110522_OUN_12Z.txt",
-                        "OUN_72357_2023-05-22_12Z_wyoming.csv")
+    days = SoundingPair("Norman 2011-05-22 and 2023-05-22", "soundings/20110522_OUN_12Z.txt",
+                        "soundings/OUN_72357_2023-05-22_12Z_wyoming.csv")
     with pytest.raises(ValueError, match="h apart; expected the later 3 to 24 h after the earlier"):
         pair_difference(days)
     first, second = SOUNDING_PAIRS[1].first, SOUNDING_PAIRS[1].second  # Utqiagvik, 12 h apart
+    (tmp_path / "sounding-pairs").mkdir()
     (tmp_path / first).write_text((SOUNDING_DIR / first).read_text())
     (tmp_path / second).write_text((SOUNDING_DIR / second).read_text().replace("lat 71.2889", "lat 40.19", 1))
     with pytest.raises(ValueError, match="the two files give different places"):
