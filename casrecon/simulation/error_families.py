@@ -23,6 +23,11 @@ drawn from other shapes, spectra and grids:
   outside the fit's search range;
 - ``gps-steps``: position steps at satellite changes (every 8 s on average, each component a
   normal step of the stated 1-sigma), plus the stated white noise;
+- ``sounding-pair``: the flown air differs from the sounding as one real sounding of a site differs
+  from another of the same site a few hours later (:data:`SOUNDING_PAIRS`, real launches shipped in
+  ``tests/data/realdata``): wind north, wind east and relative density of the later
+  minus the earlier, both taken at the same height above their own lowest level, with the
+  difference's mean over the flown heights removed (see :func:`sounding_pair`);
 - ``none``: the world is the model (the flown air is the sounding, GPS errors white).
 
 Each family draws from its own random stream ``(seed, 7, crc32(name))`` and never touches the simulator's
@@ -32,12 +37,17 @@ main streams, so the IMU and GPS white noise of a drop are the same in every fam
 
 from __future__ import annotations
 
+import functools
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from casrecon.io.sounding import read_sounding
+from casrecon.io.sounding_levels import Sounding
+from casrecon.physics.atmosphere import level_vapour_pressure, moist_density
 from casrecon.simulation.model_errors import ProfileError, unit_gauss_markov
 
 #: Constant of the von Karman spectrum: (1 + (1.339 L Omega)^2)^(-5/6).
@@ -241,6 +251,151 @@ def gps_steps(span: Span, rng: np.random.Generator, mean_interval_s: float = 8.0
     return SyntheticWorld("gps-steps", gps_factors=factors)
 
 
+#: Where the real soundings of :data:`SOUNDING_PAIRS` are (the repository's real measured data).
+SOUNDING_DIR = Path(__file__).resolve().parents[2] / "tests" / "data" / "realdata"
+#: How far apart in time (h) the two launches of a pair may be.
+PAIR_HOURS = (3.0, 24.0)
+#: Altitude step (m) of a pair's difference profile and of the family's grid.
+PAIR_STEP_M = 5.0
+
+
+@dataclass(frozen=True)
+class SoundingPair:
+    """Two real soundings of one site a few hours apart: the earlier (``first``) and the later
+    (``second``), each a file of :data:`SOUNDING_DIR` (or of the directory given) and its 0-based
+    IGRA2 launch (ignored by the other formats)."""
+
+    name: str
+    first: str
+    second: str
+    first_launch: int = 0
+    second_launch: int = 0
+
+
+#: The real pairs the ``sounding-pair`` family draws from (provenance and licences:
+#: ``tests/data/realdata/README.md``).
+SOUNDING_PAIRS = (
+    SoundingPair("Utqiagvik AK 2010-06-01 00Z to 12Z (IGRA2)", "soundings/USM00070026-data.txt",
+                 "soundings/USM00070026-data.txt", 0, 1),
+    SoundingPair("Utqiagvik AK 2014-09-10 00Z to 12Z (IGRA2 derived)",
+                 "sounding-pairs/BRW_USM00070026_2014-09-10_00Z.csv",
+                 "sounding-pairs/BRW_USM00070026_2014-09-10_12Z.csv"),
+    SoundingPair("Nashville TN 2014-02-20 12Z to 02-21 12Z (Wyoming)",
+                 "sounding-pairs/BNA_72327_2014-02-20_12Z_wyoming.txt",
+                 "sounding-pairs/BNA_72327_2014-02-21_12Z_wyoming.txt"),
+)
+
+
+@dataclass(frozen=True)
+class PairDifference:
+    """Later-minus-earlier sounding of a :class:`SoundingPair` against height above each one's
+    lowest level.
+
+    Attributes
+    ----------
+    pair : SoundingPair
+    hours : float
+        Time between the launches, h (from the files' own dates).
+    height_agl_m : ndarray
+        Height above the lowest level, m, uniform (:data:`PAIR_STEP_M`) from 0 to the lower of the
+        two tops.
+    wind_north_mps, wind_east_mps : ndarray
+        Wind difference, m/s.
+    density : ndarray
+        Relative density difference rho_later / rho_earlier - 1.
+    """
+
+    pair: SoundingPair
+    hours: float
+    height_agl_m: np.ndarray
+    wind_north_mps: np.ndarray
+    wind_east_mps: np.ndarray
+    density: np.ndarray
+
+
+def _same_site(a: Sounding, b: Sounding) -> bool:
+    oa, ob = a.origin, b.origin
+    if oa.lat_deg is None or ob.lat_deg is None:
+        return True  # the files do not say where; the pair's name and README do
+    return abs(oa.lat_deg - ob.lat_deg) < 0.1 and abs(oa.lon_deg - ob.lon_deg) < 0.1
+
+
+@functools.lru_cache(maxsize=32)
+def pair_difference(pair: SoundingPair, directory: Path = SOUNDING_DIR) -> PairDifference:
+    """Read a pair's two soundings (:func:`casrecon.io.sounding.read_sounding`) and difference them.
+
+    Each sounding is referred to its own lowest usable level (its surface: the two launches of
+    a site start at the same height up to the launch-pad, and a lowest level below the ground
+    would be dropped for its missing values); wind north, wind east and the natural log of the
+    moist density (:func:`casrecon.physics.atmosphere.moist_density`, humidity from the dewpoints)
+    are interpolated linearly in that height, the same as the fit's atmosphere resamples levels,
+    onto a :data:`PAIR_STEP_M` grid; the difference is later minus earlier.
+
+    Raises
+    ------
+    InputError
+        A file that cannot be read (named, with the line).
+    ValueError
+        Launch times (from the files) not :data:`PAIR_HOURS` apart, or two different places.
+    """
+    a = read_sounding(Path(directory) / pair.first, pair.first_launch)
+    b = read_sounding(Path(directory) / pair.second, pair.second_launch)
+    ta, tb = a.origin.time_unix_s, b.origin.time_unix_s
+    if ta is None or tb is None:
+        raise ValueError(f"sounding pair {pair.name!r}: a file gives no launch time")
+    hours = (tb - ta) / 3600.0
+    if not PAIR_HOURS[0] <= hours <= PAIR_HOURS[1]:
+        raise ValueError(f"sounding pair {pair.name!r}: the launches are {hours:g} h apart; expected the "
+                         f"later {PAIR_HOURS[0]:g} to {PAIR_HOURS[1]:g} h after the earlier")
+    if not _same_site(a, b):
+        raise ValueError(f"sounding pair {pair.name!r}: the two files give different places")
+    top = min(a.altitude_msl_m[-1] - a.altitude_msl_m[0], b.altitude_msl_m[-1] - b.altitude_msl_m[0])
+    h = np.arange(0.0, top + 1e-9, PAIR_STEP_M)
+
+    def on_grid(s: Sounding) -> np.ndarray:
+        e = level_vapour_pressure(s.altitude_msl_m, s.pressure_pa, s.dewpoint_k)
+        rho = s.density_kgm3 if s.density_kgm3 is not None else moist_density(s.pressure_pa, s.temperature_k, e)
+        agl = s.altitude_msl_m - s.altitude_msl_m[0]
+        return np.array([np.interp(h, agl, v) for v in (s.wind_north_mps, s.wind_east_mps, np.log(rho))])
+
+    d = on_grid(b) - on_grid(a)
+    return PairDifference(pair, hours, h, d[0], d[1], np.expm1(d[2]))
+
+
+def sounding_pair(span: Span, rng: np.random.Generator, pairs: tuple[SoundingPair, ...] = SOUNDING_PAIRS,
+                  directory: Path = SOUNDING_DIR) -> SyntheticWorld:
+    """The flown air = the sounding + a real pair's difference (:func:`pair_difference`).
+
+    Each seed draws one of ``pairs`` (uniformly) and a sign (+1: later minus earlier, -1: earlier
+    minus later; both are differences a sounding hours old shows). The difference is placed at the
+    same height above the drop's ground as above the pair's surface (held at its surface value
+    below the ground), on a :data:`PAIR_STEP_M` grid, and its mean over the flown heights (ground to
+    release) is removed from each of wind north, wind east and density: a constant offset is what
+    the fit's wind biases and density factor are for, and the truth's values of those parameters
+    stay the ones drawn from their priors; what is left is the difference's shape over the drop.
+
+    Raises
+    ------
+    ValueError
+        A pair whose soundings do not reach the span's top above their surface (and as
+        :func:`pair_difference`).
+    """
+    pair = pairs[int(rng.integers(len(pairs)))]
+    sign = float(rng.choice([-1.0, 1.0]))
+    diff = pair_difference(pair, Path(directory))
+    h = _grid(span.lo_msl_m, span.hi_msl_m, PAIR_STEP_M)
+    agl = np.clip(h - span.ground_msl_m, 0.0, None)
+    if agl[-1] > diff.height_agl_m[-1]:
+        raise ValueError(f"sounding pair {pair.name!r} reaches {diff.height_agl_m[-1]:g} m above its surface; "
+                         f"the drop needs {agl[-1]:g} m")
+    flown = (h >= span.ground_msl_m) & (h <= span.release_msl_m)
+    out = []
+    for v in (diff.wind_north_mps, diff.wind_east_mps, diff.density):
+        x = sign * np.interp(agl, diff.height_agl_m, v)
+        out.append(x - x[flown].mean())
+    return SyntheticWorld("sounding-pair", _profile(h, *out))
+
+
 def no_error(span: Span, rng: np.random.Generator) -> SyntheticWorld:
     """The world is the model: the ``[truth]``'s profile error (none, on a problem without one),
     white GPS errors."""
@@ -263,11 +418,12 @@ FAMILIES: dict[str, Callable[[Span, np.random.Generator], SyntheticWorld]] = {
     "gps-random-walk": gps_random_walk,
     "gps-long-time": gps_long_time,
     "gps-steps": gps_steps,
+    "sounding-pair": sounding_pair,
     "none": no_error,
 }
 #: The atmosphere families: their data's GPS errors are white (the family is the only model error).
 ATMOSPHERE_FAMILIES = ("turbulence", "turbulence-altitude", "turbulence-time", "fine-grid", "coarse-grid",
-                       "density-ramp", "wind-jet")
+                       "density-ramp", "wind-jet", "sounding-pair")
 
 
 def family_world(name: str, span: Span, seed: int) -> SyntheticWorld:

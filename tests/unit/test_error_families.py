@@ -6,7 +6,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from casrecon.simulation.error_families import FAMILIES, Span, family_world, von_karman_series
+from casrecon.io.sounding import read_sounding
+from casrecon.physics.atmosphere import Atmosphere
+from casrecon.simulation.error_families import (
+    FAMILIES,
+    SOUNDING_DIR,
+    SOUNDING_PAIRS,
+    SoundingPair,
+    Span,
+    family_world,
+    pair_difference,
+    sounding_pair,
+    von_karman_series,
+)
 
 SPAN = Span(lo_msl_m=1210.0, hi_msl_m=3000.0, ground_msl_m=1310.0, release_msl_m=2900.0, flight_s=40.0)
 
@@ -74,3 +86,70 @@ def test_atmosphere_families_have_their_shapes():
 def test_unknown_family_is_refused():
     with pytest.raises(ValueError, match="unknown error family 'gusty'"):
         family_world("gusty", SPAN, 0)
+
+
+def test_sounding_pairs_are_one_site_hours_apart():
+    assert len(SOUNDING_PAIRS) >= 3
+    for pair in SOUNDING_PAIRS:
+        a = read_sounding(SOUNDING_DIR / pair.first, pair.first_launch)
+        b = read_sounding(SOUNDING_DIR / pair.second, pair.second_launch)
+        assert 3 * 3600 <= b.origin.time_unix_s - a.origin.time_unix_s <= 24 * 3600, pair.name
+        assert abs(a.altitude_msl_m[0] - b.altitude_msl_m[0]) < 20.0, pair.name  # one launch site
+        if a.origin.lat_deg is not None:
+            assert (a.origin.lat_deg, a.origin.lon_deg) == (b.origin.lat_deg, b.origin.lon_deg), pair.name
+
+
+def _real_difference(pair: SoundingPair, agl_m: np.ndarray) -> np.ndarray:
+    """Later minus earlier at heights above each sounding's lowest level, straight from their levels."""
+    out = []
+    for name, launch in ((pair.second, pair.second_launch), (pair.first, pair.first_launch)):
+        s = read_sounding(SOUNDING_DIR / name, launch)
+        rho = Atmosphere.from_sounding(s).levels["density_kgm3"]
+        h = s.altitude_msl_m - s.altitude_msl_m[0]
+        out.append([np.interp(agl_m, h, v) for v in (s.wind_north_mps, s.wind_east_mps, np.log(rho))])
+    d = np.array(out[0]) - np.array(out[1])
+    return np.vstack([d[:2], np.expm1(d[2])])
+
+
+def test_sounding_pair_world_is_a_real_pairs_difference_without_its_mean():
+    drawn = set()
+    for seed in range(12):
+        p = family_world("sounding-pair", SPAN, seed).profile_error
+        flown = (p.altitude_msl_m >= SPAN.ground_msl_m) & (p.altitude_msl_m <= SPAN.release_msl_m)
+        got = np.array([p.wind_north_mps, p.wind_east_mps, p.density])
+        agl = np.clip(p.altitude_msl_m - SPAN.ground_msl_m, 0.0, None)
+        matches = []
+        for k, pair in enumerate(SOUNDING_PAIRS):
+            real = _real_difference(pair, agl)
+            for sign in (1, -1):
+                want = sign * real - sign * real[:, flown].mean(axis=1, keepdims=True)
+                if np.allclose(got, want, rtol=0, atol=1e-9):
+                    matches.append((k, sign))
+        assert len(matches) == 1, (seed, matches)
+        drawn.add(matches[0])
+        assert np.allclose(got[:, flown].mean(axis=1), 0.0, atol=1e-12)
+        assert np.all(got[:, agl == 0] == got[:, agl == 0][:, :1])  # held below the ground
+    assert len({k for k, _ in drawn}) == len(SOUNDING_PAIRS) and {s for _, s in drawn} == {1, -1}
+
+
+def test_sounding_pair_differences_have_real_size():
+    d = pair_difference(SOUNDING_PAIRS[1])  # Utqiagvik 2014-09-10, 00Z to 12Z
+    assert d.hours == 12.0 and d.height_agl_m[0] == 0.0 and np.all(np.diff(d.height_agl_m) == 5.0)
+    low = d.height_agl_m <= 1600.0
+    assert 0.3 < d.wind_east_mps[low].std() < 5.0 and 0.0005 < d.density[low].std() < 0.02
+
+
+def test_a_pair_of_other_days_or_sites_is_refused(tmp_path):
+    days = SoundingPair("Norman 2011-05-22 and 2023-05-22", "soundings/20110522_OUN_12Z.txt",
+                        "soundings/OUN_72357_2023-05-22_12Z_wyoming.csv")
+    with pytest.raises(ValueError, match="h apart; expected the later 3 to 24 h after the earlier"):
+        pair_difference(days)
+    first, second = SOUNDING_PAIRS[1].first, SOUNDING_PAIRS[1].second  # Utqiagvik, 12 h apart
+    (tmp_path / "sounding-pairs").mkdir()
+    (tmp_path / first).write_text((SOUNDING_DIR / first).read_text())
+    (tmp_path / second).write_text((SOUNDING_DIR / second).read_text().replace("lat 71.2889", "lat 40.19", 1))
+    with pytest.raises(ValueError, match="the two files give different places"):
+        pair_difference(SOUNDING_PAIRS[1], tmp_path)
+    short = Span(lo_msl_m=1210.0, hi_msl_m=40_000.0, ground_msl_m=1310.0, release_msl_m=39_900.0, flight_s=40.0)
+    with pytest.raises(ValueError, match="reaches .* m above its surface; the drop needs"):
+        sounding_pair(short, np.random.default_rng(0))
