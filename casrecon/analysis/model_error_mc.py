@@ -134,6 +134,7 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     "observed" or "expected"; defaults its ``[estimation]``'s) and summarise it against the truth
     (or the failure)."""
     from casrecon.analysis.fit_products import result_adequacy
+    from casrecon.analysis.widened_uncertainty import published_result
     from casrecon.estimation.sixdof.fit import FitError, fit_drop
 
     t0 = time.perf_counter()
@@ -141,10 +142,13 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
         r = fit_drop(scenario, method=method, information=information)
     except FitError as err:
         return {"failed": str(err), "seconds": time.perf_counter() - t0}
+    verdict = result_adequacy(r)
+    r, widening = published_result(r, verdict.trusted)  # what the fit publishes: widened when not trusted
     e, nees = parameter_errors(r, truth)
     return {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
             "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
-            "coverage": band_coverage(r, trajectory, release_imu_s), **verdict_summary(result_adequacy(r))}
+            "coverage": band_coverage(r, trajectory, release_imu_s), **verdict_summary(verdict),
+            "widened": widening is not None}
 
 
 def verdict_summary(adequacy) -> dict:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from pathlib import Path
@@ -36,7 +37,9 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
     FitError
         The fit (or the kinematic check's reconstruction) failed; the message says why.
     """
+    from casrecon.analysis.aero_coefficients import aero_coefficients
     from casrecon.analysis.fit_products import fit_products
+    from casrecon.analysis.widened_uncertainty import published_result
     from casrecon.estimation.kinds.sample_registry import sixdof_sample_kinds
     from casrecon.estimation.sixdof.fit import FitError, fit_drop
     from casrecon.report.fit_report import sixdof_sections
@@ -46,6 +49,11 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
     result = fit_drop(scenario, **options.solver_overrides, sample_kinds=sixdof_sample_kinds(scenario.config))
     with stage(LOG, "residuals, reconciled simulations, aerodynamic coefficients and model adequacy"):
         products = fit_products(result, concurrent=options.concurrent)
+    if not products.adequacy.trusted:
+        with stage(LOG, "widening the uncertainty (the verdict does not trust the fit)"):
+            result, widening = published_result(result, trusted=False)
+            if widening is not None:  # the coefficient bands from the widened covariance
+                products = dataclasses.replace(products, aero_coefficients=aero_coefficients(result))
     sections = sixdof_sections(result, products.adequacy)  # the verdict of these products, not computed again
     check = None
     if options.kinematic_check:

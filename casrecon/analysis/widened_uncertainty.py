@@ -1,0 +1,120 @@
+"""Sigmas and bands widened for errors the fit's models do not contain (issue 49).
+
+When the model-adequacy verdict does not trust a fit, its covariance (which takes the noise model
+as true) is too narrow for what the data show. :func:`widened_result` adds to it the part of the
+time-block sandwich that exceeds its expectation under the model
+(:mod:`casrecon.estimation.engine.block_sandwich`): the residual rows of every measurement and
+process prior are cut into blocks of :data:`BLOCK_S` seconds (:mod:`casrecon.estimation.sixdof.row_times`),
+and what each block's residuals do to the estimate beyond what white errors of the stated sizes
+would do widens the parameters' sigmas and the trajectory bands. The estimates themselves do not
+change. The block length was chosen on the selection seed of the error-family study (seed 100:
+1 s against 0.5 and 2 s) and accepted on fresh seeds (docs/studies/error-families.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from casrecon.estimation.engine.block_sandwich import block_sandwich
+from casrecon.estimation.engine.covariance import Covariance
+from casrecon.estimation.sixdof.bands import trajectory_with_bands
+from casrecon.estimation.sixdof.row_times import residual_row_times, time_blocks
+
+#: Length of the sandwich's time blocks, s.
+BLOCK_S = 1.0
+
+
+@dataclass(frozen=True)
+class Widening:
+    """How a fit's uncertainty was widened.
+
+    Attributes
+    ----------
+    block_s : float
+        Block length, s.
+    n_blocks : int
+        Blocks with residual rows.
+    excess : float
+        Mean excess of the sandwich over its expectation under the model, in units of the model
+        covariance (about 0 for a right model).
+    sigma_factor : (n_params,) array
+        Widened over model 1-sigma, per estimated parameter.
+    band_factor_median, band_factor_max : float
+        Widened over model 1-sigma of the trajectory bands (every column and node).
+    """
+
+    block_s: float
+    n_blocks: int
+    excess: float
+    sigma_factor: np.ndarray
+    band_factor_median: float
+    band_factor_max: float
+
+    def text(self, names: tuple[str, ...]) -> str:
+        """The report's line."""
+        k = int(np.argmax(self.sigma_factor))
+        return (f"uncertainty widened for errors the model does not contain (the verdict does not trust the "
+                f"fit): the time-block sandwich ({self.n_blocks} blocks of {self.block_s:g} s of every residual) "
+                f"exceeds what the noise model expects by {self.excess:.2f} of the model covariance on average; "
+                f"parameter sigmas x{np.min(self.sigma_factor):.2f} to x{self.sigma_factor[k]:.2f} ({names[k]}), "
+                f"trajectory bands x{self.band_factor_median:.2f} (median) to x{self.band_factor_max:.2f}. "
+                "The estimates are the fit's; the sigmas, bands and correlations reported are the widened ones")
+
+
+def widening_refused(result) -> str | None:
+    """Why ``result``'s uncertainty cannot be widened (None when it can)."""
+    if not isinstance(result.covariance, Covariance):
+        return "a fit with disturbance states (its covariance comes from the whole KKT matrix)"
+    if result.fit_nlp is not None and len(result.fit_nlp.parts) > 1:
+        return "a drop of a joint fit"
+    return None
+
+
+def widened_result(result, block_s: float = BLOCK_S):
+    """``result`` (a per-drop :class:`~casrecon.estimation.sixdof.fit.FitResult`) with its
+    covariance, parameter sigmas, correlations and trajectory bands widened by the time-block
+    sandwich, and a note saying by how much and why; with the :class:`Widening`.
+
+    Raises
+    ------
+    ValueError
+        The fit's covariance cannot be widened (:func:`widening_refused` says why).
+    """
+    refused = widening_refused(result)
+    if refused is not None:
+        raise ValueError(f"uncertainty not widened: {refused}")
+    t0 = time.perf_counter()
+    cov, part = result.covariance, result.part
+    jr = result.nlp.derivatives.jacobian_r(result.z)
+    times = residual_row_times(jr, part.node_cols.reshape(-1, part.n_states), part.mesh.t_nodes)
+    sandwich = block_sandwich(jr, cov.basis, cov.cov_w, result.residuals, time_blocks(times, block_s))
+    widened = dataclasses.replace(cov, cov_w=cov.cov_w + sandwich.extra_w)
+    cov_theta = widened.covariance_of(part.theta_cols, part.params.scales)
+    sigma = np.sqrt(np.diag(cov_theta))
+    _, table_sigma = trajectory_with_bands(result.scenario.model, part, result.z, widened)
+    ratio = table_sigma / result.table_sigma
+    ratio = ratio[np.isfinite(ratio)]
+    widening = Widening(block_s, sandwich.n_blocks, sandwich.excess, sigma / result.sigma,
+                        float(np.median(ratio)) if ratio.size else 1.0, float(np.max(ratio)) if ratio.size else 1.0)
+    timings = dict(result.timings)
+    timings["widening_s"] = time.perf_counter() - t0
+    return dataclasses.replace(result, covariance=widened, sigma=sigma, correlation=cov_theta / np.outer(sigma, sigma),
+                               table_sigma=table_sigma, timings=timings,
+                               notes=result.notes + (widening.text(result.params.names),)), widening
+
+
+def published_result(result, trusted: bool):
+    """The result a fit publishes: ``result`` itself when the verdict ``trusted`` it, else widened
+    (:func:`widened_result`), or with a note saying why it could not be. Returns (result, Widening
+    or None)."""
+    if trusted:
+        return result, None
+    refused = widening_refused(result)
+    if refused is not None:
+        return dataclasses.replace(result, notes=result.notes + (
+            f"uncertainty not widened although the verdict does not trust the fit: {refused}",)), None
+    return widened_result(result)

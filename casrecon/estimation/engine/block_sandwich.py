@@ -1,0 +1,93 @@
+"""Widening of a least-squares covariance for errors the noise model does not contain: the
+time-block (cluster-robust) sandwich, less what it is expected to be under the model.
+
+For min 1/2 |r(z)|^2 with the reduced coordinates w of :mod:`.covariance` (dz = Z w, G = J Z the
+residuals' Jacobian in w, S = G^T G, C = S^-1 the model covariance), the estimate moves by
+dw = -C G^T r for a perturbation r of the whitened residuals. If the residual rows of a block b
+(one time slice of every measurement and process prior the fit has) are correlated with each
+other in ways the model does not say, but the blocks are nearly independent, the covariance of the
+estimate is the sandwich C (sum_b g_b g_b^T) C with g_b = G_b^T r_b (Liang and Zeger's cluster-robust
+form; Morelli and Klein correct aircraft system-identification fits for coloured residuals the same
+way, by a residual autocorrelation).
+
+The residuals of a fit are smaller than its errors: the fit absorbed part of them. Under the model
+(white, unit-variance whitened errors) E[g_b g_b^T] = G_b^T (I - P)_bb G_b = S_b - S_b C S_b with
+S_b = G_b^T G_b and P = G C G^T, so C (sum_b S_b - S_b C S_b) C is what the sandwich would be if the
+model were right. What the sandwich shows beyond that expectation is what the model misses:
+:func:`block_sandwich` returns its positive part, an addition to C. A right model's data add
+little (the positive part of a zero-mean noise matrix); errors the model does not have add what
+they do to the estimate, block by block. Errors correlated over longer than a block are seen only
+in part (their share inside each block).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sps
+
+
+@dataclass(frozen=True)
+class BlockSandwich:
+    """The widening of a covariance by the time-block sandwich (see the module docstring).
+
+    Attributes
+    ----------
+    extra_w : (n_w, n_w) array
+        Positive semi-definite addition to the model covariance C in the reduced coordinates w
+        (scaled units).
+    n_blocks : int
+        Number of blocks with residual rows.
+    excess : float
+        trace(C^-1 (sandwich - expectation)) / n_w: the mean excess of the sandwich over its
+        expectation under the model, in units of the model covariance (about 0 when the model is
+        right; 1 when the errors double the variances on average).
+    """
+
+    extra_w: np.ndarray
+    n_blocks: int
+    excess: float
+
+
+def block_sandwich(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarray, residuals: np.ndarray,
+                   row_block: np.ndarray) -> BlockSandwich:
+    """The widening of ``cov_w`` by the time-block sandwich.
+
+    Parameters
+    ----------
+    jacobian_r : sparse (n_r, n_z)
+        The whitened residuals' Jacobian at the solution (scaled z).
+    basis : (n_z, n_w) array
+        Z: dz = Z w (with the eliminated columns' rows, see :mod:`.covariance`).
+    cov_w : (n_w, n_w) array
+        The model covariance of w.
+    residuals : (n_r,) array
+        The whitened residuals at the solution.
+    row_block : (n_r,) int array
+        The block of every residual row, -1 for rows in no block (priors on constants: they are
+        neither left out nor counted).
+
+    Returns
+    -------
+    BlockSandwich
+    """
+    jr = sps.csr_matrix(jacobian_r)
+    row_block = np.asarray(row_block, np.int64)
+    n_w = cov_w.shape[0]
+    meat = np.zeros((n_w, n_w))
+    expected = np.zeros((n_w, n_w))
+    blocks = np.unique(row_block[row_block >= 0])
+    for b in blocks:
+        rows = np.flatnonzero(row_block == b)
+        g_rows = np.asarray(jr[rows] @ basis)  # (rows, n_w)
+        g = g_rows.T @ residuals[rows]
+        s_b = g_rows.T @ g_rows
+        meat += np.outer(g, g)
+        expected += s_b - s_b @ cov_w @ s_b
+    diff = cov_w @ (meat - expected) @ cov_w
+    lam, vec = np.linalg.eigh(0.5 * (diff + diff.T))
+    keep = lam > 0
+    extra = (vec[:, keep] * lam[keep]) @ vec[:, keep].T
+    excess = float(np.trace(np.linalg.solve(cov_w, diff))) / max(n_w, 1)
+    return BlockSandwich(extra, int(blocks.size), excess)
