@@ -1,6 +1,7 @@
 """Sigmas and bands widened for errors the fit's models do not contain (issue 49).
 
-When the model-adequacy verdict does not trust a fit, its covariance (which takes the noise model
+When the model-adequacy verdict does not trust a fit, or the time-block sandwich below exceeds what
+the noise model expects (at p < :data:`P_WIDEN`), the fit's covariance (which takes the noise model
 as true) is too narrow for what the data show. :func:`widened_result` adds to it the part of the
 time-block sandwich that exceeds its expectation under the model
 (:mod:`casrecon.estimation.engine.block_sandwich`): the residual rows of every measurement and
@@ -19,13 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from casrecon.estimation.engine.block_sandwich import block_sandwich
+from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwich
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.sixdof.bands import trajectory_with_bands
 from casrecon.estimation.sixdof.row_times import residual_row_times, time_blocks
 
 #: Length of the sandwich's time blocks, s.
 BLOCK_S = 1.0
+#: A trusted fit is widened too when its sandwich's trace exceeds the model's at this p-value.
+P_WIDEN = 0.01
 
 
 @dataclass(frozen=True)
@@ -45,6 +48,11 @@ class Widening:
         Widened over model 1-sigma, per estimated parameter.
     band_factor_median, band_factor_max : float
         Widened over model 1-sigma of the trajectory bands (every column and node).
+    p_value : float
+        The sandwich trace's p-value under the model (see
+        :class:`~casrecon.estimation.engine.block_sandwich.BlockSandwich`).
+    reason : str
+        Why it was widened.
     """
 
     block_s: float
@@ -53,13 +61,16 @@ class Widening:
     sigma_factor: np.ndarray
     band_factor_median: float
     band_factor_max: float
+    p_value: float
+    reason: str
 
     def text(self, names: tuple[str, ...]) -> str:
         """The report's line."""
         k = int(np.argmax(self.sigma_factor))
-        return (f"uncertainty widened for errors the model does not contain (the verdict does not trust the "
-                f"fit): the time-block sandwich ({self.n_blocks} blocks of {self.block_s:g} s of every residual) "
-                f"exceeds what the noise model expects by {self.excess:.2f} of the model covariance on average; "
+        return (f"uncertainty widened for errors the model does not contain ({self.reason}): the time-block "
+                f"sandwich ({self.n_blocks} blocks of {self.block_s:g} s of every residual) exceeds what the "
+                f"noise model expects by {self.excess:.2f} of the model covariance on average "
+                f"(p = {self.p_value:.2g}); "
                 f"parameter sigmas x{np.min(self.sigma_factor):.2f} to x{self.sigma_factor[k]:.2f} ({names[k]}), "
                 f"trajectory bands x{self.band_factor_median:.2f} (median) to x{self.band_factor_max:.2f}. "
                 "The estimates are the fit's; the sigmas, bands and correlations reported are the widened ones")
@@ -74,10 +85,20 @@ def widening_refused(result) -> str | None:
     return None
 
 
-def widened_result(result, block_s: float = BLOCK_S):
+def sandwich_of(result, block_s: float = BLOCK_S) -> BlockSandwich:
+    """The time-block sandwich of a per-drop fit (:func:`widening_refused` None), blocks of ``block_s`` s."""
+    cov, part = result.covariance, result.part
+    jr = result.nlp.derivatives.jacobian_r(result.z)
+    times = residual_row_times(jr, part.node_cols.reshape(-1, part.n_states), part.mesh.t_nodes)
+    return block_sandwich(jr, cov.basis, cov.cov_w, result.residuals, time_blocks(times, block_s))
+
+
+def widened_result(result, block_s: float = BLOCK_S, sandwich: BlockSandwich | None = None,
+                   reason: str = "asked for"):
     """``result`` (a per-drop :class:`~casrecon.estimation.sixdof.fit.FitResult`) with its
     covariance, parameter sigmas, correlations and trajectory bands widened by the time-block
-    sandwich, and a note saying by how much and why; with the :class:`Widening`.
+    sandwich (``sandwich``: already computed with ``block_s``), and a note saying by how much and
+    why (``reason``); with the :class:`Widening`.
 
     Raises
     ------
@@ -89,9 +110,8 @@ def widened_result(result, block_s: float = BLOCK_S):
         raise ValueError(f"uncertainty not widened: {refused}")
     t0 = time.perf_counter()
     cov, part = result.covariance, result.part
-    jr = result.nlp.derivatives.jacobian_r(result.z)
-    times = residual_row_times(jr, part.node_cols.reshape(-1, part.n_states), part.mesh.t_nodes)
-    sandwich = block_sandwich(jr, cov.basis, cov.cov_w, result.residuals, time_blocks(times, block_s))
+    if sandwich is None:
+        sandwich = sandwich_of(result, block_s)
     widened = dataclasses.replace(cov, cov_w=cov.cov_w + sandwich.extra_w)
     cov_theta = widened.covariance_of(part.theta_cols, part.params.scales)
     sigma = np.sqrt(np.diag(cov_theta))
@@ -99,7 +119,8 @@ def widened_result(result, block_s: float = BLOCK_S):
     ratio = table_sigma / result.table_sigma
     ratio = ratio[np.isfinite(ratio)]
     widening = Widening(block_s, sandwich.n_blocks, sandwich.excess, sigma / result.sigma,
-                        float(np.median(ratio)) if ratio.size else 1.0, float(np.max(ratio)) if ratio.size else 1.0)
+                        float(np.median(ratio)) if ratio.size else 1.0, float(np.max(ratio)) if ratio.size else 1.0,
+                        sandwich.p_value, reason)
     timings = dict(result.timings)
     timings["widening_s"] = time.perf_counter() - t0
     return dataclasses.replace(result, covariance=widened, sigma=sigma, correlation=cov_theta / np.outer(sigma, sigma),
@@ -108,13 +129,25 @@ def widened_result(result, block_s: float = BLOCK_S):
 
 
 def published_result(result, trusted: bool):
-    """The result a fit publishes: ``result`` itself when the verdict ``trusted`` it, else widened
-    (:func:`widened_result`), or with a note saying why it could not be. Returns (result, Widening
-    or None)."""
-    if trusted:
-        return result, None
+    """The result a fit publishes (with a note on its time-block sandwich): widened
+    (:func:`widened_result`) when the verdict does not trust it (``trusted`` False) or its sandwich
+    exceeds the model's at p < :data:`P_WIDEN`, else ``result``'s own sigmas; a fit whose
+    covariance cannot be widened says why when it should have been. Returns (result, Widening or
+    None)."""
     refused = widening_refused(result)
     if refused is not None:
+        if trusted:
+            return result, None
         return dataclasses.replace(result, notes=result.notes + (
             f"uncertainty not widened although the verdict does not trust the fit: {refused}",)), None
-    return widened_result(result)
+    t0 = time.perf_counter()
+    sandwich = sandwich_of(result)
+    if trusted and not sandwich.p_value < P_WIDEN:
+        timings = dict(result.timings)
+        timings["widening_s"] = time.perf_counter() - t0
+        return dataclasses.replace(result, timings=timings, notes=result.notes + (
+            f"time-block sandwich ({sandwich.n_blocks} blocks of {BLOCK_S:g} s of every residual): consistent "
+            f"with the noise model (p = {sandwich.p_value:.2f}); the sigmas are the fit's",)), None
+    reason = ("the verdict does not trust the fit" if not trusted else
+              f"the verdict trusts the fit, but the sandwich exceeds the model's at p < {P_WIDEN:g}")
+    return widened_result(result, sandwich=sandwich, reason=reason)

@@ -49,11 +49,10 @@ def fit_sixdof(problem: str | Path | TomlDocument | Scenario, options: FitOption
     result = fit_drop(scenario, **options.solver_overrides, sample_kinds=sixdof_sample_kinds(scenario.config))
     with stage(LOG, "residuals, reconciled simulations, aerodynamic coefficients and model adequacy"):
         products = fit_products(result, concurrent=options.concurrent)
-    if not products.adequacy.trusted:
-        with stage(LOG, "widening the uncertainty (the verdict does not trust the fit)"):
-            result, widening = published_result(result, trusted=False)
-            if widening is not None:  # the coefficient bands from the widened covariance
-                products = dataclasses.replace(products, aero_coefficients=aero_coefficients(result))
+    with stage(LOG, "time-block sandwich (widens the uncertainty if the data say the model is wrong)"):
+        result, widening = published_result(result, trusted=products.adequacy.trusted)
+        if widening is not None:  # the coefficient bands from the widened covariance
+            products = dataclasses.replace(products, aero_coefficients=aero_coefficients(result))
     sections = sixdof_sections(result, products.adequacy)  # the verdict of these products, not computed again
     check = None
     if options.kinematic_check:

@@ -191,3 +191,18 @@ def test_davinci_zephyr_fits():
     assert abs(z["CLa_mult"]) <= 3
     assert all(abs(e) <= 3 for e in z.values()), z
     assert 0.95 <= r.reduced_chi2 <= 1.05
+
+
+def test_trusted_drops_publish_their_own_sigmas(fit):
+    """The shipped drops' exact-model fits: trusted, and their time-block sandwich consistent with
+    the noise model, so what they publish is the fit's own covariance (issue 49: no widening where
+    the model is right)."""
+    from casrecon.analysis.fit_products import result_adequacy
+    from casrecon.analysis.widened_uncertainty import published_result
+
+    r = fit.result
+    assert result_adequacy(r).trusted
+    published, widening = published_result(r, True)
+    assert widening is None, published.notes[-1]
+    np.testing.assert_array_equal(published.sigma, r.sigma)
+    assert "consistent with the noise model" in published.notes[-1]

@@ -82,3 +82,11 @@ def test_row_times_follow_the_nodes_and_leave_constants_out():
     assert t[4] == 3.5  # the latent value's prior: when its only measurement happens
     assert np.isnan(t[5])  # the parameter's prior: no block
     np.testing.assert_array_equal(time_blocks(t, 2.0), [0, 0, 1, 1, 1, -1])
+
+
+def test_the_sandwich_p_value_is_uniform_under_the_model_and_small_off_it():
+    rng = np.random.default_rng(3)
+    p = np.array([fit(rng.normal(size=T.size) * SIGMA)[3].p_value for _ in range(400)])
+    assert 0.0 <= np.mean(p < 0.01) <= 0.03 and 0.02 <= np.mean(p < 0.05) <= 0.09 and 0.42 <= np.mean(p < 0.5) <= 0.58
+    p = np.array([fit(ar1(rng, 0.3, 2.0 * SIGMA) + rng.normal(size=T.size) * SIGMA)[3].p_value for _ in range(30)])
+    assert np.all(p < 0.01)

@@ -43,11 +43,16 @@ class BlockSandwich:
         trace(C^-1 (sandwich - expectation)) / n_w: the mean excess of the sandwich over its
         expectation under the model, in units of the model covariance (about 0 when the model is
         right; 1 when the errors double the variances on average).
+    p_value : float
+        Probability under the model of a sandwich trace T = sum_b g_b^T C g_b at least as large
+        as this one (T is a quadratic form in the white errors: its mean and variance are exact,
+        its distribution taken as a scaled chi-square of the same two moments).
     """
 
     extra_w: np.ndarray
     n_blocks: int
     excess: float
+    p_value: float
 
 
 def block_sandwich(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarray, residuals: np.ndarray,
@@ -77,17 +82,42 @@ def block_sandwich(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarra
     n_w = cov_w.shape[0]
     meat = np.zeros((n_w, n_w))
     expected = np.zeros((n_w, n_w))
+    sum_sbcsb = np.zeros((n_w, n_w))  # sum_b S_b C S_b
+    tr2 = tr3 = 0.0  # sum_b tr((C S_b)^2), sum_b tr((C S_b)^3)
     blocks = np.unique(row_block[row_block >= 0])
     for b in blocks:
         rows = np.flatnonzero(row_block == b)
         g_rows = np.asarray(jr[rows] @ basis)  # (rows, n_w)
         g = g_rows.T @ residuals[rows]
         s_b = g_rows.T @ g_rows
+        cs = cov_w @ s_b
         meat += np.outer(g, g)
-        expected += s_b - s_b @ cov_w @ s_b
+        s_c_s = s_b @ cs
+        expected += s_b - s_c_s
+        sum_sbcsb += s_c_s
+        cs2 = cs @ cs
+        tr2 += float(np.trace(cs2))
+        tr3 += float(np.sum(cs2 * cs.T))
     diff = cov_w @ (meat - expected) @ cov_w
     lam, vec = np.linalg.eigh(0.5 * (diff + diff.T))
     keep = lam > 0
     extra = (vec[:, keep] * lam[keep]) @ vec[:, keep].T
     excess = float(np.trace(np.linalg.solve(cov_w, diff))) / max(n_w, 1)
-    return BlockSandwich(extra, int(blocks.size), excess)
+    # T = r^T B r, B = blockdiag(G_b C G_b^T), r = (I - P) e: E[T] = tr(B (I - P)),
+    # Var[T] = 2 tr((B (I - P))^2) = 2 (sum tr((C S_b)^2) - 2 sum tr((C S_b)^3) + tr((M C)^2)), M = sum S_b C S_b
+    statistic = float(np.sum(meat * cov_w))
+    mean = float(np.sum(expected * cov_w))
+    mc = sum_sbcsb @ cov_w
+    variance = 2.0 * (tr2 - 2.0 * tr3 + float(np.sum(mc * mc.T)))
+    return BlockSandwich(extra, int(blocks.size), excess, scaled_chi2_sf(statistic, mean, variance))
+
+
+def scaled_chi2_sf(value: float, mean: float, variance: float) -> float:
+    """P(X >= value) for X = a chi-square(nu) with X's ``mean`` and ``variance`` (nan when the
+    variance is not positive)."""
+    from scipy.stats import chi2
+
+    if not (variance > 0 and mean > 0):
+        return float("nan")
+    scale = variance / (2.0 * mean)
+    return float(chi2.sf(value / scale, 2.0 * mean**2 / variance))
