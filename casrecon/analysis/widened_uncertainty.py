@@ -20,13 +20,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwich
+from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwiches, covering
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.sixdof.bands import trajectory_with_bands
 from casrecon.estimation.sixdof.row_times import residual_row_times, time_blocks
 
-#: Length of the sandwich's time blocks, s.
+#: Length of the sandwich's shortest time blocks, s.
 BLOCK_S = 1.0
+#: The block lengths used, in shortest blocks (1, 2 and 4 s): the widened covariance covers each
+#: one's (errors correlated over longer than a block are seen only in part by it).
+MERGES = (1, 2, 4)
 #: A trusted fit is widened too when its sandwich's trace exceeds the model's at this p-value.
 P_WIDEN = 0.01
 
@@ -68,7 +71,8 @@ class Widening:
         """The report's line."""
         k = int(np.argmax(self.sigma_factor))
         return (f"uncertainty widened for errors the model does not contain ({self.reason}): the time-block "
-                f"sandwich ({self.n_blocks} blocks of {self.block_s:g} s of every residual) exceeds what the "
+                f"sandwich ({self.n_blocks} blocks of {self.block_s:g} s of every residual, and of "
+                f"{', '.join(f'{m * self.block_s:g}' for m in MERGES[1:])} s) exceeds what the "
                 f"noise model expects by {self.excess:.2f} of the model covariance on average "
                 f"(p = {self.p_value:.2g}); "
                 f"parameter sigmas x{np.min(self.sigma_factor):.2f} to x{self.sigma_factor[k]:.2f} ({names[k]}), "
@@ -85,20 +89,26 @@ def widening_refused(result) -> str | None:
     return None
 
 
-def sandwich_of(result, block_s: float = BLOCK_S) -> BlockSandwich:
-    """The time-block sandwich of a per-drop fit (:func:`widening_refused` None), blocks of ``block_s`` s."""
+def sandwich_of(result, block_s: float = BLOCK_S) -> list[BlockSandwich]:
+    """The time-block sandwiches of a per-drop fit (:func:`widening_refused` None), blocks of
+    ``block_s`` s times each of :data:`MERGES`."""
     cov, part = result.covariance, result.part
     jr = result.nlp.derivatives.jacobian_r(result.z)
     times = residual_row_times(jr, part.node_cols.reshape(-1, part.n_states), part.mesh.t_nodes)
-    return block_sandwich(jr, cov.basis, cov.cov_w, result.residuals, time_blocks(times, block_s))
+    return block_sandwiches(jr, cov.basis, cov.cov_w, result.residuals, time_blocks(times, block_s), MERGES)
 
 
-def widened_result(result, block_s: float = BLOCK_S, sandwich: BlockSandwich | None = None,
+def p_value(sandwiches: list[BlockSandwich]) -> float:
+    """The smallest of the block lengths' p-values, Bonferroni-corrected for their number."""
+    return min(1.0, len(sandwiches) * min(sw.p_value for sw in sandwiches))
+
+
+def widened_result(result, block_s: float = BLOCK_S, sandwiches: list[BlockSandwich] | None = None,
                    reason: str = "asked for"):
     """``result`` (a per-drop :class:`~casrecon.estimation.sixdof.fit.FitResult`) with its
     covariance, parameter sigmas, correlations and trajectory bands widened by the time-block
-    sandwich (``sandwich``: already computed with ``block_s``), and a note saying by how much and
-    why (``reason``); with the :class:`Widening`.
+    sandwiches (``sandwiches``: already computed with ``block_s``; the widened covariance covers
+    each block length's), and a note saying by how much and why (``reason``); with the :class:`Widening`.
 
     Raises
     ------
@@ -110,21 +120,21 @@ def widened_result(result, block_s: float = BLOCK_S, sandwich: BlockSandwich | N
         raise ValueError(f"uncertainty not widened: {refused}")
     t0 = time.perf_counter()
     cov, part = result.covariance, result.part
-    if sandwich is None:
-        sandwich = sandwich_of(result, block_s)
-    widened = dataclasses.replace(cov, cov_w=cov.cov_w + sandwich.extra_w)
+    if sandwiches is None:
+        sandwiches = sandwich_of(result, block_s)
+    widened = dataclasses.replace(cov, cov_w=covering(cov.cov_w, [cov.cov_w + sw.extra_w for sw in sandwiches]))
     cov_theta = widened.covariance_of(part.theta_cols, part.params.scales)
     sigma = np.sqrt(np.diag(cov_theta))
     _, table_sigma = trajectory_with_bands(result.scenario.model, part, result.z, widened)
     ratio = table_sigma / result.table_sigma
     ratio = ratio[np.isfinite(ratio)]
-    widening = Widening(block_s, sandwich.n_blocks, sandwich.excess, sigma / result.sigma,
+    widening = Widening(block_s, sandwiches[0].n_blocks, max(sw.excess for sw in sandwiches), sigma / result.sigma,
                         float(np.median(ratio)) if ratio.size else 1.0, float(np.max(ratio)) if ratio.size else 1.0,
-                        sandwich.p_value, reason)
+                        p_value(sandwiches), reason)
     timings = dict(result.timings)
     timings["widening_s"] = time.perf_counter() - t0
     return dataclasses.replace(result, covariance=widened, sigma=sigma, correlation=cov_theta / np.outer(sigma, sigma),
-                               table_sigma=table_sigma, timings=timings,
+                               table_sigma=table_sigma, timings=timings, uncertainty="widened",
                                notes=result.notes + (widening.text(result.params.names),)), widening
 
 
@@ -141,13 +151,15 @@ def published_result(result, trusted: bool):
         return dataclasses.replace(result, notes=result.notes + (
             f"uncertainty not widened although the verdict does not trust the fit: {refused}",)), None
     t0 = time.perf_counter()
-    sandwich = sandwich_of(result)
-    if trusted and not sandwich.p_value < P_WIDEN:
+    sandwiches = sandwich_of(result)
+    p = p_value(sandwiches)
+    if trusted and not p < P_WIDEN:
         timings = dict(result.timings)
         timings["widening_s"] = time.perf_counter() - t0
         return dataclasses.replace(result, timings=timings, notes=result.notes + (
-            f"time-block sandwich ({sandwich.n_blocks} blocks of {BLOCK_S:g} s of every residual): consistent "
-            f"with the noise model (p = {sandwich.p_value:.2f}); the sigmas are the fit's",)), None
+            f"time-block sandwich ({sandwiches[0].n_blocks} blocks of {BLOCK_S:g} s of every residual, and of "
+            f"{', '.join(f'{m * BLOCK_S:g}' for m in MERGES[1:])} s): consistent with the noise model (p = {p:.2f}); "
+            "the sigmas are the fit's",)), None
     reason = ("the verdict does not trust the fit" if not trusted else
               f"the verdict trusts the fit, but the sandwich exceeds the model's at p < {P_WIDEN:g}")
-    return widened_result(result, sandwich=sandwich, reason=reason)
+    return widened_result(result, sandwiches=sandwiches, reason=reason)

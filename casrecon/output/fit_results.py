@@ -43,7 +43,9 @@ def parameters_document(result) -> dict:
                             "matrix": np.asarray(result.correlation, dtype=float).tolist()},
             "covariance": {"information": result.covariance.information,
                            "hessian": f"{information_text(result.covariance.information)}, in the KKT matrix",
-                           "sigma": "absolute (noise sigmas as given)",
+                           "sigma": ("widened by the time-block sandwich: the data say the noise model does not hold "
+                                     "(see the notes)" if getattr(result, "uncertainty", "model") == "widened"
+                                     else "absolute (noise sigmas as given)"),
                            "sigma_chi2_scaled": f"absolute times sqrt(reduced chi2) = {scale:.5f}"}}
 
 

@@ -46,6 +46,7 @@ def test_widened_sigmas_cover_what_the_model_sigmas_miss(understated):
     wide, widening = published_result(model, verdict.trusted)
     assert widening is not None and widening.excess > 5.0
     np.testing.assert_array_equal(wide.values, model.values)  # only the uncertainty changes
+    assert wide.uncertainty == "widened" and model.uncertainty == "model"
     assert np.all(wide.sigma >= model.sigma * (1 - 1e-9))
     assert np.all(wide.table_sigma >= model.table_sigma * (1 - 1e-9))
     z = np.array([(wide.values[i] - truth[n]) / wide.sigma[i] for i, n in enumerate(wide.params.names)])

@@ -55,9 +55,49 @@ class BlockSandwich:
     p_value: float
 
 
-def block_sandwich(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarray, residuals: np.ndarray,
-                   row_block: np.ndarray) -> BlockSandwich:
-    """The widening of ``cov_w`` by the time-block sandwich.
+class _Accumulator:
+    """The sums of one block length over the blocks seen so far (see :func:`block_sandwiches`)."""
+
+    def __init__(self, n_w: int) -> None:
+        self.meat = np.zeros((n_w, n_w))
+        self.expected = np.zeros((n_w, n_w))
+        self.sum_scs = np.zeros((n_w, n_w))  # sum_b S_b C S_b
+        self.tr2 = self.tr3 = 0.0  # sum_b tr((C S_b)^2), sum_b tr((C S_b)^3)
+        self.n_blocks = 0
+
+    def add(self, g: np.ndarray, s_b: np.ndarray, cov_w: np.ndarray) -> None:
+        cs = cov_w @ s_b
+        s_c_s = s_b @ cs
+        self.meat += np.outer(g, g)
+        self.expected += s_b - s_c_s
+        self.sum_scs += s_c_s
+        cs2 = cs @ cs
+        self.tr2 += float(np.trace(cs2))
+        self.tr3 += float(np.sum(cs2 * cs.T))
+        self.n_blocks += 1
+
+    def result(self, cov_w: np.ndarray) -> BlockSandwich:
+        n_w = cov_w.shape[0]
+        diff = cov_w @ (self.meat - self.expected) @ cov_w
+        lam, vec = np.linalg.eigh(0.5 * (diff + diff.T))
+        keep = lam > 0
+        extra = (vec[:, keep] * lam[keep]) @ vec[:, keep].T
+        excess = float(np.trace(np.linalg.solve(cov_w, diff))) / max(n_w, 1)
+        # T = r^T B r, B = blockdiag(G_b C G_b^T), r = (I - P) e: E[T] = tr(B (I - P)),
+        # Var[T] = 2 tr((B (I - P))^2) = 2 (sum tr((C S_b)^2) - 2 sum tr((C S_b)^3) + tr((M C)^2)),
+        # M = sum_b S_b C S_b
+        statistic = float(np.sum(self.meat * cov_w))
+        mean = float(np.sum(self.expected * cov_w))
+        mc = self.sum_scs @ cov_w
+        variance = 2.0 * (self.tr2 - 2.0 * self.tr3 + float(np.sum(mc * mc.T)))
+        return BlockSandwich(extra, self.n_blocks, excess, scaled_chi2_sf(statistic, mean, variance))
+
+
+def block_sandwiches(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarray, residuals: np.ndarray,
+                     row_block: np.ndarray, merges: tuple[int, ...] = (1,)) -> list[BlockSandwich]:
+    """The widening of ``cov_w`` by the time-block sandwich, for blocks of each length in ``merges``
+    (in units of the ``row_block`` blocks: 2 joins blocks 0-1, 2-3, ...), from one pass over the
+    rows.
 
     Parameters
     ----------
@@ -70,46 +110,58 @@ def block_sandwich(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarra
     residuals : (n_r,) array
         The whitened residuals at the solution.
     row_block : (n_r,) int array
-        The block of every residual row, -1 for rows in no block (priors on constants: they are
-        neither left out nor counted).
+        The block of every residual row, 0, 1, ... in time order, -1 for rows in no block (priors
+        on constants: they are neither left out nor counted).
+    merges : tuple of int
+        Block lengths, in blocks.
 
     Returns
     -------
-    BlockSandwich
+    list of BlockSandwich, one per entry of ``merges``
     """
     jr = sps.csr_matrix(jacobian_r)
     row_block = np.asarray(row_block, np.int64)
     n_w = cov_w.shape[0]
-    meat = np.zeros((n_w, n_w))
-    expected = np.zeros((n_w, n_w))
-    sum_sbcsb = np.zeros((n_w, n_w))  # sum_b S_b C S_b
-    tr2 = tr3 = 0.0  # sum_b tr((C S_b)^2), sum_b tr((C S_b)^3)
-    blocks = np.unique(row_block[row_block >= 0])
-    for b in blocks:
+    sums = [_Accumulator(n_w) for _ in merges]
+    pending = [(np.zeros(n_w), np.zeros((n_w, n_w)), 0) for _ in merges]  # (g, S, blocks) of the open merged block
+    last = int(row_block.max()) if row_block.size else -1
+    for b in range(last + 1):
         rows = np.flatnonzero(row_block == b)
-        g_rows = np.asarray(jr[rows] @ basis)  # (rows, n_w)
-        g = g_rows.T @ residuals[rows]
-        s_b = g_rows.T @ g_rows
-        cs = cov_w @ s_b
-        meat += np.outer(g, g)
-        s_c_s = s_b @ cs
-        expected += s_b - s_c_s
-        sum_sbcsb += s_c_s
-        cs2 = cs @ cs
-        tr2 += float(np.trace(cs2))
-        tr3 += float(np.sum(cs2 * cs.T))
-    diff = cov_w @ (meat - expected) @ cov_w
-    lam, vec = np.linalg.eigh(0.5 * (diff + diff.T))
-    keep = lam > 0
-    extra = (vec[:, keep] * lam[keep]) @ vec[:, keep].T
-    excess = float(np.trace(np.linalg.solve(cov_w, diff))) / max(n_w, 1)
-    # T = r^T B r, B = blockdiag(G_b C G_b^T), r = (I - P) e: E[T] = tr(B (I - P)),
-    # Var[T] = 2 tr((B (I - P))^2) = 2 (sum tr((C S_b)^2) - 2 sum tr((C S_b)^3) + tr((M C)^2)), M = sum S_b C S_b
-    statistic = float(np.sum(meat * cov_w))
-    mean = float(np.sum(expected * cov_w))
-    mc = sum_sbcsb @ cov_w
-    variance = 2.0 * (tr2 - 2.0 * tr3 + float(np.sum(mc * mc.T)))
-    return BlockSandwich(extra, int(blocks.size), excess, scaled_chi2_sf(statistic, mean, variance))
+        if rows.size:
+            g_rows = np.asarray(jr[rows] @ basis)  # (rows, n_w)
+            g, s_b = g_rows.T @ residuals[rows], g_rows.T @ g_rows
+        else:
+            g, s_b = np.zeros(n_w), np.zeros((n_w, n_w))
+        for k, m in enumerate(merges):
+            pg, ps, count = pending[k]
+            pg, ps, count = pg + g, ps + s_b, count + 1
+            if count == m or b == last:
+                if ps.any():
+                    sums[k].add(pg, ps, cov_w)
+                pg, ps, count = np.zeros(n_w), np.zeros((n_w, n_w)), 0
+            pending[k] = (pg, ps, count)
+    return [acc.result(cov_w) for acc in sums]
+
+
+def block_sandwich(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarray, residuals: np.ndarray,
+                   row_block: np.ndarray) -> BlockSandwich:
+    """:func:`block_sandwiches` for the blocks of ``row_block`` themselves."""
+    return block_sandwiches(jacobian_r, basis, cov_w, residuals, row_block)[0]
+
+
+def covering(cov: np.ndarray, others: list[np.ndarray]) -> np.ndarray:
+    """A covariance at least as large as ``cov`` and each of ``others`` (Loewner order): in
+    ``cov``'s Cholesky frame each other's eigenvalues above 1 are kept, one after the other
+    (the smallest such when there is one other)."""
+    out = cov
+    for other in others:
+        chol = np.linalg.cholesky(0.5 * (out + out.T))
+        inv = np.linalg.inv(chol)
+        m = inv @ other @ inv.T
+        lam, vec = np.linalg.eigh(0.5 * (m + m.T))
+        a = chol @ vec
+        out = (a * np.maximum(lam, 1.0)) @ a.T
+    return out
 
 
 def scaled_chi2_sf(value: float, mean: float, variance: float) -> float:

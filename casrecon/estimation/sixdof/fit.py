@@ -79,6 +79,8 @@ class FitResult:
     notes: tuple[str, ...] = ()
     fit_nlp: FitNlp | None = None      # the NLP with its drops (joint fits: shared by every drop)
     gross_errors: tuple[str, ...] = ()  # error-model estimates beyond the plausibility limits (verdict findings)
+    uncertainty: str = "model"  # "widened": sigmas and bands from the time-block sandwich (see
+    #                             casrecon/analysis/widened_uncertainty.py)
 
     @property
     def converged(self) -> bool:
