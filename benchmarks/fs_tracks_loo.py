@@ -16,7 +16,8 @@ description is chosen on the other tracks only (most channels in [0.5, 2], then 
 largest |log chi-square|), then the left-out track's numbers under it are printed. Acceptance
 (issue 49): >= 80 % of the left-out channels in [0.5, 2], no parameter beyond 4 sigma of its prior.
 
-Run: nice python benchmarks/fs_tracks_loo.py [--only NAME ...] [--candidates NAME ...] [--shipped]
+Run: nice python benchmarks/fs_tracks_loo.py [--only NAME ...] [--candidates NAME ...] [--shipped] [--native]
+(all tracks, every candidate, --shipped: about 8 min on the shared 2-core machine)
 """
 
 from __future__ import annotations
@@ -112,14 +113,15 @@ def tracks() -> list[Path]:
     return sorted(p for d in TRACK_DIRS for p in (DATA / d).glob("*.csv"))
 
 
-def decimated(src: Path, out_dir: Path) -> Path:
-    """``src`` with only its fixes on a PERIOD_S grid from the first fix (header lines kept); ``src``
-    itself when it is no faster than that."""
+def decimated(src: Path, out_dir: Path, period_s: float = PERIOD_S) -> Path:
+    """``src`` with only its fixes on a ``period_s`` grid from the first fix (header lines kept); ``src``
+    itself when it is no faster than that (or ``period_s`` is 0)."""
     track = read_flysight(src)
     t = track.time_unix_s
-    if np.median(np.diff(t)) > 0.9 * PERIOD_S:
+    if period_s <= 0 or np.median(np.diff(t)) > 0.9 * period_s:
         return src
-    keep = set(np.round(t[np.abs((t - t[0]) / PERIOD_S - np.round((t - t[0]) / PERIOD_S)) < 0.05], 3).tolist())
+    phase = (t - t[0]) / period_s
+    keep = set(np.round(t[np.abs(phase - np.round(phase)) < 0.05], 3).tolist())
     lines = src.read_text().splitlines(keepends=True)
     out = []
     for line in lines:
@@ -136,11 +138,11 @@ def decimated(src: Path, out_dir: Path) -> Path:
     return dst
 
 
-def problem_for(src: Path, work: Path) -> Path:
+def problem_for(src: Path, work: Path, period_s: float = PERIOD_S) -> Path:
     """A point-mass problem folder for track ``src`` in ``work`` (decimated copy beside it)."""
     folder = work / src.stem
     folder.mkdir(parents=True, exist_ok=True)
-    data = decimated(src, folder)
+    data = decimated(src, folder, period_s)
     track = read_flysight(data)
     ok = np.isfinite(track.h_msl_m)
     text = PROBLEM.format(name=src.stem, lat=float(track.lat_deg[ok][-1]), lon=float(track.lon_deg[ok][-1]),
@@ -238,6 +240,7 @@ def main() -> None:
     ap.add_argument("--candidates", nargs="*", help="candidate descriptions to use (default all)")
     ap.add_argument("--shipped", action="store_true", help="also fit the three shipped real problems under the "
                                                             "description the whole set chooses")
+    ap.add_argument("--native", action="store_true", help="fit every track at its own rate (no decimation)")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     names = args.candidates or list(CANDIDATES)
@@ -246,7 +249,7 @@ def main() -> None:
     table: dict[str, dict[str, dict]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for p in paths:
-            folder = problem_for(p, Path(tmp))
+            folder = problem_for(p, Path(tmp), 0.0 if args.native else PERIOD_S)
             table[p.stem] = {c: measure(folder, CANDIDATES[c]) for c in names}
     for c in names:
         print(f"\n[{c}] {CANDIDATES[c].text()}")
