@@ -53,18 +53,20 @@ CHANNELS = ("GPS pos n", "GPS pos e", "GPS pos d", "GPS vel n", "GPS vel e", "GP
 
 class Description(NamedTuple):
     """One candidate error description of the GPS-only fit: its GPS error model, area processes
-    (``[model_error]``) and the 3-sigma prior of the constant wind bias (m/s)."""
+    (``[model_error]``), the 3-sigma prior of the constant wind bias (m/s) and the prior 1-sigma of each
+    lift-area spline coefficient (``[drag] lift_sigma_m2``, m^2)."""
 
     gps: GpsErrorModel
     areas: ModelErrorConfig
     wind_3sigma_mps: float = 3.0
+    lift_sigma_m2: float = 0.1
 
     def text(self) -> str:
         g, a = self.gps, self.areas
         return (f"GPS position {g.position_fraction:g} correlated over {g.position_time_s:g} s x{g.position_scale:g}, "
                 f"velocity {g.velocity_fraction:g} over {g.velocity_time_s:g} s x{g.velocity_scale:g}; areas "
                 f"{a.drag_area_fraction:g} / {a.lift_area_sigma_m2:g} m^2 over {a.time_s:g} s; wind 3-sigma "
-                f"{self.wind_3sigma_mps:g} m/s")
+                f"{self.wind_3sigma_mps:g} m/s; lift-area prior {self.lift_sigma_m2:g} m^2")
 
 
 FS = GpsErrorModel(1000.0, 0.6, 0.999, 0.94)
@@ -79,6 +81,8 @@ CANDIDATES: dict[str, Description] = {
     "pos997": Description(dataclasses.replace(FS, position_fraction=0.997), AREAS),
     "pos997-vel07": Description(dataclasses.replace(FS, position_fraction=0.997, velocity_fraction=0.7), AREAS),
     "pos995-vel07": Description(dataclasses.replace(FS, position_fraction=0.995, velocity_fraction=0.7), AREAS),
+    "pos997-vel07-lift1": Description(dataclasses.replace(FS, position_fraction=0.997, velocity_fraction=0.7), AREAS,
+                                      3.0, 1.0),
     "shipped-wind9": Description(FS, AREAS, 9.0),
     "pos997-wind9": Description(dataclasses.replace(FS, position_fraction=0.997), AREAS, 9.0),
 }
@@ -158,6 +162,7 @@ def measure(folder: Path, description: Description) -> dict:
     takes no part in either, and with area processes costs ten times the solve)."""
     cfg = dataclasses.replace(load_point_mass(folder), gps_errors=description.gps, model_error=description.areas,
                               wind_3sigma_mps=description.wind_3sigma_mps, max_iter=MAX_ITER)
+    cfg = dataclasses.replace(cfg, drag=dataclasses.replace(cfg.drag, lift_sigma_m2=description.lift_sigma_m2))
     t0 = time.perf_counter()
     try:
         built = build_point_mass(cfg)
@@ -272,7 +277,7 @@ def main() -> None:
             folder = ROOT / "problems" / name
             print(row_text(f"{name} [{whole}]", measure(folder, CANDIDATES[whole])))
             cfg = load_point_mass(folder)
-            own = Description(cfg.gps_errors, cfg.model_error, cfg.wind_3sigma_mps)
+            own = Description(cfg.gps_errors, cfg.model_error, cfg.wind_3sigma_mps, cfg.drag.lift_sigma_m2)
             print(row_text(f"{name} [own]", measure(folder, own)))
     print(f"\ntotal {time.perf_counter() - t_start:.0f} s")
 
