@@ -16,6 +16,8 @@ description is chosen on the other tracks only (most channels in [0.5, 2], then 
 largest |log chi-square|), then the left-out track's numbers under it are printed. Acceptance
 (issue 49): >= 80 % of the left-out channels in [0.5, 2], no parameter beyond 4 sigma of its prior.
 
+SLOW candidates (the GPS sizes estimated per track: whole fits with refits) run only when named.
+
 Run: nice python benchmarks/fs_tracks_loo.py [--only NAME ...] [--candidates NAME ...] [--shipped] [--native]
 (all tracks, every candidate, --shipped: about 8 min on the shared 2-core machine)
 """
