@@ -6,10 +6,12 @@ as true) is too narrow for what the data show. :func:`widened_result` adds to it
 time-block sandwich that exceeds its expectation under the model
 (:mod:`casrecon.estimation.engine.block_sandwich`): the residual rows of every measurement and
 process prior are cut into blocks of :data:`BLOCK_S` seconds (:mod:`casrecon.estimation.sixdof.row_times`),
-and what each block's residuals do to the estimate beyond what white errors of the stated sizes
-would do widens the parameters' sigmas and the trajectory bands. The estimates themselves do not
-change. The block length was chosen on the selection seed of the error-family study (seed 100:
-1 s against 0.5 and 2 s) and accepted on fresh seeds (docs/studies/error-families.md).
+and joined into blocks of 2 and 4 s; what each block's residuals do to the estimate beyond what
+white errors of the stated sizes would do widens the parameters' sigmas and the trajectory bands
+(the widened covariance covers each block length's). The estimates themselves do not change. The
+1 s block was chosen on the selection seed of the error-family study (seed 100: 1 s against 0.5
+and 2 s alone), the union with 2 and 4 s after the first fresh seeds (200, 201) showed errors
+correlated over longer than 1 s still missed (docs/studies/error-families.md).
 """
 
 from __future__ import annotations
@@ -46,13 +48,14 @@ class Widening:
         Blocks with residual rows.
     excess : float
         Mean excess of the sandwich over its expectation under the model, in units of the model
-        covariance (about 0 for a right model).
+        covariance (about 0 for a right model); the largest over the block lengths.
     sigma_factor : (n_params,) array
         Widened over model 1-sigma, per estimated parameter.
     band_factor_median, band_factor_max : float
         Widened over model 1-sigma of the trajectory bands (every column and node).
     p_value : float
-        The sandwich trace's p-value under the model (see
+        The sandwich traces' p-value under the model, the smallest over the block lengths times
+        their number (see
         :class:`~casrecon.estimation.engine.block_sandwich.BlockSandwich`).
     reason : str
         Why it was widened.
