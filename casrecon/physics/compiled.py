@@ -19,14 +19,15 @@ Settings (environment variables, read at each call)
 Whatever fails (no compiler, a compiler error, an unwritable cache) falls back to the interpreted
 function with one logged warning: compilation changes the speed, never the result.
 
-A function evaluated once or twice per fit (the exact Hessian the covariance inverts) is built *in
-the background* (``compiled(f, in_background=True)``): its -O1 build takes longer than the fit
-(ees-drop-1's interval exact Hessian, 165,000 instructions: 52 s, and 33 s for its GPS blocks'),
-so a fit that does not find its library evaluates the interpreted function (1.1 s instead of 0.3 s
-for that Hessian) while a detached process builds the library, which later fits, in this process
-or another, then load. A mark file beside the library keeps processes from building it twice; a
-build that fails leaves a note (``.failed``) that stops retries for FAILED_RETRY_S and is repeated
-in one warning per process.
+A fit's block functions are built *in the background* (``compiled(f, in_background=True)``,
+what :meth:`casrecon.estimation.engine.blocks.BlockSet.mapped` asks for): a fit that does not find
+a library evaluates the interpreted function while a detached process builds the library, which
+later fits, in this process (a refit) or another, then load. No fit waits for a compiler: the
+first fit of a new vehicle or mesh rate waited 18 s for its derivatives' (issue 49), and the exact
+Hessian's -O1 build takes longer than a fit (ees-drop-1's interval exact Hessian, 165,000
+instructions: 52 s, and 33 s for its GPS blocks'). A mark file beside the library keeps processes
+from building it twice; a build that fails leaves a note (``.failed``) that stops retries for
+FAILED_RETRY_S and is repeated in one warning per process.
 """
 
 from __future__ import annotations

@@ -226,3 +226,23 @@ def test_a_background_build_past_its_time_leaves_a_note_saying_so(cache, tmp_pat
     cg.wait_for_background_builds(60.0)
     notes = list(cache.iterdir())
     assert [p.suffix for p in notes] == [".failed"] and "timed out" in notes[0].read_text()
+
+
+def test_a_fits_block_functions_never_wait_for_a_compiler(cache, monkeypatch):
+    """The first fit of a new vehicle or mesh evaluates its derivatives interpreted while their
+    library is built in the background (issue 49: a first fit waited 18 s for its compiles); a
+    later fit's block set loads the library."""
+    from casrecon.estimation.engine import blocks
+
+    monkeypatch.setattr(blocks, "COMPILE_MIN_WORK", 1)
+    cg.reset()
+    x, d = ca.SX.sym("x", 6), ca.SX.sym("d", 3)
+    residual = ca.vertcat(ca.sin(x[0]) * x[1] - d[0], ca.exp(0.1 * x[2]) + x[3] ** 3 - d[1], x[4] * x[5] - d[2])
+    kind = blocks.BlockKind("blk_fit", x, [d], residual, None)
+    first = blocks.BlockSet(kind, np.arange(6)[None, :])
+    assert first.derivs is kind.derivatives and first.value_function is kind.values  # interpreted, no wait
+    library = cache / f"blk_fit_derivatives-{cg.library_key(kind.derivatives, cg.compiler())}.so"
+    assert library.with_suffix(".building").exists() or library.exists()
+    cg.wait_for_background_builds(120.0)
+    later = blocks.BlockSet(kind, np.arange(6)[None, :])
+    assert later.derivs.class_name() == "External"

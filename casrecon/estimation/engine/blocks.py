@@ -176,12 +176,14 @@ class BlockSet:
         self._derivs: ca.Function | None = None
         self._values: ca.Function | None = None
 
-    def mapped(self, function: ca.Function, in_background: bool = False) -> ca.Function:
-        """``function`` mapped over every block, compiled first (see :mod:`.compiled`) when one
+    def mapped(self, function: ca.Function, in_background: bool = True) -> ca.Function:
+        """``function`` mapped over every block, compiled (see :mod:`.compiled`) when one
         evaluation over all blocks is at least COMPILE_MIN_WORK instructions (compiled functions
-        have no derivatives: for symbolic work use :meth:`symbolic_values`); ``in_background``:
-        a library not built yet is built in the background and the interpreted function mapped
-        meanwhile (for functions evaluated once or twice per fit)."""
+        have no derivatives: for symbolic work use :meth:`symbolic_values`). ``in_background``
+        (the default, and what every fit uses): a library not built yet is built in a detached
+        process and the interpreted function mapped meanwhile, so no fit waits for a compiler; a
+        later fit (a refit, the next fit of the same vehicle and mesh) loads the library. False:
+        compile first."""
         n = self.n_blocks
         if function.n_instructions() * n >= COMPILE_MIN_WORK:
             function = compiled(function, in_background)
@@ -207,18 +209,18 @@ class BlockSet:
     @cached_property
     def hess(self) -> ca.Function:
         """The kind's exact-Hessian function over all blocks, for a solver that evaluates it at
-        every iterate (built at first use; its library compiled before it is used)."""
+        every iterate (built at first use; compiled if its library is built, else interpreted
+        while the library is built in the background, as every block function)."""
         return self.mapped(self.kind.exact_hessian)
 
     @cached_property
     def hess_once(self) -> ca.Function:
         """The kind's exact-Hessian function over all blocks, for one or two evaluations (the
-        covariance's): :attr:`hess` when it is made, else the compiled one if its library is
-        built, else the interpreted one while the library is built in the background (its build
+        covariance's): :attr:`hess` when it is made, else made here the same way (its build
         takes longer than a fit; see :mod:`casrecon.physics.compiled`)."""
         if "hess" in self.__dict__:
             return self.hess
-        return self.mapped(self.kind.exact_hessian, in_background=True)
+        return self.mapped(self.kind.exact_hessian)
 
     def symbolic_values(self, z: ca.MX) -> list:
         """The blocks' (residuals[, constraints]) as MX of the global ``z``, with the interpreted

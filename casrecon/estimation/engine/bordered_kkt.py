@@ -17,6 +17,12 @@ K_uu is factorised by sparse LU, T = K_uu^-1 B (one solve with p right-hand side
 parameters) and the small dense S (the parameters' profile Hessian: its inverse is their
 covariance) by a dense LU. Then K [x; y] = [f; g] is solved by y = S^-1 (g - T^T f), x = K_uu^-1 f -
 T y, and log |det K| = log |det K_uu| + log |det S|.
+
+Many small blocks of K^-1 (a covariance read node by node) come from the selected inverse of K_uu
+(:mod:`casrecon.estimation.numerics.banded_inverse`, O(n b^2) for its bandwidth b in a
+reverse Cuthill-McKee order) when that costs less than a solve per column, O(fill) each:
+
+    K^-1 = [[G + T S^-1 T^T, -T S^-1], [-S^-1 T^T, S^-1]],   G = K_uu^-1.
 """
 
 from __future__ import annotations
@@ -25,6 +31,18 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sps
 from scipy.sparse.linalg import splu
+
+from casrecon.estimation.numerics.banded_inverse import (
+    BandedInverse,
+    NotBanded,
+    banded_order,
+    order_span,
+    selected_flops,
+)
+
+#: Largest relative difference between a block from the selected inverse and the same block from
+#: column solves (checked on the first block asked for) for the selected inverse to be used.
+SELECTED_TOLERANCE = 1e-6
 
 
 class BorderedKkt:
@@ -51,7 +69,11 @@ class BorderedKkt:
         self.border = np.asarray(border, np.int64)
         self.inner = np.setdiff1d(np.arange(n), self.border)
         rows_inner = csc[self.inner]
-        self._lu = splu(rows_inner[:, self.inner].tocsc())
+        self._inner_matrix = rows_inner[:, self.inner].tocsc()
+        self._lu = splu(self._inner_matrix)
+        self._selected: BandedInverse | NotBanded | None = None
+        self._schur_inverse: np.ndarray | None = None
+        self._checked = False
         b = rows_inner[:, self.border].toarray()
         self._t = self._lu.solve(b) if self.border.size else np.zeros((self.inner.size, 0))
         c = csc[self.border][:, self.border].toarray()
@@ -86,3 +108,71 @@ class BorderedKkt:
         if not self.border.size:
             return inner
         return inner + float(np.sum(np.log(np.abs(np.diag(self._schur_lu[0])))))
+
+    def inverse_blocks(self, sets: list[np.ndarray]) -> list[np.ndarray]:
+        """K^-1[s][:, s] for each index set ``s`` from the selected inverse of K_uu (see the module
+        docstring; a set of border indices only is read off S^-1). Raises NotBanded
+        (:mod:`casrecon.estimation.numerics.banded_inverse`) when
+        that does not apply (a band too wide, a set spanning distant blocks, a block the
+        recurrences cannot invert, a check against column solves that fails) or costs more than
+        solving for the sets' columns, which the caller then does."""
+        sets = [np.asarray(s, np.int64) for s in sets]
+        inner_pos = np.full(self.shape[0], -1, np.int64)
+        inner_pos[self.inner] = np.arange(self.inner.size)
+        inner_sets = [inner_pos[s][inner_pos[s] >= 0] for s in sets]
+        selected = self._selected_inverse(inner_sets) if any(s.size for s in inner_sets) else None
+        if self._schur_inverse is None:
+            self._schur_inverse = (np.linalg.inv(self.schur) if self.border.size else np.zeros((0, 0)))
+        border_pos = np.full(self.shape[0], -1, np.int64)
+        border_pos[self.border] = np.arange(self.border.size)
+        s_inv = self._schur_inverse
+        out = []
+        for s in sets:
+            i_in = np.flatnonzero(inner_pos[s] >= 0)
+            i_b = np.flatnonzero(border_pos[s] >= 0)
+            rows_in, rows_b = inner_pos[s[i_in]], border_pos[s[i_b]]
+            t = self._t[rows_in]  # (n_in, p)
+            block = np.empty((s.size, s.size))
+            t_s = t @ s_inv
+            if rows_in.size:
+                block[np.ix_(i_in, i_in)] = selected.block_of(rows_in) + t_s @ t.T
+            cross = -t_s[:, rows_b]
+            block[np.ix_(i_in, i_b)] = cross
+            block[np.ix_(i_b, i_in)] = cross.T
+            block[np.ix_(i_b, i_b)] = s_inv[np.ix_(rows_b, rows_b)]
+            out.append(block)
+        if selected is not None and not self._checked:
+            for k in sorted({0, len(sets) // 2, len(sets) - 1}):
+                self._check(sets[k], out[k])
+            self._checked = True
+        return out
+
+    def _selected_inverse(self, inner_sets: list[np.ndarray]) -> BandedInverse:
+        """The selected inverse of K_uu, made at the first call that pays for it, in blocks wide
+        enough for ``inner_sets`` (positions in K_uu); NotBanded otherwise (a refusal for a reason
+        other than cost is kept)."""
+        if isinstance(self._selected, NotBanded):
+            raise self._selected
+        if self._selected is None:
+            order = banded_order(self._inner_matrix)
+            span = order_span(order, inner_sets)
+            n_columns = sum(int(s.size) for s in inner_sets)
+            if selected_flops(self.inner.size, max(order[1], span)) > 2.0 * n_columns * self.fill:
+                raise NotBanded("column solves cost less")
+            try:
+                self._selected = BandedInverse(self._inner_matrix, order, span)
+            except NotBanded as err:
+                self._selected = err
+                raise
+        return self._selected
+
+    def _check(self, s: np.ndarray, block: np.ndarray) -> None:
+        """Compare one block of the selected inverse with column solves (the first call checks its
+        first, middle and last set); on a mismatch the selected inverse is dropped (NotBanded)."""
+        e = np.zeros((self.shape[0], s.size))
+        e[s, np.arange(s.size)] = 1.0
+        exact = self.solve(e)[s]
+        scale = max(float(np.abs(exact).max()), 1e-300)
+        if float(np.abs(block - exact).max()) > SELECTED_TOLERANCE * scale:
+            self._selected = NotBanded("the selected inverse disagrees with column solves")
+            raise self._selected

@@ -14,6 +14,7 @@ import scipy.sparse as sps
 from scipy.sparse.linalg import splu
 
 from casrecon.estimation.engine.bordered_kkt import BorderedKkt
+from casrecon.estimation.numerics.banded_inverse import NotBanded
 
 LOG = logging.getLogger(__name__)
 
@@ -83,7 +84,10 @@ class KktCovariance:
 
     def covariance_of(self, idx, scale=None) -> np.ndarray:
         idx = np.asarray(idx, int)
-        c = self._columns(idx)[idx]
+        if isinstance(self._lu, BorderedKkt) and np.isin(idx, self._lu.border).all():
+            c = self._lu.inverse_blocks([idx])[0]  # the parameters' S^-1: no solve
+        else:
+            c = self._columns(idx)[idx]
         c = 0.5 * (c + c.T)
         if scale is not None:
             c = c * np.outer(scale, scale)
@@ -113,7 +117,14 @@ class KktCovariance:
         return np.array([np.einsum("ij,jk,ik->i", j, c, j) for j, c in zip(jacobians, self.blocks(index_sets))])
 
     def _solve_blocks(self, sets: list[np.ndarray]) -> list[np.ndarray]:
-        """The covariance blocks of ``sets`` from LU solves (see :meth:`blocks`)."""
+        """The covariance blocks of ``sets``: from the bordered factor's selected inverse where it
+        applies and costs less (:meth:`.BorderedKkt.inverse_blocks`: a 25 Hz track's states at
+        every node, issue 49), else from LU solves (see :meth:`blocks`)."""
+        if isinstance(self._lu, BorderedKkt):
+            try:
+                return [0.5 * (c + c.T) for c in self._lu.inverse_blocks(sets)]
+            except NotBanded as err:
+                LOG.debug("covariance blocks by column solves (%s)", err)
         common = sets[0]
         for s in sets[1:]:
             common = np.intersect1d(common, s)

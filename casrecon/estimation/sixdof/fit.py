@@ -356,28 +356,38 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
     on stands, its ``gross_errors`` say why (a not-trusted verdict); ``cfg`` is the problem's configuration, ``t0`` the
     ``perf_counter`` at which the fit began, and ``fitted(scenario, start, guess_clock_s, prior,
     notes)`` makes one fit. The result's timings ``first_fit_s`` is the time of the fits before
-    the last. A refit that fails leaves the fit before it, whose notes say why."""
+    the last, ``estimate_s`` that of the size estimates, ``refits`` their number and
+    ``all_build_s``, ``all_solve_s``, ``all_covariance_s`` the parts of every fit made. A refit
+    that fails leaves the fit before it, whose notes say why."""
     earlier_s, intended, history = 0.0, None, ()
     what = sizes_named(cfg) or "error-model sizes"
+    chain = {"estimate_s": 0.0, "refits": 0.0} | {f"all_{p}": result.timings.get(p, 0.0) for p in CHAIN_PARTS}
+
+    def timed(fit: FitResult) -> FitResult:
+        fit.timings.update(chain, total_s=time.perf_counter() - t0)
+        return fit
+
     for k in range(MAX_REFITS):
         try:
             errors = cfg.gps.error_model
+            t_estimate = time.perf_counter()
             with iteration_logging(label=nested_label(f"{'fit' if k == 0 else 'refit'} {k + 1} of up to "
                                                       f"{MAX_REFITS + 1}")), fit_stage(f"estimating the {what}"):
                 estimate = estimate_error_sizes(result, cfg.atmosphere.profile_length_m,
                                                 profile=cfg.atmosphere.profile_sigma_from_data,
                                                 configured_times_s=(errors.position_time_s, errors.velocity_time_s),
                                                 search=intended is None)
+            chain["estimate_s"] += time.perf_counter() - t_estimate
         except (np.linalg.LinAlgError, ValueError) as err:
-            return dataclasses.replace(result, notes=result.notes + (
+            return timed(dataclasses.replace(result, notes=result.notes + (
                 f"error-model sizes not estimated from the data ({err}): fitted with the "
-                f"{'configured' if intended is None else 'last estimated'} ones",))
+                f"{'configured' if intended is None else 'last estimated'} ones",)))
         if not estimate.differs_from(estimate.fitted if intended is None else intended):
-            return dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
+            return timed(dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",)))
         findings = implausible(estimate, cfg.atmosphere.profile_length_m)
         if findings:  # a gross error in the inputs, not a model to refit with: this fit stands, flagged
-            return dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
-                                       gross_errors=result.gross_errors + findings)
+            return timed(dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
+                                             gross_errors=result.gross_errors + findings))
         # from this fit's configuration: the problem's with the error models the refits before set
         refit_cfg, prior = profile_refit(result.scenario.config, estimate)
         before = result.fit_nlp
@@ -390,11 +400,18 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
                            before.parts[0].guess_clock_s, prior, history,
                            label=f"refit {k + 2} of up to {MAX_REFITS + 1} ({what})")
         except FitError as err:  # the fit before stands, and says why it was not replaced
-            return dataclasses.replace(result, notes=result.notes + (f"{estimate.text()}; the refit "
-                                                                     f"{refit_text(estimate, prior)} failed: {err}",))
-        again.timings.update(first_fit_s=earlier_s, total_s=time.perf_counter() - t0)
+            return timed(dataclasses.replace(result, notes=result.notes + (
+                f"{estimate.text()}; the refit {refit_text(estimate, prior)} failed: {err}",)))
+        chain["refits"] += 1
+        for p in CHAIN_PARTS:
+            chain[f"all_{p}"] += again.timings.get(p, 0.0)
+        again.timings.update(first_fit_s=earlier_s)
         if not sizes_estimated(again):  # without the profile model or GPS errors: nothing left to estimate
-            return again
+            return timed(again)
         result, intended = again, estimate.estimated
-    return dataclasses.replace(result, notes=result.notes + (
-        f"error-model sizes: still changing after {MAX_REFITS} refits; the last fit stands",))
+    return timed(dataclasses.replace(result, notes=result.notes + (
+        f"error-model sizes: still changing after {MAX_REFITS} refits; the last fit stands",)))
+
+
+#: The parts of a fit's time summed over the fits of the default path (``all_<part>`` timings).
+CHAIN_PARTS = ("build_s", "solve_s", "covariance_s")
