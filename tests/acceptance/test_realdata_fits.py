@@ -78,7 +78,7 @@ def test_fit_converges_and_writes_the_folder(fitted):
     assert s["constant_drag"]["model"] == "constant" and s["constant_drag"]["converged"] is True
     assert (s["fit"]["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
             or s["fit"]["status"].startswith("Converged (Gauss-Newton decrement"))
-    assert "[[GPS-only fit" in stdout and "[[Data notes]]" in stdout
+    assert "(point-mass, GPS-only)" in stdout and "[[Data notes]]" in stdout
 
 
 def test_trajectory_has_drag_area_with_three_sigma(fitted):
