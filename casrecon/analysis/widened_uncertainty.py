@@ -43,9 +43,9 @@ class Widening:
     Attributes
     ----------
     block_s : float
-        Block length, s.
+        Shortest block length, s.
     n_blocks : int
-        Blocks with residual rows.
+        Shortest blocks with residual rows.
     excess : float
         Mean excess of the sandwich over its expectation under the model, in units of the model
         covariance (about 0 for a right model); the largest over the block lengths.

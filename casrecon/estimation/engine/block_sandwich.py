@@ -151,8 +151,8 @@ def block_sandwich(jacobian_r: sps.spmatrix, basis: np.ndarray, cov_w: np.ndarra
 
 def covering(cov: np.ndarray, others: list[np.ndarray]) -> np.ndarray:
     """A covariance at least as large as ``cov`` and each of ``others`` (Loewner order): in
-    ``cov``'s Cholesky frame each other's eigenvalues above 1 are kept, one after the other
-    (the smallest such when there is one other)."""
+    ``cov``'s Cholesky frame each other's eigenvalues above 1 are kept, one after the other (a
+    covering matrix, not in general the one of least volume)."""
     out = cov
     for other in others:
         chol = np.linalg.cholesky(0.5 * (out + out.T))
