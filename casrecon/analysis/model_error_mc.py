@@ -143,7 +143,7 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     except FitError as err:
         return {"failed": str(err), "seconds": time.perf_counter() - t0}
     verdict = result_adequacy(r)
-    r, widening = published_result(r, verdict.trusted)  # what the fit publishes: widened when not trusted
+    r, widening = published_result(r, verdict.trusted)  # what the fit publishes (widened if the data say so)
     e, nees = parameter_errors(r, truth)
     return {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
             "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
