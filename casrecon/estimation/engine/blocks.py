@@ -209,17 +209,10 @@ class BlockSet:
     @cached_property
     def hess(self) -> ca.Function:
         """The kind's exact-Hessian function over all blocks, for a solver that evaluates it at
-        every iterate (built at first use; compiled if its library is built, else interpreted
-        while the library is built in the background, as every block function)."""
-        return self.mapped(self.kind.exact_hessian)
-
-    @cached_property
-    def hess_once(self) -> ca.Function:
-        """The kind's exact-Hessian function over all blocks, for one or two evaluations (the
-        covariance's): :attr:`hess` when it is made, else made here the same way (its build
-        takes longer than a fit; see :mod:`casrecon.physics.compiled`)."""
-        if "hess" in self.__dict__:
-            return self.hess
+        every iterate and for the observed-information covariance (built at first use; compiled if
+        its library is built, else interpreted while the library is built in the background, as
+        every block function: its -O1 build takes longer than a fit, see
+        :mod:`casrecon.physics.compiled`)."""
         return self.mapped(self.kind.exact_hessian)
 
     def symbolic_values(self, z: ca.MX) -> list:

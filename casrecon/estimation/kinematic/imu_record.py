@@ -197,17 +197,20 @@ def aliased_stretches(time_s: np.ndarray, gyro_radps: np.ndarray, limit_rad: flo
     list of (int, int)
         First and last sample index (inclusive) of each stretch, in time order; empty when none.
     """
-    if time_s.size < 2:
-        return []
-    turn_difference = np.linalg.norm(np.diff(gyro_radps, axis=0), axis=1) * np.diff(time_s)
     stretches: list[tuple[int, int]] = []
-    for k in np.flatnonzero(turn_difference > limit_rad):
+    for k in np.flatnonzero(turn_differences(time_s, gyro_radps) > limit_rad):
         k = int(k)
         if stretches and time_s[k] - time_s[stretches[-1][1]] <= join_s:
             stretches[-1] = (stretches[-1][0], k + 1)
         else:
             stretches.append((k, k + 1))
     return stretches
+
+
+def turn_differences(time_s: np.ndarray, gyro_radps: np.ndarray) -> np.ndarray:
+    """Per step between consecutive samples, the difference between the turns over it taken from
+    either sample's rate, ``|w[k+1] - w[k]| (t[k+1] - t[k])``, rad ((N - 1,); empty for N < 2)."""
+    return np.linalg.norm(np.diff(gyro_radps, axis=0), axis=1) * np.diff(time_s)
 
 
 def aliased_samples(record: ImuRecord, start_s: float, end_s: float) -> tuple[np.ndarray, tuple[str, ...]]:
@@ -230,14 +233,14 @@ def aliased_samples(record: ImuRecord, start_s: float, end_s: float) -> tuple[np
         return aliased, ()
     for a, b in stretches:
         aliased[a:b + 1] = True
-    worst = float(np.max(np.linalg.norm(np.diff(gyro, axis=0), axis=1) * np.diff(t)))
+    worst = float(np.max(turn_differences(t, gyro)))
     limit = (f"the rate changes between consecutive samples by more than {np.degrees(MAX_TURN_DIFFERENCE_RAD):.1f} "
              f"deg of turn over the step, up to {np.degrees(worst):.1f} deg")
     named = [f"t = {t[a]:.3f} to {t[b]:.3f} s (lines {line_of(span.start + a, m)} to {line_of(span.start + b, m)})"
              for a, b in stretches[:NAMED_STRETCHES]]
     more = f" and {len(stretches) - NAMED_STRETCHES} more" if len(stretches) > NAMED_STRETCHES else ""
-    plural = "s" if len(stretches) > 1 else ""
-    return aliased, (f"{int(aliased.sum())} IMU samples in {len(stretches)} stretch{'es' if plural else ''} whose "
+    stretch = "stretches" if len(stretches) > 1 else "stretch"
+    return aliased, (f"{int(aliased.sum())} IMU samples in {len(stretches)} {stretch} whose "
                      f"rotation the sampling does not resolve ({limit}: aliased, as in a parachute's opening "
                      f"shock): {', '.join(named)}{more}; their gyro and accelerometer values kept and weighted "
                      "with the saturated-sample noise",)
