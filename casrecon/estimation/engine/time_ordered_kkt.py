@@ -13,11 +13,13 @@ recursion: 4 to 6M nonzeros, about 0.15 s.
 That order is only usable without pivoting, and then every pivot must be nonzero; a node's
 Gauss-Newton block can be singular (its states seen only through the next node). So the primal
 diagonal is shifted by REGULARIZATION and each solve refined against the unshifted matrix
-(iterative refinement, at most MAX_REFINEMENTS steps, until every row's residual is below
-REFINEMENT_TOL times that row's (|K| |x| + |f|)_i: two to four steps on ees-drop-1). A matrix on
-which that does not converge is factorised again with SuperLU's pivoting order, the parameters as a
-border (:class:`.bordered_kkt.BorderedKkt`), so a solve returns the same answer either way, only
-slower.
+(iterative refinement, while each step shrinks the worst row's residual at least CONTRACTION times
+and at most MAX_REFINEMENTS steps, until every row's residual is below REFINEMENT_TOL times that
+row's (|K| |x| + |f|)_i: two to four steps on ees-drop-1, twelve on a fit with latent GPS errors
+correlated over 400 s). A matrix on which that does not converge is factorised again with the larger
+shift RETRY_REGULARIZATION (0.25 s there, against 8 s for a pivoting factor), and only if that
+does not converge either with SuperLU's pivoting order, the parameters as a border
+(:class:`.bordered_kkt.BorderedKkt`), so a solve returns the same answer either way, only slower.
 
 The matrix's values come from the NLP's fixed-pattern sources (the blocks' triu(J^T J) and the
 constraint Jacobian's nonzeros): :class:`OrderedPattern` works out once per NLP where each lands.
@@ -36,9 +38,20 @@ from casrecon.estimation.engine.bordered_kkt import BorderedKkt
 #: row was 2.4e3 times its bound with 1e-8 and converged in 4 steps, 27 times with 1e-6 and
 #: converged in 2; 1e-10 did not converge, 1e-4 took 3 steps).
 REGULARIZATION = 1e-6
+#: The shift of a second factor when the first one's refinement does not converge. On a default fit
+#: with latent GPS errors correlated over 400 s (benchmarks/default_cost.py's case, the matrix of
+#: 37,059 rows where the first factor failed in every fit), the worst row's residual over its bound
+#: after each step: with 1e-6 2e9, 4e8, ... 4.5, 0.8 (twelve steps), with 1e-4 9e7, 3e5, 2e3, 10,
+#: 0.05 (five), with 1e-8 5e10 without shrinking. Larger than REGULARIZATION: more steps where
+#: both converge, but convergence where the pivots' growth defeats the small shift.
+RETRY_REGULARIZATION = 1e-4
 #: Iterative-refinement steps at most per solve (each costs a solve and a product, 10 to 20 ms on
-#: ees-drop-1; the pivoting factorisation it avoids, 5 to 8 s).
-MAX_REFINEMENTS = 10
+#: ees-drop-1; the pivoting factorisation it avoids, 5 to 13 s).
+MAX_REFINEMENTS = 30
+#: Each refinement step must shrink the worst row's residual relative to its bound at least this
+#: much (a factor of 1 / CONTRACTION), else the factor is given up (on the matrix above the steps
+#: that converge shrink it 2 to 80 times; the ones that do not, by less than 2 or not at all).
+CONTRACTION = 0.5
 #: Largest residual of a refined solve in each row, relative to that row's (|K| |x| + |f|)_i: row by
 #: row and with the row's own entries of x, because a norm over the whole matrix or over x lets a
 #: constraint row keep a residual of 1e-7 (the stiff IMU rows' entries are 1e6; with a small
@@ -47,12 +60,11 @@ MAX_REFINEMENTS = 10
 REFINEMENT_TOL = 1e-12
 #: Each row's bound is at least this fraction of the largest row's (for rows whose |K| |x| + |f| is 0).
 FLOOR = 1e-8
-#: Refining against this matrix with an earlier matrix's factor (a chord step), each step must
-#: shrink the worst row's residual relative to its bound at least this much, else this matrix is
-#: factorised. On ees-drop-1's profile fit, after steps of 0.01 to 0.1: where the earlier factor
-#: converges it shrinks 3 to 1000 times a step (5 to 9 steps, against 3 with the matrix's own
-#: factor); where it does not, the residual grows at the second step.
-STALE_CONTRACTION = 0.5
+#: Refining against this matrix with an earlier matrix's factor (a chord step), a step that does not
+#: shrink the worst row's residual by CONTRACTION has this matrix factorised. On ees-drop-1's profile
+#: fit, after steps of 0.01 to 0.1: where the earlier factor converges it shrinks 3 to 1000 times a
+#: step (5 to 9 steps, against 3 with the matrix's own factor); where it does not, the residual grows
+#: at the second step.
 
 
 def time_order(kkt: sps.spmatrix, n_z: int, stages: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -107,7 +119,8 @@ class OrderedPattern:
         self.indptr, self.indices = permuted.indptr, permuted.indices
         self.source = np.floor(permuted.data).astype(np.int64) - 1  # -1: the shifted diagonal alone
         cols = np.repeat(np.arange(self.shape[1]), np.diff(self.indptr))
-        self.shift = np.where((self.indices == cols) & primal[self.indices], REGULARIZATION, 0.0)
+        #: 1 on the primal diagonal's entries, 0 elsewhere (times the shift of the factor made)
+        self.shift = np.where((self.indices == cols) & primal[self.indices], 1.0, 0.0)
 
     def matrix(self, source: np.ndarray) -> sps.csc_matrix:
         """The time-ordered matrix (unshifted) from the source values."""
@@ -131,21 +144,25 @@ class TimeOrderedKkt:
         self._magnitude = abs(self._matrix)
         #: Whether the factor in use is ``earlier``'s (a chord step; see :meth:`_solve_ordered`).
         self.stale = earlier is not None and earlier.refined and earlier._pattern is pattern
-        self._lu = earlier._lu if self.stale else self._factorised()
+        #: The primal diagonal's shift of the factor in use (REGULARIZATION or RETRY_REGULARIZATION).
+        self.shift = earlier.shift if self.stale else REGULARIZATION
+        self._lu = earlier._lu if self.stale else self._factorised(self.shift)
         self.refined = True  # False once the pivoting factorisation had to be used
 
-    def _factorised(self):
-        """SuperLU factor of this matrix with the shifted primal diagonal, in time order, no pivoting."""
+    def _factorised(self, shift: float):
+        """SuperLU factor of this matrix with the primal diagonal shifted by ``shift``, in time order,
+        no pivoting."""
         p = self._pattern
-        shifted = sps.csc_matrix((self._matrix.data + p.shift, p.indices, p.indptr), shape=p.shape)
+        shifted = sps.csc_matrix((self._matrix.data + shift * p.shift, p.indices, p.indptr), shape=p.shape)
         return splu(shifted, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
 
     def _solve_ordered(self, f: np.ndarray) -> np.ndarray:
         """The solution in time order for a right-hand side ``f`` in time order.
 
-        With an earlier matrix's factor (``stale``) the refinement stops as soon as a step shrinks
-        the worst row's residual (relative to its bound) by less than STALE_CONTRACTION; this
-        matrix is then factorised and the solve made again."""
+        The refinement stops as soon as a step shrinks the worst row's residual (relative to its
+        bound) by less than CONTRACTION: with an earlier matrix's factor (``stale``) this matrix is
+        then factorised and the solve made again; with this matrix's own, it is factorised again
+        with RETRY_REGULARIZATION, and if that does not converge either, with pivoting."""
         x = self._lu.solve(f)
         if not self.refined:
             return x
@@ -157,12 +174,16 @@ class TimeOrderedKkt:
             if np.all(np.abs(residual) <= bound):
                 return x
             worst = float(np.max(np.abs(residual) / np.maximum(bound, np.finfo(float).tiny)))
-            if self.stale and worst > STALE_CONTRACTION * worst_before:
+            if worst > CONTRACTION * worst_before:
                 break
             worst_before = worst
             x = x + self._lu.solve(np.ascontiguousarray(residual))
         if self.stale:  # the earlier factor converges too slowly here: this matrix's own
-            self._lu, self.stale = self._factorised(), False
+            self._lu, self.stale = self._factorised(self.shift), False
+            return self._solve_ordered(f)
+        if self.shift != RETRY_REGULARIZATION:  # the pivots' growth defeats the small shift: the other one
+            self.shift = RETRY_REGULARIZATION
+            self._lu = self._factorised(self.shift)
             return self._solve_ordered(f)
         # the shifted factor does not converge here: SuperLU's pivoting order, the parameters as a border
         n = self._matrix.shape[0]
