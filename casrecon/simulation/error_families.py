@@ -25,7 +25,7 @@ drawn from other shapes, spectra and grids:
   normal step of the stated 1-sigma), plus the stated white noise;
 - ``sounding-pair``: the flown air differs from the sounding as one real sounding of a site differs
   from another of the same site a few hours later (:data:`SOUNDING_PAIRS`, real launches shipped in
-  ``tests/data/realdata``): wind north, wind east and relative density of the later
+  ``casrecon/simulation/sounding_pairs``): wind north, wind east and relative density of the later
   minus the earlier, both taken at the same height above their own lowest level, with the
   difference's mean over the flown heights removed (see :func:`sounding_pair`);
 - ``none``: the world is the model (the flown air is the sounding, GPS errors white).
@@ -251,8 +251,8 @@ def gps_steps(span: Span, rng: np.random.Generator, mean_interval_s: float = 8.0
     return SyntheticWorld("gps-steps", gps_factors=factors)
 
 
-#: Where the real soundings of :data:`SOUNDING_PAIRS` are (the repository's real measured data).
-SOUNDING_DIR = Path(__file__).resolve().parents[2] / "tests" / "data" / "realdata"
+#: Where the real soundings of :data:`SOUNDING_PAIRS` are (package data; sources and licences in its README.md).
+SOUNDING_DIR = Path(__file__).resolve().parent / "sounding_pairs"
 #: How far apart in time (h) the two launches of a pair may be.
 PAIR_HOURS = (3.0, 24.0)
 #: Altitude step (m) of a pair's difference profile and of the family's grid.
@@ -273,16 +273,16 @@ class SoundingPair:
 
 
 #: The real pairs the ``sounding-pair`` family draws from (provenance and licences:
-#: ``tests/data/realdata/README.md``).
+#: ``casrecon/simulation/sounding_pairs/README.md``).
 SOUNDING_PAIRS = (
-    SoundingPair("Utqiagvik AK 2010-06-01 00Z to 12Z (IGRA2)", "soundings/USM00070026-data.txt",
-                 "soundings/USM00070026-data.txt", 0, 1),
+    SoundingPair("Utqiagvik AK 2010-06-01 00Z to 12Z (IGRA2)", "USM00070026-data.txt",
+                 "USM00070026-data.txt", 0, 1),
     SoundingPair("Utqiagvik AK 2014-09-10 00Z to 12Z (IGRA2 derived)",
-                 "sounding-pairs/BRW_USM00070026_2014-09-10_00Z.csv",
-                 "sounding-pairs/BRW_USM00070026_2014-09-10_12Z.csv"),
+                 "BRW_USM00070026_2014-09-10_00Z.csv",
+                 "BRW_USM00070026_2014-09-10_12Z.csv"),
     SoundingPair("Nashville TN 2014-02-20 12Z to 02-21 12Z (Wyoming)",
-                 "sounding-pairs/BNA_72327_2014-02-20_12Z_wyoming.txt",
-                 "sounding-pairs/BNA_72327_2014-02-21_12Z_wyoming.txt"),
+                 "BNA_72327_2014-02-20_12Z_wyoming.txt",
+                 "BNA_72327_2014-02-21_12Z_wyoming.txt"),
 )
 
 

@@ -3,6 +3,8 @@ says, from its own seeded stream."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -143,9 +145,8 @@ def test_a_pair_of_other_days_or_sites_is_refused(tmp_path):
     days = SoundingPair("Norman 2011-05-22 and 2023-05-22", "soundings/20110522_OUN_12Z.txt",
                         "soundings/OUN_72357_2023-05-22_12Z_wyoming.csv")
     with pytest.raises(ValueError, match="h apart; expected the later 3 to 24 h after the earlier"):
-        pair_difference(days)
+        pair_difference(days, Path(__file__).resolve().parents[1] / "data" / "realdata")
     first, second = SOUNDING_PAIRS[1].first, SOUNDING_PAIRS[1].second  # Utqiagvik, 12 h apart
-    (tmp_path / "sounding-pairs").mkdir()
     (tmp_path / first).write_text((SOUNDING_DIR / first).read_text())
     (tmp_path / second).write_text((SOUNDING_DIR / second).read_text().replace("lat 71.2889", "lat 40.19", 1))
     with pytest.raises(ValueError, match="the two files give different places"):
