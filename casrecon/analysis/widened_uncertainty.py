@@ -6,12 +6,14 @@ as true) is too narrow for what the data show. :func:`widened_result` adds to it
 time-block sandwich that exceeds its expectation under the model
 (:mod:`casrecon.estimation.engine.block_sandwich`): the residual rows of every measurement and
 process prior are cut into blocks of :data:`BLOCK_S` seconds (:mod:`casrecon.estimation.sixdof.row_times`),
-and joined into blocks of 2 and 4 s; what each block's residuals do to the estimate beyond what
+and joined into blocks of 2, 4, 8 and 16 s; what each block's residuals do to the estimate beyond what
 white errors of the stated sizes would do widens the parameters' sigmas and the trajectory bands
 (the widened covariance covers each block length's). The estimates themselves do not change. The
 1 s block was chosen on the selection seed of the error-family study (seed 100: 1 s against 0.5
 and 2 s alone), the union with 2 and 4 s after the first fresh seeds (200, 201) showed errors
-correlated over longer than 1 s still missed (docs/studies/error-families.md).
+correlated over longer than 1 s still missed, and with 8 and 16 s on those seeds, now selection
+seeds, after profile steps left the dynamic-pressure bands at 1 % (with 16 s: 100 %; the
+bands a median 5 to 15 % wider elsewhere; docs/studies/error-families.md).
 
 The sandwich widens what the data's noise does to the estimates; it does not see what the model
 cannot follow at all (gust-driven body rates, a trajectory bent by air the profile does not have):
@@ -42,9 +44,10 @@ from casrecon.estimation.sixdof.row_times import residual_row_times, time_blocks
 
 #: Length of the sandwich's shortest time blocks, s.
 BLOCK_S = 1.0
-#: The block lengths used, in shortest blocks (1, 2 and 4 s): the widened covariance covers each
-#: one's (errors correlated over longer than a block are seen only in part by it).
-MERGES = (1, 2, 4)
+#: The block lengths used, in shortest blocks (1, 2, 4, 8 and 16 s): the widened covariance covers
+#: each one's (errors correlated over longer than a block are seen only in part by it; a 16 s block
+#: is a third of a 40 s drop, its sandwich noisy, its expectation still exact).
+MERGES = (1, 2, 4, 8, 16)
 #: A trusted fit is widened too when its sandwich's trace exceeds the model's at this p-value.
 P_WIDEN = 0.01
 #: Half-width (s) of the window of gyro samples whose residuals' excess floors a node's rate bands.
