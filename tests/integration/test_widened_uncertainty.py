@@ -52,6 +52,7 @@ def test_widened_sigmas_cover_what_the_model_sigmas_miss(understated):
     z = np.array([(wide.values[i] - truth[n]) / wide.sigma[i] for i, n in enumerate(wide.params.names)])
     assert np.max(np.abs(z)) < 4.5
     assert "uncertainty widened" in wide.notes[-1] and "the verdict does not trust" in wide.notes[-1]
+    assert "local excess of the gyro and GPS residuals" in wide.notes[-1]
     # a trusted fit publishes what it fitted (unless its sandwich says otherwise: here it does)
     same, again = published_result(model, True)
     assert again is not None and "the verdict trusts the fit, but" in same.notes[-1]
