@@ -44,7 +44,7 @@ from casrecon.parallel import parallel_map
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.scenario import Scenario
-from casrecon.simulation.error_families import FAMILIES, family_world
+from casrecon.simulation.error_families import FAMILIES, family_world, with_air_scaled
 from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name, world_span
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -99,11 +99,12 @@ def fit_variant(scenario: Scenario, variant: str) -> Scenario:
     return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps, estimation=estimation))
 
 
-def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int) -> dict:
-    """One drop: truth from the priors, flown through ``family``'s world, fitted per variant."""
+def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int, air_factor: float = 1.0) -> dict:
+    """One drop: truth from the priors, flown through ``family``'s world (its air's departures from
+    the sounding times ``air_factor``), fitted per variant."""
     rng = np.random.default_rng([seed, 49])
     scenario = draw_truth(vehicle_scenario(vehicle), rng)
-    world = family_world(family, world_span(scenario), seed)
+    world = with_air_scaled(family_world(family, world_span(scenario), seed), air_factor)
     out = {"family": family, "vehicle": vehicle, "seed": seed}
     with tempfile.TemporaryDirectory() as tmp:
         sc, data = synthetic_scenario(scenario, Path(tmp), seed=int(rng.integers(2**31)), world=world)
@@ -114,9 +115,9 @@ def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int) ->
     return out
 
 
-def run_job(variants: tuple[str, ...], job: tuple[str, str, int]) -> dict:
+def run_job(variants: tuple[str, ...], air_factor: float, job: tuple[str, str, int]) -> dict:
     """:func:`run_case` of a (family, vehicle, seed) job (picklable, for the process pool)."""
-    return run_case(job[0], job[1], variants, job[2])
+    return run_case(job[0], job[1], variants, job[2], air_factor)
 
 
 def pooled(fits: list[dict]) -> dict:
@@ -170,11 +171,13 @@ def main() -> None:
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", type=Path, help="also write every case's figures here")
+    ap.add_argument("--air-factor", type=float, default=1.0,
+                    help="the air's departures from the sounding (profile errors, gusts) times this (2: twice)")
     args = ap.parse_args()
     jobs = [(f, v, s) for f in args.families for v in args.vehicles
             for s in range(args.first_seed, args.first_seed + args.seeds)]
     t0 = time.perf_counter()
-    cases = parallel_map(partial(run_job, tuple(args.variants)), jobs,
+    cases = parallel_map(partial(run_job, tuple(args.variants), args.air_factor), jobs,
                          workers=args.workers, progress="error families")
     print(f"{len(jobs)} cases in {time.perf_counter() - t0:.0f} s")
     print_table(cases, tuple(args.variants))

@@ -426,6 +426,23 @@ ATMOSPHERE_FAMILIES = ("turbulence", "turbulence-altitude", "turbulence-time", "
                        "density-ramp", "wind-jet", "sounding-pair")
 
 
+def with_air_scaled(world: SyntheticWorld, factor: float) -> SyntheticWorld:
+    """``world`` with its air's departures from the sounding (profile error: wind and density; gusts)
+    times ``factor`` (e.g. 2: twice the size); its GPS errors unchanged."""
+    profile, gusts = world.profile_error, world.gusts
+    if profile is not None:
+        profile = ProfileError(profile.altitude_msl_m, factor * profile.wind_north_mps, factor * profile.wind_east_mps,
+                               factor * profile.density)
+    if gusts is not None:
+        gusts = functools.partial(_scaled_gusts, gusts, factor)
+    return SyntheticWorld(world.name if factor == 1.0 else f"{world.name} x{factor:g}", profile, gusts,
+                          world.gps_factors)
+
+
+def _scaled_gusts(gusts: Callable[[np.ndarray], np.ndarray], factor: float, time_s: np.ndarray) -> np.ndarray:
+    return factor * gusts(time_s)
+
+
 def family_world(name: str, span: Span, seed: int) -> SyntheticWorld:
     """The world of family ``name`` for drop ``seed`` (own random stream ``(seed, 7, crc32(name))``,
     so a family's draws do not move when families are added). ValueError for an unknown family."""

@@ -154,3 +154,17 @@ def test_a_pair_of_other_days_or_sites_is_refused(tmp_path):
     short = Span(lo_msl_m=1210.0, hi_msl_m=40_000.0, ground_msl_m=1310.0, release_msl_m=39_900.0, flight_s=40.0)
     with pytest.raises(ValueError, match="reaches .* m above its surface; the drop needs"):
         sounding_pair(short, np.random.default_rng(0))
+
+
+def test_the_air_scaled_twice_is_twice_the_departure_and_the_same_gps():
+    from casrecon.simulation.error_families import with_air_scaled
+
+    span = Span(lo_msl_m=1210.0, hi_msl_m=4000.0, ground_msl_m=1310.0, release_msl_m=2900.0, flight_s=40.0)
+    world = family_world("turbulence", span, 3)
+    twice = with_air_scaled(world, 2.0)
+    np.testing.assert_allclose(twice.profile_error.wind_north_mps, 2 * world.profile_error.wind_north_mps)
+    np.testing.assert_allclose(twice.profile_error.density, 2 * world.profile_error.density)
+    t = np.linspace(0.0, 40.0, 81)
+    np.testing.assert_allclose(twice.gusts(t), 2 * world.gusts(t))
+    assert twice.gps_factors is world.gps_factors and twice.name == "turbulence x2"
+    assert with_air_scaled(world, 1.0).name == "turbulence"
