@@ -87,29 +87,21 @@ def test_a_held_entry_gives_the_reduced_systems_solution():
     assert force == pytest.approx(rhs[fixed] - dense[fixed] @ want, rel=1e-8)
 
 
-def test_a_factor_whose_refinement_does_not_converge_pivots(monkeypatch):
-    """A shift far too large for the refinement to converge: the factor falls back to SuperLU's
-    pivoting factorisation and still returns the solution."""
+@pytest.mark.parametrize("retry_shift, refined", [(1e4, False), (1e-4, True)])
+def test_a_factor_whose_shift_does_not_converge_retries_then_pivots(monkeypatch, retry_shift, refined):
+    """A first shift far too large for the refinement to converge: the factor is made again with the
+    retry's shift, which converges when small enough (no pivoting) and else falls back to SuperLU's
+    pivoting factorisation. Either way the solve returns the dense solution."""
     monkeypatch.setattr(time_ordered_kkt, "REGULARIZATION", 1e3)
-    monkeypatch.setattr(time_ordered_kkt, "RETRY_REGULARIZATION", 1e4)
+    monkeypatch.setattr(time_ordered_kkt, "RETRY_REGULARIZATION", retry_shift)
     kkt, n_z, stages, params = fit_like_kkt()
     f = factor(kkt, n_z, stages, params)
     rhs = np.random.default_rng(3).standard_normal(kkt.shape[0])
     want = np.linalg.solve(kkt.toarray(), rhs)
     np.testing.assert_allclose(f.solve(rhs), want, rtol=1e-8, atol=1e-8 * np.abs(want).max())
-    assert not f.refined
-
-
-def test_a_factor_whose_small_shift_does_not_converge_retries_a_larger_one(monkeypatch):
-    """The first shift far too large to converge, the retry's small enough: the solve converges with
-    the second factor, without pivoting, and returns the dense solution."""
-    monkeypatch.setattr(time_ordered_kkt, "REGULARIZATION", 1e3)
-    kkt, n_z, stages, params = fit_like_kkt()
-    f = factor(kkt, n_z, stages, params)
-    rhs = np.random.default_rng(3).standard_normal(kkt.shape[0])
-    want = np.linalg.solve(kkt.toarray(), rhs)
-    np.testing.assert_allclose(f.solve(rhs), want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
-    assert f.refined and f.shift == time_ordered_kkt.RETRY_REGULARIZATION
+    assert f.refined == refined
+    if refined:
+        assert f.shift == retry_shift
 
 
 def test_a_chord_solve_with_the_factor_before_equals_the_dense_solve():
