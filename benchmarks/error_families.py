@@ -30,6 +30,7 @@ import argparse
 import dataclasses
 import json
 import math
+import os
 import tempfile
 import time
 from functools import partial
@@ -170,19 +171,26 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=10, help="cases per family and vehicle")
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--json", type=Path, help="also write every case's figures here")
+    ap.add_argument("--json", type=Path, help="also write every case's figures here (after each case)")
     ap.add_argument("--air-factor", type=float, default=1.0,
                     help="the air's departures from the sounding (profile errors, gusts) times this (2: twice)")
     args = ap.parse_args()
     jobs = [(f, v, s) for f in args.families for v in args.vehicles
             for s in range(args.first_seed, args.first_seed + args.seeds)]
     t0 = time.perf_counter()
+    done: list[dict] = []
+
+    def keep(_job, case: dict) -> None:  # every finished case on disk at once (a long study may be stopped)
+        done.append(case)
+        if args.json:
+            tmp = args.json.with_name(args.json.name + ".tmp")
+            tmp.write_text(json.dumps(done, indent=1, default=str))
+            os.replace(tmp, args.json)
+
     cases = parallel_map(partial(run_job, tuple(args.variants), args.air_factor), jobs,
-                         workers=args.workers, progress="error families")
+                         workers=args.workers, progress="error families", on_done=keep)
     print(f"{len(jobs)} cases in {time.perf_counter() - t0:.0f} s")
     print_table(cases, tuple(args.variants))
-    if args.json:
-        args.json.write_text(json.dumps(cases, indent=1, default=str))
 
 
 if __name__ == "__main__":
