@@ -131,10 +131,11 @@ def band_coverage(result, trajectory, release_imu_s: float) -> dict[str, tuple[i
 def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release_imu_s: float,
                 method: str | None = None, information: str | None = None) -> dict:
     """Fit ``scenario`` (by ``method``, "map" or "marginal", its covariance from ``information``,
-    "observed" or "expected"; defaults its ``[estimation]``'s) and summarise it against the truth
-    (or the failure)."""
+    "observed" or "expected"; defaults its ``[estimation]``'s) and summarise what it publishes against
+    the truth (or the failure); for a fit published with its own sigmas also what the widened ones
+    would have been (``forced_widening``: sigma, nees, coverage), for studies of the rule."""
     from casrecon.analysis.fit_products import result_adequacy
-    from casrecon.analysis.widened_uncertainty import published_result
+    from casrecon.analysis.widened_uncertainty import published_result, widened_result, widening_refused
     from casrecon.estimation.sixdof.fit import FitError, fit_drop
 
     t0 = time.perf_counter()
@@ -143,12 +144,19 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     except FitError as err:
         return {"failed": str(err), "seconds": time.perf_counter() - t0}
     verdict = result_adequacy(r)
+    model = r
     r, widening = published_result(r, verdict.trusted)  # what the fit publishes (widened if the data say so)
     e, nees = parameter_errors(r, truth)
-    return {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
-            "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
-            "coverage": band_coverage(r, trajectory, release_imu_s), **verdict_summary(verdict),
-            "widened": widening is not None}
+    out = {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
+           "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
+           "coverage": band_coverage(r, trajectory, release_imu_s), **verdict_summary(verdict),
+           "widened": widening is not None}
+    if widening is None and widening_refused(model) is None:  # what widening it anyway would publish
+        forced, _ = widened_result(model, reason="a study's comparison")
+        _, forced_nees = parameter_errors(forced, truth)
+        out["forced_widening"] = {"sigma": forced.sigma.tolist(), "nees": forced_nees,
+                                  "coverage": band_coverage(forced, trajectory, release_imu_s)}
+    return out
 
 
 def verdict_summary(adequacy) -> dict:
