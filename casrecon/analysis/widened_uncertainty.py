@@ -124,10 +124,16 @@ def widening_refused(result) -> str | None:
 def sandwich_of(result, block_s: float = BLOCK_S) -> list[BlockSandwich]:
     """The time-block sandwiches of a per-drop fit (:func:`widening_refused` None), blocks of
     ``block_s`` s times each of :data:`MERGES`."""
+    return block_sandwiches_of(result, MERGES, block_s)
+
+
+def block_sandwiches_of(result, merges: tuple[int, ...], block_s: float = BLOCK_S) -> list[BlockSandwich]:
+    """The time-block sandwiches of a per-drop fit (:func:`widening_refused` None), blocks of
+    ``block_s`` s times each of ``merges`` (for studies of the block lengths)."""
     cov, part = result.covariance, result.part
     jr = result.nlp.derivatives.jacobian_r(result.z)
     times = residual_row_times(jr, part.node_cols.reshape(-1, part.n_states), part.mesh.t_nodes)
-    return block_sandwiches(jr, cov.basis, cov.cov_w, result.residuals, time_blocks(times, block_s), MERGES)
+    return block_sandwiches(jr, cov.basis, cov.cov_w, result.residuals, time_blocks(times, block_s), merges)
 
 
 def p_value(sandwiches: list[BlockSandwich]) -> float:
