@@ -137,8 +137,11 @@ def block_sandwiches_of(result, merges: tuple[int, ...], block_s: float = BLOCK_
 
 
 def p_value(sandwiches: list[BlockSandwich]) -> float:
-    """The smallest of the block lengths' p-values, Bonferroni-corrected for their number."""
-    return min(1.0, len(sandwiches) * min(sw.p_value for sw in sandwiches))
+    """The smallest of the block lengths' p-values, Bonferroni-corrected for their number. A block
+    length with no p-value (NaN: too few blocks for the trace's distribution, e.g. two blocks whose
+    sums cancel) is left out."""
+    values = [sw.p_value for sw in sandwiches if np.isfinite(sw.p_value)]
+    return min(1.0, len(sandwiches) * min(values)) if values else 1.0
 
 
 def local_excess(time_s: np.ndarray, residual: np.ndarray, sigma: np.ndarray, valid: np.ndarray,

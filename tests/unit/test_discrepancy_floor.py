@@ -1,4 +1,5 @@
-"""The widened bands' floor from the sensors' residuals (analysis/widened_uncertainty.py): what the
+"""The widened bands' floor from the sensors' residuals, and the p-value over block lengths
+(analysis/widened_uncertainty.py): what the
 residuals show beyond their stated noise, window by window."""
 
 import numpy as np
@@ -44,3 +45,13 @@ def test_floored_bands_add_variances_to_the_named_columns_only():
     out = floored_bands(sigma, ("pos_n_m", "p_dps"), {"pos_n_m": np.array([16.0, 9.0]), "absent": np.ones(2)})
     np.testing.assert_allclose(out, [[5.0, 1.0], [5.0, 2.0]])
     assert sigma[0, 0] == 3.0  # not modified
+
+
+def test_a_block_length_without_a_p_value_is_left_out():
+    from types import SimpleNamespace
+
+    from casrecon.analysis.widened_uncertainty import p_value
+
+    lengths = [SimpleNamespace(p_value=v) for v in (float("nan"), 0.004, 0.3)]
+    assert p_value(lengths) == 3 * 0.004
+    assert p_value([SimpleNamespace(p_value=float("nan"))]) == 1.0
