@@ -1,6 +1,6 @@
 """The widened bands' floor from the sensors' residuals, and the p-value over block lengths
-(analysis/widened_uncertainty.py): what the
-residuals show beyond their stated noise, window by window."""
+(analysis/widened_uncertainty.py): what the residuals show beyond their stated noise, window by
+window."""
 
 import numpy as np
 
