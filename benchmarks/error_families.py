@@ -100,9 +100,11 @@ def fit_variant(scenario: Scenario, variant: str) -> Scenario:
     return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps, estimation=estimation))
 
 
-def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int, air_factor: float = 1.0) -> dict:
+def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int, air_factor: float = 1.0,
+             forced_widening: bool = False) -> dict:
     """One drop: truth from the priors, flown through ``family``'s world (its air's departures from
-    the sounding times ``air_factor``), fitted per variant."""
+    the sounding times ``air_factor``), fitted per variant (``forced_widening``: see
+    :func:`~casrecon.analysis.model_error_mc.fit_summary`)."""
     rng = np.random.default_rng([seed, 49])
     scenario = draw_truth(vehicle_scenario(vehicle), rng)
     world = with_air_scaled(family_world(family, world_span(scenario), seed), air_factor)
@@ -112,13 +114,14 @@ def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int, ai
         truth = truth_parameters_by_name(sc)
         release = float(data.truth["release_imu_time_s"])
         for variant in variants:
-            out[variant] = fit_summary(fit_variant(sc, variant), truth, data.trajectory, release)
+            out[variant] = fit_summary(fit_variant(sc, variant), truth, data.trajectory, release,
+                                       forced_widening=forced_widening)
     return out
 
 
-def run_job(variants: tuple[str, ...], air_factor: float, job: tuple[str, str, int]) -> dict:
+def run_job(variants: tuple[str, ...], air_factor: float, forced_widening: bool, job: tuple[str, str, int]) -> dict:
     """:func:`run_case` of a (family, vehicle, seed) job (picklable, for the process pool)."""
-    return run_case(job[0], job[1], variants, job[2], air_factor)
+    return run_case(job[0], job[1], variants, job[2], air_factor, forced_widening)
 
 
 def pooled(fits: list[dict]) -> dict:
@@ -174,6 +177,8 @@ def main() -> None:
     ap.add_argument("--json", type=Path, help="also write every case's figures here (after each case)")
     ap.add_argument("--air-factor", type=float, default=1.0,
                     help="the air's departures from the sounding (profile errors, gusts) times this (2: twice)")
+    ap.add_argument("--forced-widening", action="store_true",
+                    help="for fits published with their own sigmas, also record (--json) the widened ones")
     args = ap.parse_args()
     jobs = [(f, v, s) for f in args.families for v in args.vehicles
             for s in range(args.first_seed, args.first_seed + args.seeds)]
@@ -187,7 +192,7 @@ def main() -> None:
             tmp.write_text(json.dumps(done, indent=1, default=str))
             os.replace(tmp, args.json)
 
-    cases = parallel_map(partial(run_job, tuple(args.variants), args.air_factor), jobs,
+    cases = parallel_map(partial(run_job, tuple(args.variants), args.air_factor, args.forced_widening), jobs,
                          workers=args.workers, progress="error families", on_done=keep)
     print(f"{len(jobs)} cases in {time.perf_counter() - t0:.0f} s")
     print_table(cases, tuple(args.variants))

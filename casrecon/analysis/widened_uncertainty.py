@@ -148,7 +148,8 @@ def local_excess(time_s: np.ndarray, residual: np.ndarray, sigma: np.ndarray, va
                  node_time_s: np.ndarray, half_window_s: float) -> np.ndarray:
     """At each node time, the mean of ``residual^2 - sigma^2`` over the valid samples within
     ``half_window_s`` of it, its positive part (0 with no sample there): the variance the residuals
-    show beyond their stated noise. ``time_s`` ascending; arrays of one channel."""
+    show beyond their stated noise. ``time_s`` ascending; arrays of one channel (``sigma`` per sample,
+    or one for all)."""
     ok = valid & np.isfinite(residual) & np.isfinite(sigma)
     excess = np.concatenate([[0.0], np.cumsum(np.where(ok, residual, 0.0) ** 2 - np.where(ok, sigma, 0.0) ** 2)])
     count = np.concatenate([[0.0], np.cumsum(ok)])
@@ -166,8 +167,7 @@ def discrepancy_variances(result) -> dict[str, np.ndarray]:
     assumes, the correlated part included)."""
     t = result.node_time_s
     imu = imu_residuals(result)
-    gyro = np.column_stack([local_excess(imu["time_imu_s"], imu["residual"][:, 3 + c], np.full(imu["time_imu_s"].size,
-                                                                                                 imu["sigma"][3 + c]),
+    gyro = np.column_stack([local_excess(imu["time_imu_s"], imu["residual"][:, 3 + c], imu["sigma"][3 + c],
                                          imu["valid"][:, 3 + c], t, IMU_HALF_WINDOW_S) for c in range(3)])
     rotation = np.asarray(result.scenario.config.vehicle.imu_to_body, float)
     body = gyro @ (rotation ** 2).T
