@@ -168,3 +168,23 @@ def test_the_full_space_solver_holds_a_bound_like_the_null_space_one(monkeypatch
     cov = covariance_or_fail(nlp, reference.z, nlp.residual_vector(reference.z), reference.reduced)
     sigma = np.sqrt(cov.covariance_of(np.array([nlp.n_z - 2]))[0, 0])
     assert abs(full.z[-2] - reference.z[-2]) < 1e-2 * sigma
+
+
+@pytest.mark.parametrize("full_space", [False, True])
+def test_the_decrement_tolerance_reaches_the_stop_test(monkeypatch, full_space):
+    """``decrement_tol`` (the default path's first fit stops at a looser one) is the test's: a looser
+    one never stops later and leaves a decrement at most it (here the constraints, not the
+    decrement, set the last iteration: the same iterate); one no step can meet (negative) leaves
+    the Gauss-Newton solver unconverged and Ipopt finishes, as for any such run."""
+    nlp, _, angles = pendulum_nlp(staged=True)
+    if full_space:
+        monkeypatch.setattr(gauss_newton, "MAX_REDUCED", 0)
+    method = "gauss-newton (full space)" if full_space else "gauss-newton"
+    z0 = start_from(angles, (2.0, 1.0))
+    tight = solve(nlp, z0)
+    loose = solve(nlp, z0, decrement_tol=1.0)
+    assert tight.method == loose.method == method and loose.converged and tight.converged
+    assert loose.decrement <= 1.0 and loose.iterations <= tight.iterations
+    never = solve(nlp, z0, decrement_tol=-1.0)
+    assert never.method == f"{method}, then ipopt" and never.converged
+    assert never.z[-2:] == pytest.approx(tight.z[-2:], abs=1e-4)

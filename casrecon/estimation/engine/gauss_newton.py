@@ -196,8 +196,10 @@ def _merit(r: np.ndarray, c: np.ndarray, nu: float) -> float:
 
 @single_threaded_blas()
 def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
-                       bounds: tuple[np.ndarray, np.ndarray] | None = None) -> GaussNewtonRun:
-    """Run the constrained Gauss-Newton iteration from ``z0`` (scaled; clipped into ``bounds``).
+                       bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                       decrement_tol: float = DECREMENT_TOL) -> GaussNewtonRun:
+    """Run the constrained Gauss-Newton iteration from ``z0`` (scaled; clipped into ``bounds``) until
+    the constraints are met and the Gauss-Newton decrement is at most ``decrement_tol`` (chi-square).
 
     Returns the last iterate whether or not it converged (``converged``/``status`` say); raises
     :class:`GaussNewtonFailure` only when not even a first step can be formed.
@@ -230,7 +232,7 @@ def solve_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
         t2 = time.perf_counter()
         eval_s += t1 - t0
         algebra_s += t2 - t1
-        if violation <= convergence.FEASIBILITY_TOL and step.predicted <= DECREMENT_TOL:
+        if violation <= convergence.FEASIBILITY_TOL and step.predicted <= decrement_tol:
             return _run(z, True, f"Converged (Gauss-Newton decrement {max(step.predicted, 0.0):.2g} chi2)", iteration,
                         step.predicted, eval_s, algebra_s, system, nlp)
         if iteration == max_iter:

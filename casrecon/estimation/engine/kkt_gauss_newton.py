@@ -187,10 +187,12 @@ def feasibility_step(factor: TimeOrderedKkt, c: np.ndarray, z: np.ndarray,
 
 
 def feasible_projection(nlp: Nlp, z: np.ndarray, grad: np.ndarray, jr: sps.spmatrix, dz: np.ndarray,
-                        dz_p: np.ndarray) -> tuple[np.ndarray, float, float] | None:
+                        dz_p: np.ndarray, decrement_tol: float = convergence.DECREMENT_TOL,
+                        ) -> tuple[np.ndarray, float, float] | None:
     """The iterate ``z`` moved onto the constraints when only its constraint violation stands between
     it and convergence (see :data:`PROJECTION_VIOLATION`): (projected iterate, its violation, the
-    Gauss-Newton decrement there), or None when the projected point is not converged.
+    Gauss-Newton decrement there), or None when the projected point is not converged (its decrement
+    above ``decrement_tol``, chi-square, or its violation above FEASIBILITY_TOL).
 
     The Gauss-Newton step ``dz`` at ``z`` (gradient ``grad``, residual Jacobian ``jr``) is split
     into its feasibility part ``dz_p`` (:func:`feasibility_step`) and the rest dz_o = dz - dz_p,
@@ -204,7 +206,7 @@ def feasible_projection(nlp: Nlp, z: np.ndarray, grad: np.ndarray, jr: sps.spmat
     dz_o = dz - dz_p
     jdp, jdo = jr @ dz_p, jr @ dz_o
     predicted = -(2.0 * float(grad @ dz_o) + 2.0 * float(jdp @ jdo) + float(jdo @ jdo))
-    if predicted > convergence.DECREMENT_TOL:
+    if predicted > decrement_tol:
         return None
     z_p = z + dz_p
     _, c_p = nlp.derivatives.values_only(z_p)
@@ -260,9 +262,11 @@ class SlowMode:
 
 @single_threaded_blas()
 def solve_kkt_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
-                           bounds: tuple[np.ndarray, np.ndarray] | None = None) -> GaussNewtonRun:
+                           bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                           decrement_tol: float = convergence.DECREMENT_TOL) -> GaussNewtonRun:
     """The constrained Gauss-Newton iteration of :mod:`.gauss_newton` with each step solved in the full
-    space (see the module docstring), from ``z0`` (scaled; clipped into ``bounds``).
+    space (see the module docstring), from ``z0`` (scaled; clipped into ``bounds``), until the
+    constraints are met and a full step's predicted chi-square decrease is at most ``decrement_tol``.
 
     Returns the last iterate whether or not it converged (``converged``/``status`` say; ``system``
     is None: the covariance forms its own); raises :class:`GaussNewtonFailure` only when not even a
@@ -307,11 +311,11 @@ def solve_kkt_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
         if convergence.FEASIBILITY_TOL < violation <= PROJECTION_VIOLATION:
             t2 = time.perf_counter()
             dz_p = feasibility_step(factor, c, z, bounded)
-            projected = feasible_projection(nlp, z, grad, jr, dz, dz_p)
+            projected = feasible_projection(nlp, z, grad, jr, dz, dz_p, decrement_tol)
             algebra_s += time.perf_counter() - t2
             if projected is not None:
                 z, violation, predicted = projected
-        if violation <= convergence.FEASIBILITY_TOL and predicted <= convergence.DECREMENT_TOL:
+        if violation <= convergence.FEASIBILITY_TOL and predicted <= decrement_tol:
             return GaussNewtonRun(z, True, f"Converged (Gauss-Newton decrement {max(predicted, 0.0):.2g} chi2)",
                                   iteration, predicted, eval_s, algebra_s, None, lam)
         if iteration == max_iter:

@@ -190,9 +190,12 @@ def make_solver(nlp: Nlp, linear_solver: str = "mumps", max_iter: int = 200, tol
 
 def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int = 200, tol: float = 1e-6,
           print_level: int = 0, bounds: tuple[np.ndarray, np.ndarray] | None = None,
-          method: str = "auto") -> SolveResult:
+          method: str = "auto", decrement_tol: float | None = None) -> SolveResult:
     """Solve from ``z0`` (scaled); ``bounds`` = (lbx, ubx), scaled; ``method`` in METHODS (see the
-    module docstring). ``linear_solver``, ``tol`` and ``print_level`` are Ipopt's."""
+    module docstring). ``linear_solver``, ``tol`` and ``print_level`` are Ipopt's. ``decrement_tol``
+    (chi-square): the Gauss-Newton decrement at which the Gauss-Newton solvers stop; None: each
+    one's own (:data:`.gauss_newton.DECREMENT_TOL`, :data:`.convergence.DECREMENT_TOL`). Ipopt keeps
+    its own test."""
     if method not in METHODS:
         raise ValueError(f"solver method {method!r}: expected one of {', '.join(METHODS)}")
     if method == "auto" and nlp.latent:
@@ -202,11 +205,11 @@ def solve(nlp: Nlp, z0: np.ndarray, linear_solver: str = "mumps", max_iter: int 
                                    method=f"gauss-newton ({steps} steps), then ipopt")
     if method == "auto" and gauss_newton.applies(nlp):
         return _gauss_newton_then_ipopt(gauss_newton.solve_gauss_newton, "gauss-newton", "superlu (null space)", nlp,
-                                        z0, linear_solver, max_iter, tol, print_level, bounds)
+                                        z0, linear_solver, max_iter, tol, print_level, bounds, decrement_tol)
     if method == "auto" and full_space_applies(nlp):
         return _gauss_newton_then_ipopt(kkt_gauss_newton.solve_kkt_gauss_newton, "gauss-newton (full space)",
                                         "superlu (time-ordered KKT)", nlp, z0, linear_solver, max_iter, tol,
-                                        print_level, bounds)
+                                        print_level, bounds, decrement_tol)
     return ipopt_then_exact(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)
 
 
@@ -220,12 +223,15 @@ def full_space_applies(nlp: Nlp) -> bool:
 
 def _gauss_newton_then_ipopt(run_gauss_newton, method: str, linear_solver_name: str, nlp: Nlp, z0: np.ndarray,
                              linear_solver: str, max_iter: int, tol: float, print_level: int,
-                             bounds: tuple[np.ndarray, np.ndarray] | None) -> SolveResult:
-    """``run_gauss_newton(nlp, z0, max_iter, bounds)`` (a :class:`.gauss_newton.GaussNewtonRun`), and
-    Ipopt from its last iterate when it stops unconverged (or from ``z0`` when it cannot start)."""
+                             bounds: tuple[np.ndarray, np.ndarray] | None,
+                             decrement_tol: float | None = None) -> SolveResult:
+    """``run_gauss_newton(nlp, z0, max_iter, bounds[, decrement_tol])`` (a
+    :class:`.gauss_newton.GaussNewtonRun`; ``decrement_tol`` passed when not None), and Ipopt from its
+    last iterate when it stops unconverged (or from ``z0`` when it cannot start)."""
     t0 = time.perf_counter()
+    stop = {} if decrement_tol is None else {"decrement_tol": decrement_tol}
     try:
-        run = run_gauss_newton(nlp, z0, min(max_iter, GAUSS_NEWTON_MAX_ITER), bounds)
+        run = run_gauss_newton(nlp, z0, min(max_iter, GAUSS_NEWTON_MAX_ITER), bounds, **stop)
     except gauss_newton.GaussNewtonFailure as err:
         LOG.info("Gauss-Newton could not start (%s); solving with Ipopt", err)
         return ipopt_then_exact(nlp, z0, linear_solver, max_iter, tol, print_level, bounds)

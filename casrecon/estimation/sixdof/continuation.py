@@ -85,7 +85,8 @@ def solve_fit(build: Callable[[dict[str, float], dict[str, np.ndarray]], FitNlp]
         with iteration_logging(label=nested_label(", ".join(again)) if again else None), \
                 fit_stage("solving again from the last solution" if again else "solving"):
             sol = solve(nlp, z0, linear_solver=settings.linear_solver, max_iter=settings.max_iter,
-                        tol=settings.tol, print_level=settings.print_level, bounds=bounds, method=settings.solver)
+                        tol=settings.tol, print_level=settings.print_level, bounds=bounds, method=settings.solver,
+                        decrement_tol=settings.decrement_tol)
         build_s += sol.build_s
         check_converged(sol, nlp)
         previous, z = fit_nlp, sol.z

@@ -37,6 +37,10 @@ class FitSettings:
         Ipopt tolerance (scaled optimality error).
     print_level : int
         Ipopt print level (0: silent).
+    decrement_tol : float or None
+        Gauss-Newton decrement (chi-square) at which the Gauss-Newton solvers stop; None: their own
+        (see :func:`~casrecon.estimation.engine.solve.solve`). Looser only for a fit made to
+        estimate the error models' sizes from (:data:`~casrecon.estimation.sixdof.fit.SIZING_DECREMENT`).
     """
 
     hessian: str
@@ -47,6 +51,7 @@ class FitSettings:
     max_iter: int
     tol: float
     print_level: int = 0
+    decrement_tol: float | None = None
 
     @classmethod
     def from_estimation(cls, est: EstimationConfig, **overrides) -> FitSettings:
