@@ -8,9 +8,10 @@ The search: L-BFGS-B over the log ratios of every group's sigma to the fit's, at
 correlation length and GPS correlation times, then at each other profile length
 (``profile_sigma.LENGTH_FACTORS`` times the configured one), then, at the most evident length, at
 each other position and then velocity correlation time (``gps_error_sigma.TIME_FACTORS`` times the
-fit's); the most evident candidate wins each round. A profile group whose estimate explains the
-data better than none of its error by less than ``profile_sigma.ZERO_EVIDENCE_NATS`` is taken as
-zero, as without the GPS groups.
+fit's, and longer ones while the longest wins: see :func:`time_search`); the most evident
+candidate wins each round. A profile group whose estimate explains the data better than none of
+its error by less than ``profile_sigma.ZERO_EVIDENCE_NATS`` is taken as zero, as without the GPS
+groups.
 """
 
 from __future__ import annotations
@@ -21,7 +22,9 @@ from scipy.optimize import minimize
 from casrecon.estimation.engine.covariance import gauss_newton_system
 from casrecon.estimation.error_models import profile_sigma as ps
 from casrecon.estimation.error_models.gps_error_sigma import (
+    EXTENSION_FACTOR,
     MAX_RATIO,
+    MAX_TIME_FACTOR,
     MIN_RATIO,
     MIN_SHARE,
     TIME_FACTORS,
@@ -80,7 +83,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     _, times, length, model, fit, names = best
     at_end = tuple(g for k, g in enumerate(("position", "velocity"))
                    if search and times[k] != own_times[k] and base_times[k] > 0
-                   and any(np.isclose(times[k], f * base_times[k]) for f in (min(TIME_FACTORS), max(TIME_FACTORS))))
+                   and any(np.isclose(times[k], f * base_times[k]) for f in (min(TIME_FACTORS), MAX_TIME_FACTOR)))
     ratio = np.exp(fit.x)
     value = -fit.fun
     n_profile = len(names) - len([n for n in names if n.startswith("gps ")])
@@ -107,14 +110,26 @@ def time_search(build, best, errors, own_times: tuple[float, float], base_times:
     """The most evident of ``best`` (as :func:`most_evident` returns) and the candidates at each other
     position and then velocity correlation time (TIME_FACTORS times ``base_times``, at the length and
     times chosen so far), for each group the fit's model (``errors``, times ``own_times``) has
-    correlated and whose estimated correlated share is at least MIN_SHARE."""
+    correlated and whose estimated correlated share is at least MIN_SHARE. Where the longest time is
+    the most evident, longer ones (EXTENSION_FACTOR times, up to MAX_TIME_FACTOR times
+    ``base_times``) while the evidence rises."""
     for g in (0, 1):
         ratios = dict(zip(best[5], np.exp(best[4].x)))
         if own_times[g] > 0 and variance_parts(errors, ratios, g)[1] >= MIN_SHARE:
-            times = {tuple(f * base_times[g] if i == g else best[1][i] for i in (0, 1)) for f in (1.0, *TIME_FACTORS)}
+            def at(factor: float, g=g, other=best[1]) -> tuple[float, float]:
+                return tuple(factor * base_times[g] if i == g else other[i] for i in (0, 1))
+
+            times = {at(f) for f in (1.0, *TIME_FACTORS)}
             times.discard(best[1])
             challenger = most_evident(build, [(best[2], t) for t in sorted(times)], best[4].x)
             if challenger[0] < best[0]:
+                best = challenger
+            factor, last = max(TIME_FACTORS), MAX_TIME_FACTOR * (1 + 1e-9)
+            while np.isclose(best[1][g], factor * base_times[g]) and factor * EXTENSION_FACTOR <= last:
+                factor *= EXTENSION_FACTOR
+                challenger = most_evident(build, [(best[2], at(factor))], best[4].x)
+                if challenger[0] >= best[0]:
+                    break
                 best = challenger
     return best
 
