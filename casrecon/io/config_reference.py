@@ -112,11 +112,13 @@ SIX_DOF = FileKind(
                "(the knots of the cubic B-spline the corrections are), at most profile_length_m",
                source=AtmosphereConfig, attr="atmosphere.profile_step_m"),
             key("profile_sigma_from_data", "bool", "", "Estimate the two profile sigmas and their correlation length "
-               "(1/3 to 10 times profile_length_m) from the data after the fit (type-II maximum likelihood) and fit "
-               "again with them where they differ from the configured ones by more than 25 % (without the profile "
-               "model when the data show none); per-drop MAP fits without disturbance states. An estimate at the "
-               "longest length searched or at the top of a sigma's search is a gross input error (a sounding of "
-               "another day or place, a datum, the IMU clock): not fitted again with, the verdict not trusted",
+               "(1/3 to 10 times profile_length_m, and longer, up to 100 times, while the evidence rises) from the "
+               "data after the fit (type-II maximum likelihood) and fit again with them where they differ from the "
+               "configured ones by more than 25 % (without the profile model when the data show none); per-drop MAP "
+               "fits without disturbance states. An estimate at the top of a sigma's search, or over 10 times "
+               "profile_length_m or more with a sigma over 1.25 times the configured, is a gross input error (a "
+               "sounding of another day or place, a datum, the IMU clock): not fitted again with, the verdict not "
+               "trusted",
                source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
             key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them (levels "
                "without one take the mixing ratio interpolated in altitude); false: dry air, p / (R_d T), as a "
@@ -183,9 +185,10 @@ SIX_DOF = FileKind(
             key("error_model_from_data", "bool", "", "After a MAP fit with a GPS error model, estimate its white "
                "and correlated sizes (position and velocity) and correlation times from the data (type-II maximum "
                "likelihood, with the atmosphere-profile sigmas) and refit with them while they change by more "
-               "than 25 %; false: the model as configured. An accuracy scale outside 1/3 to 3 times the receiver's "
-               "accuracies or a correlation time at the longest searched is a gross input error (the IMU clock, a "
-               "datum, units): not refitted with, the verdict not trusted", source=GpsConfig,
+               "than 25 %; false: the model as configured. The correlation times compared are 0.2, 1 and 5 times "
+               "the configured, and longer ones (up to 125 times) while the evidence rises. An accuracy scale "
+               "outside 1/3 to 3 times the receiver's accuracies is a gross input error (the IMU clock, a datum, "
+               "units): not refitted with, the verdict not trusted", source=GpsConfig,
                attr="gps.error_model_from_data"),
         ), note="The fit weights each real fix by the accuracies the receiver reported (hAcc, vAcc, sAcc); the "
                 "error-model keys split that variance into a white and a time-correlated part.",

@@ -3,8 +3,8 @@ ramp (0.3 % too dense at the release height, 0 at the ground; a morning sounding
 the air aloft warmed) is an error of another shape than the 300 m Gauss-Markov process the profile
 model assumes. Estimated at 300 m alone, the density sigma comes out at 0.09 % and the refit at
 that size is over-confident (parameter NEES 85 on 19, accel_bias_z -3.8 sigma, velocity bands 81 %;
-benchmarks/profile_structure.py); the evidence at longer lengths finds the ramp a 3000 m process
-and the refit is honest."""
+benchmarks/profile_structure.py); the evidence at longer lengths finds the ramp a process over 3000 m
+or more, and the refit is honest."""
 
 import dataclasses
 
@@ -55,8 +55,10 @@ def test_a_smooth_sounding_error_is_taken_as_a_long_process_and_the_refit_is_hon
     sc, truth, trajectory, release_s = ramp_drop
     result = fit_drop(sc)
     notes = " ".join(n for n in result.notes if "sigmas the data say" in n)
-    assert "correlation length 3000 m (fitted with 300 m)" in notes
-    assert result.scenario.config.atmosphere.profile_length_m == 3000.0
+    # a long process: 3000 m (ten times the configured) or longer, as the search went on while the
+    # evidence rose (30 km since it may)
+    assert "(fitted with 300 m)" in notes
+    assert result.scenario.config.atmosphere.profile_length_m >= 3000.0, notes
     nees, z_bias, velocity = honesty(result, truth, trajectory, release_s)
     assert nees < NEES_999 and z_bias < 3.0 and velocity >= 0.98
 

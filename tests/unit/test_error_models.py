@@ -250,3 +250,35 @@ def test_gps_model_from_estimated_ratios():
     assert (white.position_time_s, white.position_fraction, white.velocity_time_s) == (0.0, 0.0, 0.0)
     assert not white.enabled and models_differ(GpsErrorModel(), white)
     assert model_from(fitted, {}, (4.0, 10.0)).velocity_time_s == 10.0
+
+
+@pytest.mark.parametrize("peak_s, expected_s", [(75.0, 75.0), (15.0, 15.0), (1000.0, 75.0), (0.6, 0.6)])
+def test_the_time_search_goes_past_its_longest_time_while_the_evidence_rises(monkeypatch, peak_s, expected_s):
+    """The velocity correlation time of the most evident candidate, the evidence peaked at ``peak_s``
+    (base 0.6 s): the fixed candidates (0.12, 0.6, 3 s), then 15, 75 s (5 times at a time, up to
+    125 times the base) only while the longest is the most evident and the evidence rises."""
+    from types import SimpleNamespace
+
+    from casrecon.estimation.error_models import error_model_sigma as ems
+    from casrecon.estimation.error_models.gps_error_sigma import GROUPS
+
+    tried = []
+
+    def fake_most_evident(build, candidates, start=None):
+        out = None
+        for length, times in candidates:
+            tried.append(times[1])
+            fun = np.log(times[1] / peak_s) ** 2 + np.log(times[0] / 100.0) ** 2  # -log Z
+            if out is None or fun < out[0]:
+                out = (fun, times, length, None, SimpleNamespace(x=np.zeros(len(GROUPS))), list(GROUPS))
+        return out
+
+    monkeypatch.setattr(ems, "most_evident", fake_most_evident)
+    errors = GpsErrorModel()
+    own = (errors.position_time_s, errors.velocity_time_s)
+    start = fake_most_evident(None, [(None, own)])
+    tried.clear()
+    best = ems.time_search(None, start, errors, own, own)
+    assert best[1][0] == pytest.approx(100.0) and best[1][1] == pytest.approx(expected_s)
+    longer = sorted(t for t in tried if t > 3.0 + 1e-9)
+    assert longer == pytest.approx({75.0: [15.0, 75.0], 15.0: [15.0, 75.0], 1000.0: [15.0, 75.0], 0.6: []}[peak_s])

@@ -49,11 +49,18 @@ def test_a_gps_accuracy_scale_beyond_a_receiver_names_the_clock():
 
 
 def test_estimates_at_the_edge_of_their_search_are_findings():
-    """Measured with utc_at_zero 1 s late: profile 1.62 m/s, 2.09 % over 3000 m, GPS velocity over 10 s."""
-    found = implausible(estimate(1.62, 0.0209, 3000.0, GpsErrorModel(20.0, 10.0, 0.999, 0.999, 1.13, 2.79)),
-                        300.0)
-    assert len(found) == 1, found
-    assert "correlated over 3000 m, the longest searched" in found[0] and "utc_at_zero" in found[0]
+    """Measured with utc_at_zero 1 s late: profile 1.62 m/s, 2.09 % over 3000 m, GPS velocity over 10 s;
+    the search may now go on to 30 km: a long error as large is the same finding there."""
+    for length in (3000.0, 9487.0, 30000.0):
+        found = implausible(estimate(1.62, 0.0209, length, GpsErrorModel(20.0, 10.0, 0.999, 0.999, 1.13, 2.79)),
+                            300.0)
+        assert len(found) == 1, found
+        assert f"correlated over {length:.0f} m, 10 or more times the configured 300 m" in found[0]
+        assert "utc_at_zero" in found[0]
+    # shorter, or about the configured size (within the refit factor 1.25: a first fit's estimate,
+    # refitted with), no finding
+    assert implausible(estimate(1.62, 0.0209, 900.0), 300.0) == ()
+    assert implausible(estimate(0.55, 0.0054, 30000.0), 300.0) == ()
     assert "sounding of another day or place" in found[0] and "datum or ground altitude" in found[0]
     at_bound = implausible(estimate(wind=10.0), 300.0)
     assert len(at_bound) == 1 and "wind sigma 20 times the fit's, the top of its search" in at_bound[0]

@@ -6,7 +6,8 @@ error_model_from_data`` (default), the GPS errors' white and correlated sizes an
 
 The search: L-BFGS-B over the log ratios of every group's sigma to the fit's, at the fit's
 correlation length and GPS correlation times, then at each other profile length
-(``profile_sigma.LENGTH_FACTORS`` times the configured one), then, at the most evident length, at
+(``profile_sigma.LENGTH_FACTORS`` times the configured one, and longer ones while the longest
+wins), then, at the most evident length, at
 each other position and then velocity correlation time (``gps_error_sigma.TIME_FACTORS`` times the
 fit's, and longer ones while the longest wins: see :func:`time_search`); the most evident
 candidate wins each round. A profile group whose estimate explains the data better than none of
@@ -76,6 +77,13 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
         others = [(f * configured, own_times) for f in ps.LENGTH_FACTORS if f * configured != grid.length_m]
         challenger = most_evident(build, others, best[4].x) if others else None
         if challenger is not None and challenger[0] < best[0]:
+            best = challenger
+        factor, last = max(ps.LENGTH_FACTORS), ps.MAX_LENGTH_FACTOR * (1 + 1e-9)
+        while others and np.isclose(best[2], factor * configured) and factor * ps.LENGTH_EXTENSION <= last:
+            factor *= ps.LENGTH_EXTENSION  # longer, while the evidence rises
+            challenger = most_evident(build, [(factor * configured, own_times)], best[4].x)
+            if challenger[0] >= best[0]:
+                break
             best = challenger
     base_times = own_times if configured_times_s is None else configured_times_s
     if search:
