@@ -256,7 +256,7 @@ def test_gps_model_from_estimated_ratios():
 def test_the_time_search_goes_past_its_longest_time_while_the_evidence_rises(monkeypatch, peak_s, expected_s):
     """The velocity correlation time of the most evident candidate, the evidence peaked at ``peak_s``
     (base 0.6 s): the fixed candidates (0.12, 0.6, 3 s), then 15, 75 s (5 times at a time, up to
-    125 times the base) only while the longest is the most evident and the evidence rises."""
+    125 times the base) while the longest is the most evident and the evidence rises."""
     from types import SimpleNamespace
 
     from casrecon.estimation.error_models import error_model_sigma as ems
@@ -264,21 +264,23 @@ def test_the_time_search_goes_past_its_longest_time_while_the_evidence_rises(mon
 
     tried = []
 
-    def fake_most_evident(build, candidates, start=None):
-        out = None
+    def fake_evaluated(build, candidates, start=None):
+        out = []
         for length, times in candidates:
             tried.append(times[1])
             fun = np.log(times[1] / peak_s) ** 2 + np.log(times[0] / 100.0) ** 2  # -log Z
-            if out is None or fun < out[0]:
-                out = (fun, times, length, None, SimpleNamespace(x=np.zeros(len(GROUPS))), list(GROUPS))
+            out.append((fun, times, length, None, SimpleNamespace(x=np.zeros(len(GROUPS))), list(GROUPS)))
         return out
 
-    monkeypatch.setattr(ems, "most_evident", fake_most_evident)
+    monkeypatch.setattr(ems, "evaluated", fake_evaluated)
     errors = GpsErrorModel()
     own = (errors.position_time_s, errors.velocity_time_s)
-    start = fake_most_evident(None, [(None, own)])
+    start = ems.most_evident(None, [(None, own)])
     tried.clear()
     best = ems.time_search(None, start, errors, own, own)
     assert best[1][0] == pytest.approx(100.0) and best[1][1] == pytest.approx(expected_s)
+    # the longer times are searched (side by side) only where the longest fixed one wins
     longer = sorted(t for t in tried if t > 3.0 + 1e-9)
     assert longer == pytest.approx({75.0: [15.0, 75.0], 15.0: [15.0, 75.0], 1000.0: [15.0, 75.0], 0.6: []}[peak_s])
+    assert ems.extension(5.0, 5.0, 125.0) == pytest.approx([25.0, 125.0])
+    assert ems.extension(10.0, 10 ** 0.5, 100.0) == pytest.approx([10 ** 1.5, 100.0])

@@ -11,8 +11,8 @@ wins), then, at the most evident length, at
 each other position and then velocity correlation time (``gps_error_sigma.TIME_FACTORS`` times the
 fit's, and longer ones while the longest wins: see :func:`time_search`); the most evident
 candidate wins each round. A profile group whose estimate explains the data better than none of
-its error by less than ``profile_sigma.ZERO_EVIDENCE_NATS`` is taken as zero, as without the GPS
-groups.
+its error by less than ``profile_sigma.ZERO_EVIDENCE_NATS``, or is below
+``profile_sigma.NEGLIGIBLE_RATIO`` of the fit's sigma, is taken as zero, as without the GPS groups.
 """
 
 from __future__ import annotations
@@ -78,13 +78,9 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
         challenger = most_evident(build, others, best[4].x) if others else None
         if challenger is not None and challenger[0] < best[0]:
             best = challenger
-        factor, last = max(ps.LENGTH_FACTORS), ps.MAX_LENGTH_FACTOR * (1 + 1e-9)
-        while others and np.isclose(best[2], factor * configured) and factor * ps.LENGTH_EXTENSION <= last:
-            factor *= ps.LENGTH_EXTENSION  # longer, while the evidence rises
-            challenger = most_evident(build, [(factor * configured, own_times)], best[4].x)
-            if challenger[0] >= best[0]:
-                break
-            best = challenger
+        if others and np.isclose(best[2], max(ps.LENGTH_FACTORS) * configured):  # longer, while the evidence rises
+            longer = extension(max(ps.LENGTH_FACTORS), ps.LENGTH_EXTENSION, ps.MAX_LENGTH_FACTOR)
+            best = while_rising(build, best, [(f * configured, own_times) for f in longer])
     base_times = own_times if configured_times_s is None else configured_times_s
     if search:
         best = time_search(build, best, errors, own_times, base_times)
@@ -100,7 +96,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
         none = fit.x.copy()
         none[k] = np.log(ps.MIN_RATIO)
         against_zero[names[k]] = float(value - model.log_evidence(none)[0])
-        if against_zero[names[k]] < ps.ZERO_EVIDENCE_NATS:
+        if against_zero[names[k]] < ps.ZERO_EVIDENCE_NATS or ratio[k] < ps.NEGLIGIBLE_RATIO:
             ratio[k] = 0.0
     base, _ = own_model.log_evidence(np.zeros(len(names)))
     gps_ratios = {n: float(r) for n, r in zip(names[n_profile:], ratio[n_profile:])}
@@ -132,31 +128,52 @@ def time_search(build, best, errors, own_times: tuple[float, float], base_times:
             challenger = most_evident(build, [(best[2], t) for t in sorted(times)], best[4].x)
             if challenger[0] < best[0]:
                 best = challenger
-            factor, last = max(TIME_FACTORS), MAX_TIME_FACTOR * (1 + 1e-9)
-            while np.isclose(best[1][g], factor * base_times[g]) and factor * EXTENSION_FACTOR <= last:
-                factor *= EXTENSION_FACTOR
-                challenger = most_evident(build, [(best[2], at(factor))], best[4].x)
-                if challenger[0] >= best[0]:
-                    break
-                best = challenger
+            if np.isclose(best[1][g], max(TIME_FACTORS) * base_times[g]):  # longer, while the evidence rises
+                longer = extension(max(TIME_FACTORS), EXTENSION_FACTOR, MAX_TIME_FACTOR)
+                best = while_rising(build, best, [(best[2], at(f)) for f in longer])
     return best
 
 
-def most_evident(build, candidates, start: np.ndarray | None = None):
-    """(-log Z, times, length, model, optimiser result, group names) of the most evident candidate
-    (length, (position, velocity) correlation times), each searched from ``start`` (log ratios;
-    default the fit's sizes)."""
+def extension(longest: float, step: float, limit: float) -> list[float]:
+    """The factors beyond ``longest``, ``step`` times at a time, up to ``limit`` (within round-off)."""
+    out = [longest * step]
+    while out[-1] * step <= limit * (1 + 1e-9):
+        out.append(out[-1] * step)
+    return [f for f in out if f <= limit * (1 + 1e-9)]
+
+
+def while_rising(build, best, candidates):
+    """``best`` (as :func:`most_evident` returns), replaced by each of ``candidates`` in turn while
+    each is more evident than the one before: the search past the end of a range, stopped where
+    the evidence stops rising. The candidates are searched side by side from ``best``'s sizes (on
+    two threads: the wall time of one where there are two)."""
+    for candidate in evaluated(build, candidates, best[4].x):
+        if candidate[0] >= best[0]:
+            break
+        best = candidate
+    return best
+
+
+def evaluated(build, candidates, start: np.ndarray | None = None) -> list[tuple]:
+    """(-log Z, times, length, model, optimiser result, group names) of each candidate (length,
+    (position, velocity) correlation times), each searched from ``start`` (log ratios; default the
+    fit's sizes), side by side on two threads (numpy's products, LAPACK and SuperLU release the
+    GIL; each candidate's factors are made and dropped in its thread), in the candidates' order."""
 
     def searched(candidate):
         model, names = build(candidate)
         return model, names, maximised(model, names, start)
 
+    return [(fit.fun, times, length, model, fit, names)
+            for (length, times), (model, names, fit) in zip(candidates, in_threads(searched, candidates))]
+
+
+def most_evident(build, candidates, start: np.ndarray | None = None):
+    """The most evident of :func:`evaluated`'s candidates (the first of equals)."""
     out = None
-    # side by side on two threads (numpy's products, LAPACK and SuperLU release the GIL; each
-    # candidate's factors are made and dropped in its thread), the winner chosen in order
-    for (length, times), (model, names, fit) in zip(candidates, in_threads(searched, candidates)):
-        if out is None or fit.fun < out[0]:
-            out = (fit.fun, times, length, model, fit, names)
+    for candidate in evaluated(build, candidates, start):
+        if out is None or candidate[0] < out[0]:
+            out = candidate
     return out
 
 

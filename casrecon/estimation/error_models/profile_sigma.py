@@ -21,14 +21,14 @@ rho_k^2. Its gradient in log rho_k is chi2_k - gamma_k (the group's prior chi-sq
 minimum, less the values the data determine, n_k - tr(A_k H^-1 A_k^T) / rho_k^2): zero at
 MacKay's fixed point. log Z is maximised over log rho in [log MIN_RATIO, log MAX_RATIO] by
 L-BFGS-B; a group whose estimate explains the data better than none of its error by less than
-:data:`ZERO_EVIDENCE_NATS` (log evidence) has no profile error the data can see, and is taken as
-zero. The quadratic model is the fit's own (Gauss-Newton or observed information),
-exact for the prior, which is linear; where the data's part of an observed information is
-indefinite, the Gauss-Newton one (:func:`quadratic_model`). The correlation length is chosen by
-the same evidence among the fit's and :data:`LENGTH_FACTORS` times the configured one (and longer
-ones, :data:`LENGTH_EXTENSION` times at a time, while the longest wins): only the
-prior's rows and its normalisation, -(K - 1)/2 log(1 - phi^2) per process, depend on it
-(:func:`prior_rows_at`). A refit at the new sigmas and length
+:data:`ZERO_EVIDENCE_NATS` (log evidence), or whose estimate is below :data:`NEGLIGIBLE_RATIO` of
+the fit's sigma, has no profile error the data can see, and is taken as zero. The quadratic model
+is the fit's own (Gauss-Newton or observed information), exact for the prior, which is linear;
+where the data's part of an observed information is indefinite, the Gauss-Newton one
+(:func:`quadratic_model`). The correlation length is chosen by the same evidence among the fit's
+and :data:`LENGTH_FACTORS` times the configured one (and longer ones, :data:`LENGTH_EXTENSION`
+times at a time, while the longest wins): only the prior's rows and its normalisation,
+-(K - 1)/2 log(1 - phi^2) per process, depend on it (:func:`prior_rows_at`). A refit at the new sigmas and length
 (:func:`casrecon.estimation.sixdof.fit.fit_drop`) gives the nonlinear optimum, and the estimate is made
 again on it.
 """
@@ -51,6 +51,14 @@ MIN_RATIO, MAX_RATIO = 1e-4, 20.0
 #: A group whose estimate explains the data better than none of its error by less than this (log
 #: evidence, nats: a Bayes factor of e^3 = 20, "strong" on Jeffreys' scale) is taken as zero.
 ZERO_EVIDENCE_NATS = 3.0
+#: A group estimated below this share of the fit's sigma is taken as zero whatever its evidence:
+#: the quadratic model of a fit a hundred times off the estimate extrapolates (on exact drop-3 data
+#: the fit at 0.5 m/s said 1.8 mm/s, +70.8 nats over none, and the refit at 1.8 mm/s said none; on
+#: benchmarks/default_cost.py's drop 2.0 mm/s, +29.4 nats, and again none), and a wind error of
+#: 5 mm/s (density 0.005 %) moves a 40 s drop by 0.2 m, far below what its GPS resolves. Zero, the
+#: refit is made without that group (without the profile model when both are zero) instead of once
+#: more at a size no data can tell from none.
+NEGLIGIBLE_RATIO = 0.01
 #: Penalty (nats) of a ratio where the quadratic model's Hessian is not positive definite.
 NOT_DEFINITE = 1e12
 #: A refit is made when a group's estimate differs from the fit's sigma by more than this factor.
@@ -345,7 +353,7 @@ def estimate_profile_sigma(result, configured_length_m: float | None = None) -> 
         none = best.x.copy()
         none[k] = np.log(MIN_RATIO)
         against_zero[g] = float(-best.fun - model.log_evidence(none)[0])
-        if against_zero[g] < ZERO_EVIDENCE_NATS:
+        if against_zero[g] < ZERO_EVIDENCE_NATS or ratio[k] < NEGLIGIBLE_RATIO:
             ratio[k] = 0.0
     estimated = {g: fitted[g] * float(r) for g, r in zip(groups, ratio)}
     fallback = model.gauss_newton and result.covariance.information.startswith("observed")
