@@ -6,9 +6,12 @@ bands of position, velocity and attitude at >= 98 % of nodes, with a trusted ver
 Before the change (a GPS correlation time at the end of its search taken for a gross error) the
 exact-model drop of seed 202 kept its 99 %-correlated GPS model: NEES 271 on 19, position bands 19 %,
 attitude 0 %, not trusted (seed 100: NEES 52, position 30 %); seed 200's estimate did not reach the
-end of its search and passed before too.
+end of its search and passed before too. Seed 216 (2026-12-04, fifth session): the first fit's
+estimate, at the default 99 %-correlated GPS model, asked for a density error of 1.65 % over 30 km,
+taken for a gross error, and the first fit stood (NEES 38.5, CA_mult -7.7 sigma before widening, not
+trusted); now judged again after a refit with the GPS model alone, it ends as the plain fit.
 
-Run: pytest -m slow tests/slow/test_error_family_study.py (about 2 min).
+Run: pytest -m slow tests/slow/test_error_family_study.py (about 4 min).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "error_families.py"
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("family,seed", [("none", 200), ("none", 202), ("gps-steps", 200)])
+@pytest.mark.parametrize("family,seed", [("none", 200), ("none", 202), ("gps-steps", 200), ("none", 216)])
 def test_the_default_fit_is_honest_where_the_world_is_the_plain_model(family, seed):
     bench = script_module(BENCH)
     case = bench.run_case(family, "ees", ("default",), seed)
