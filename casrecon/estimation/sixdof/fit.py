@@ -375,9 +375,10 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
     made on a fit agrees with the sigmas it was made with (at most MAX_REFITS refits; see
     :mod:`casrecon.estimation.error_models.profile_sigma`). An estimate beyond the plausibility limits
     (:mod:`casrecon.estimation.error_models.plausibility`) is not refitted with: the fit it was made
-    on stands, its ``gross_errors`` say why (a not-trusted verdict); once, where its GPS error model
-    also differs from the fit's, the fit is first made again with that model alone and the estimate
-    searched and judged again on it (:func:`with_gps_estimate_only`); ``cfg`` is the problem's configuration, ``t0`` the
+    on stands, its ``gross_errors`` say why (a not-trusted verdict); once, where every finding is the
+    profile's and its GPS error model (itself within the limits) differs from the fit's, the fit is
+    first made again with that model alone and the estimate searched and judged again on it
+    (:func:`with_gps_estimate_only`); ``cfg`` is the problem's configuration, ``t0`` the
     ``perf_counter`` at which the fit began, and ``fitted(scenario, start, guess_clock_s, prior,
     notes)`` makes one fit. The result's timings ``first_fit_s`` is the time of the fits before
     the last, ``estimate_s`` that of the size estimates, ``refits`` their number and
@@ -422,7 +423,8 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
             result = standing(result, k)
             return timed(dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",)))
         findings = implausible(estimate, cfg.atmosphere.profile_length_m)
-        defer = bool(findings) and not deferred and estimate.gps is not None and estimate.gps.refit
+        defer = (bool(findings) and not deferred and estimate.gps is not None and estimate.gps.refit
+                 and not implausible(with_gps_estimate_only(estimate), cfg.atmosphere.profile_length_m))
         if findings and not defer:  # a gross error in the inputs, not a model to refit with: this fit stands
             result = standing(result, k)
             return timed(dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
