@@ -115,8 +115,8 @@ SIX_DOF = FileKind(
                "(1/3 to 10 times profile_length_m, and longer, up to 100 times, while the evidence rises) from the "
                "data after the fit (type-II maximum likelihood) and fit again with them where they differ from the "
                "configured ones by more than 25 % (without the profile model when the data show none); per-drop MAP "
-               "fits without disturbance states. An estimate at the top of a sigma's search, or over 10 times "
-               "profile_length_m or more with a sigma over 1.25 times the configured, is a gross input error (a "
+               "fits without disturbance states. An estimate at the top of a sigma's search, or correlated over 10 "
+               "times profile_length_m or more with a sigma over 1.25 times the configured, is a gross input error (a "
                "sounding of another day or place, a datum, the IMU clock): not fitted again with, the verdict not "
                "trusted",
                source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),

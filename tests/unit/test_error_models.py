@@ -282,5 +282,8 @@ def test_the_time_search_goes_past_its_longest_time_while_the_evidence_rises(mon
     # the longer times are searched (side by side) only where the longest fixed one wins
     longer = sorted(t for t in tried if t > 3.0 + 1e-9)
     assert longer == pytest.approx({75.0: [15.0, 75.0], 15.0: [15.0, 75.0], 1000.0: [15.0, 75.0], 0.6: []}[peak_s])
-    assert ems.extension(5.0, 5.0, 125.0) == pytest.approx([25.0, 125.0])
-    assert ems.extension(10.0, 10 ** 0.5, 100.0) == pytest.approx([10 ** 1.5, 100.0])
+    from casrecon.estimation.error_models.profile_sigma import extension
+
+    assert extension(5.0, 5.0, 125.0) == pytest.approx([25.0, 125.0])
+    assert extension(10.0, 10 ** 0.5, 100.0) == pytest.approx([10 ** 1.5, 100.0])
+    assert extension(10.0, 10.0, 50.0) == []

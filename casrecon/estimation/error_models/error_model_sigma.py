@@ -79,7 +79,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
         if challenger is not None and challenger[0] < best[0]:
             best = challenger
         if others and np.isclose(best[2], max(ps.LENGTH_FACTORS) * configured):  # longer, while the evidence rises
-            longer = extension(max(ps.LENGTH_FACTORS), ps.LENGTH_EXTENSION, ps.MAX_LENGTH_FACTOR)
+            longer = ps.extension(max(ps.LENGTH_FACTORS), ps.LENGTH_EXTENSION, ps.MAX_LENGTH_FACTOR)
             best = while_rising(build, best, [(f * configured, own_times) for f in longer])
     base_times = own_times if configured_times_s is None else configured_times_s
     if search:
@@ -129,17 +129,9 @@ def time_search(build, best, errors, own_times: tuple[float, float], base_times:
             if challenger[0] < best[0]:
                 best = challenger
             if np.isclose(best[1][g], max(TIME_FACTORS) * base_times[g]):  # longer, while the evidence rises
-                longer = extension(max(TIME_FACTORS), EXTENSION_FACTOR, MAX_TIME_FACTOR)
+                longer = ps.extension(max(TIME_FACTORS), EXTENSION_FACTOR, MAX_TIME_FACTOR)
                 best = while_rising(build, best, [(best[2], at(f)) for f in longer])
     return best
-
-
-def extension(longest: float, step: float, limit: float) -> list[float]:
-    """The factors beyond ``longest``, ``step`` times at a time, up to ``limit`` (within round-off)."""
-    out = [longest * step]
-    while out[-1] * step <= limit * (1 + 1e-9):
-        out.append(out[-1] * step)
-    return [f for f in out if f <= limit * (1 + 1e-9)]
 
 
 def while_rising(build, best, candidates):

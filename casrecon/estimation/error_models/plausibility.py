@@ -34,8 +34,8 @@ Limits:
 - A profile group's sigma at the top of its search (``profile_sigma.MAX_RATIO`` times the fit's),
   or a profile correlation length of the longest of ``profile_sigma.LENGTH_FACTORS`` times the
   configured or more (3000 m for 300 m; the search goes on to longer ones while the evidence rises,
-  and a sounding of another day was then sized at about 9.5 km instead of at the end, 3000 m, of
-  the search before) with some group's sigma above the fit's by more than
+  and a sounding of another day, judged only "at the end of the search", was then sized short of the
+  new end and no longer named) with some group's sigma above the fit's by more than
   ``profile_sigma.REFIT_FACTOR`` (the factor at which a size is said to differ): a difference
   between the air flown and the sounding larger than the configured one that holds over the whole
   drop, a sounding of another day or place or in another datum, not a balloon's error. A smooth

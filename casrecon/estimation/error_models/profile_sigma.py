@@ -28,9 +28,9 @@ where the data's part of an observed information is indefinite, the Gauss-Newton
 (:func:`quadratic_model`). The correlation length is chosen by the same evidence among the fit's
 and :data:`LENGTH_FACTORS` times the configured one (and longer ones, :data:`LENGTH_EXTENSION`
 times at a time, while the longest wins): only the prior's rows and its normalisation,
--(K - 1)/2 log(1 - phi^2) per process, depend on it (:func:`prior_rows_at`). A refit at the new sigmas and length
-(:func:`casrecon.estimation.sixdof.fit.fit_drop`) gives the nonlinear optimum, and the estimate is made
-again on it.
+-(K - 1)/2 log(1 - phi^2) per process, depend on it (:func:`prior_rows_at`). A refit at the new
+sigmas and length (:func:`casrecon.estimation.sixdof.fit.fit_drop`) gives the nonlinear optimum, and
+the estimate is made again on it.
 """
 
 from __future__ import annotations
@@ -336,16 +336,14 @@ def estimate_profile_sigma(result, configured_length_m: float | None = None) -> 
 
     fits = [fitted_model(m) for m in models]
     pick = int(np.argmin([f.fun for f in fits]))
-    factor, last = max(LENGTH_FACTORS), MAX_LENGTH_FACTOR * (1 + 1e-9)
-    while lengths and np.isclose((grid.length_m, *lengths)[pick], factor * configured) \
-            and factor * LENGTH_EXTENSION <= last:  # longer, while the evidence rises
-        factor *= LENGTH_EXTENSION
-        longer = quadratic_model(result, (factor * configured,))[0][1]
-        challenger = fitted_model(longer)
-        if challenger.fun >= fits[pick].fun:
-            break
-        models, fits, lengths = [*models, longer], [*fits, challenger], (*lengths, factor * configured)
-        pick = len(fits) - 1
+    if lengths and np.isclose((grid.length_m, *lengths)[pick], max(LENGTH_FACTORS) * configured):
+        for factor in extension(max(LENGTH_FACTORS), LENGTH_EXTENSION, MAX_LENGTH_FACTOR):  # while the evidence rises
+            longer = quadratic_model(result, (factor * configured,))[0][1]
+            challenger = fitted_model(longer)
+            if challenger.fun >= fits[pick].fun:
+                break
+            models, fits, lengths = [*models, longer], [*fits, challenger], (*lengths, factor * configured)
+            pick = len(fits) - 1
     model, best = models[pick], fits[pick]
     ratio = np.exp(best.x)
     against_zero = {}
@@ -359,6 +357,17 @@ def estimate_profile_sigma(result, configured_length_m: float | None = None) -> 
     fallback = model.gauss_newton and result.covariance.information.startswith("observed")
     return ProfileSigmaEstimate(fitted, estimated, max(0.0, float(-best.fun - base)), tuple(prior), against_zero,
                                 fallback, grid.length_m, (grid.length_m, *lengths)[pick])
+
+
+def extension(longest: float, step: float, limit: float) -> list[float]:
+    """The factors beyond ``longest``, ``step`` times at a time, up to ``limit`` (within round-off):
+    the candidates of a search that goes on past the end of its range (profile lengths here, GPS
+    correlation times in :mod:`.error_model_sigma`)."""
+    out, factor = [], longest * step
+    while factor <= limit * (1 + 1e-9):
+        out.append(factor)
+        factor *= step
+    return out
 
 
 def group_of(component: str) -> str:

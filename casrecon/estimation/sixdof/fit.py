@@ -423,15 +423,16 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
             result = standing(result, k)
             return timed(dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",)))
         findings = implausible(estimate, cfg.atmosphere.profile_length_m)
+        gps_only = with_gps_estimate_only(estimate)
         defer = (bool(findings) and not deferred and estimate.gps is not None and estimate.gps.refit
-                 and not implausible(with_gps_estimate_only(estimate), cfg.atmosphere.profile_length_m))
+                 and not implausible(gps_only, cfg.atmosphere.profile_length_m))
         if findings and not defer:  # a gross error in the inputs, not a model to refit with: this fit stands
             result = standing(result, k)
             return timed(dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
                                              gross_errors=result.gross_errors + findings))
         made = estimate
         if defer:  # judged again once the GPS errors are the data's: see with_gps_estimate_only
-            made, deferred = with_gps_estimate_only(estimate), True
+            made, deferred = gps_only, True
         # from this fit's configuration: the problem's with the error models the refits before set
         refit_cfg, prior = profile_refit(result.scenario.config, made)
         before = result.fit_nlp
