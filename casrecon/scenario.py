@@ -80,7 +80,8 @@ class Scenario:
             return default_parameters()
         values = {n: t.dispersions[n] for n in DISPERSION_NAMES}
         values.update(wind_bias_n=t.wind_bias_mps[0], wind_bias_e=t.wind_bias_mps[1],
-                      density_factor=t.density_factor, downwash_mps=t.downwash_mps)
+                      density_factor=t.density_factor, downwash_mps=t.downwash_mps,
+                      sounding_shift_m=t.sounding_shift_m)
         return default_parameters(**values)
 
 

@@ -31,6 +31,13 @@ class AtmosphereConfig:
     fits without disturbance states and with the MAP method only; each refit costs a fit, and the
     estimate is made again on it (at most three refits).
 
+    ``sounding_shift_sigma_m``: 1-sigma of the prior on the sounding's altitude shift (the
+    estimated ``sounding_shift_m``: every level that much higher in the drop's frame than the file
+    says). A radiosonde's heights are good to about 10 m (GPS or hypsometric) and the features of a
+    profile rise and sink by tens of metres between the balloon's place and time and the drop's;
+    hence 20 m. Without it (0: held at zero) a fit takes its absolute altitude from the
+    sounding's wind shape, to centimetres, even where the GPS heights say metres.
+
     ``humidity``: the density of moist air from the sounding's dewpoints where it has them (the
     default); false: dry air, p / (R_d T), as if the sounding had no dewpoints (to compare with a
     tool or an earlier result that ignores humidity, or when the sounding's hygrometer is not
@@ -45,6 +52,7 @@ class AtmosphereConfig:
     profile_length_m: float = 300.0
     profile_step_m: float = 10.0
     profile_sigma_from_data: bool = True
+    sounding_shift_sigma_m: float = 0.0
     humidity: bool = True
 
 
@@ -61,6 +69,8 @@ def parse_atmosphere(t: Fields) -> AtmosphereConfig:
                            profile_length_m=t.number("profile_length_m", d.profile_length_m, positive=True),
                            profile_step_m=t.number("profile_step_m", d.profile_step_m, positive=True),
                            profile_sigma_from_data=t.boolean("profile_sigma_from_data", d.profile_sigma_from_data),
+                           sounding_shift_sigma_m=t.number("sounding_shift_sigma_m", d.sounding_shift_sigma_m,
+                                                           minimum=0.0),
                            humidity=t.boolean("humidity", d.humidity))
     if cfg.profile_step_m > cfg.profile_length_m:
         raise t.error("profile_step_m", f"expected a grid step at most the correlation length profile_length_m = "

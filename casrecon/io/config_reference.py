@@ -120,6 +120,11 @@ SIX_DOF = FileKind(
                "sounding of another day or place, a datum, the IMU clock): not fitted again with, the verdict not "
                "trusted",
                source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
+            key("sounding_shift_sigma_m", "float", "m", "1-sigma of the prior on the sounding's altitude shift "
+               "(the estimated sounding_shift_m: the air at altitude h is the sounding's at h - shift), for the "
+               "radiosonde's height error and the profile's rise and sink between the balloon and the drop; 0: "
+               "held at zero (the fit then takes its absolute altitude from the sounding's wind shape)",
+               source=AtmosphereConfig, attr="atmosphere.sounding_shift_sigma_m"),
             key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them (levels "
                "without one take the mixing ratio interpolated in altitude); false: dry air, p / (R_d T), as a "
                "sounding without dewpoints", source=AtmosphereConfig, attr="atmosphere.humidity"),
@@ -222,6 +227,9 @@ SIX_DOF = FileKind(
             key("clock_offset_s", "float", "s", "True IMU-to-GPS clock offset", 0.0, attr="truth.clock_offset_s"),
             key("downwash_mps", "float", "m/s", "True rotor downwash at release (decays with the distance fallen)",
                source=TruthConfig, attr="truth.downwash_mps"),
+            key("sounding_shift_m", "float", "m", "True altitude shift of the air flown against the sounding's levels: "
+               "the air at altitude h is the sounding's at h - shift", source=TruthConfig,
+               attr="truth.sounding_shift_m"),
             key("baro_bias_pa", "float", "Pa", "True barometer bias (with [sensors.baro])", source=TruthConfig,
                attr="truth.baro_bias_pa"),
             key("baro_qbar_coef", "float", "", "True static-port position error of the barometer: it reads p + k qbar",

@@ -112,6 +112,7 @@ class TruthConfig:
     gyro_bias_radps: tuple[float, float, float]
     clock_offset_s: float
     downwash_mps: float = 0.0
+    sounding_shift_m: float = 0.0   # the air flown is the sounding's levels this much higher, m
     disturbance: DisturbanceModel | None = None
     baro_bias_pa: float = 0.0
     baro_qbar_coef: float = 0.0
@@ -307,6 +308,7 @@ def _truth(t: Fields | None) -> TruthConfig | None:
         accel_bias_mps2=t.vector("accel_bias_mps2", 3, (0.0, 0.0, 0.0)),
         gyro_bias_radps=tuple(np.radians(t.vector("gyro_bias_dps", 3, (0.0, 0.0, 0.0)))),
         clock_offset_s=t.number("clock_offset_s", 0.0), downwash_mps=t.number("downwash_mps", 0.0),
+        sounding_shift_m=t.number("sounding_shift_m", 0.0),
         disturbance=parse_disturbance(t), baro_bias_pa=t.number("baro_bias_pa", 0.0),
         baro_qbar_coef=t.number("baro_qbar_coef", 0.0), errors=read_truth_errors(t))
     t.reject_unknown()

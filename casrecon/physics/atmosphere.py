@@ -13,7 +13,13 @@ Two estimable corrections act on the balloon's profile:
 
 - ``wind_bias`` (north, east), m/s, added at every altitude, and an optional linear change of that
   bias with altitude (``wind_gradient``, 1/s, per metre above ``gradient_ref_alt_msl_m``);
-- ``density_factor`` (dimensionless): rho = rho_balloon (1 + density_factor).
+- ``density_factor`` (dimensionless): rho = rho_balloon (1 + density_factor);
+- ``altitude_shift_m`` (m): the balloon's profile as it lies in the drop's frame, every level
+  ``altitude_shift_m`` higher than the sounding states, air(h) = balloon(h - altitude_shift_m). A
+  sounding's altitudes are registered to a few metres at best (the radiosonde's GPS or its
+  hypsometric heights), and its features move up and down between the balloon's and the drop's
+  place and time: without the shift a fit reads its absolute altitude from the sounding's wind
+  shape, to centimetres, and is wrong by metres where the air differs (docs/design/error-models.md).
 
 Humidity: where the sounding gives a dewpoint, the density is that of moist air,
 rho = p / (R_d T) (1 - (1 - eps) e / p) with e the vapour pressure at the dewpoint (Bolton's
@@ -53,6 +59,7 @@ class AtmosphereCorrections:
     density_factor: object = 0.0
     wind_gradient_n: object = 0.0
     wind_gradient_e: object = 0.0
+    altitude_shift_m: object = 0.0
 
 
 @dataclass(frozen=True)
@@ -135,13 +142,15 @@ class Atmosphere:
         return dict(self._levels)
 
     def at(self, alt_msl_m, corr: AtmosphereCorrections = AtmosphereCorrections()) -> AtmosphereState:
-        """Air properties at altitude ``alt_msl_m`` (m MSL, symbolic or numeric)."""
+        """Air properties at altitude ``alt_msl_m`` (m MSL, symbolic or numeric): the sounding's at
+        ``alt_msl_m - corr.altitude_shift_m``, corrected by ``corr``."""
         lo, hi = self.altitude_range_m
         (v_lo, d1_lo, d2_lo), (v_hi, d1_hi, d2_hi) = self._ends
-        u_lo, u_hi = ca.fmax(alt_msl_m - lo, -EXTENSION_M), ca.fmin(alt_msl_m - hi, EXTENSION_M)
-        values = ca.if_else(alt_msl_m < lo, v_lo + u_lo * (d1_lo + 0.5 * u_lo * d2_lo),
-                            ca.if_else(alt_msl_m > hi, v_hi + u_hi * (d1_hi + 0.5 * u_hi * d2_hi),
-                                       self._table(ca.fmin(ca.fmax(alt_msl_m, lo), hi))))
+        level = alt_msl_m - corr.altitude_shift_m  # where in the sounding's own altitudes
+        u_lo, u_hi = ca.fmax(level - lo, -EXTENSION_M), ca.fmin(level - hi, EXTENSION_M)
+        values = ca.if_else(level < lo, v_lo + u_lo * (d1_lo + 0.5 * u_lo * d2_lo),
+                            ca.if_else(level > hi, v_hi + u_hi * (d1_hi + 0.5 * u_hi * d2_hi),
+                                       self._table(ca.fmin(ca.fmax(level, lo), hi))))
         p, t = ca.exp(values[0]), values[1]
         rho = ca.exp(values[2]) * (1 + corr.density_factor)
         dh = alt_msl_m - self.gradient_ref_alt_msl_m

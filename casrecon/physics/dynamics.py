@@ -36,7 +36,7 @@ from casrecon.physics.vehicle import Vehicle
 STATE_NAMES = ("pos_n", "pos_e", "pos_d", "vel_n", "vel_e", "vel_d", "q0", "q1", "q2", "q3",
                "omega_x", "omega_y", "omega_z")
 ATMOSPHERE_PARAMETER_NAMES = ("wind_bias_n", "wind_bias_e", "density_factor",
-                              "wind_gradient_n", "wind_gradient_e", "downwash_mps")
+                              "wind_gradient_n", "wind_gradient_e", "downwash_mps", "sounding_shift_m")
 PARAMETER_NAMES = DISPERSION_NAMES + ATMOSPHERE_PARAMETER_NAMES
 #: Entries of the disturbance input: gust wind (NED, m/s), model-error force (body, N) and moment (body, N m).
 DISTURBANCE_NAMES = ("gust_n", "gust_e", "gust_d", "force_x", "force_y", "force_z",
@@ -160,7 +160,8 @@ class FlightModel:
         """Every intermediate of the equations of motion, for ``x``, ``p`` and the disturbance
         ``d`` (CasADi; ``d`` None is no disturbance)."""
         v_ned, q, w = x[3:6], x[6:10], x[10:13]
-        corr = AtmosphereCorrections(*[p[len(DISPERSION_NAMES) + i] for i in range(5)])
+        corr = AtmosphereCorrections(*[p[len(DISPERSION_NAMES) + i] for i in range(5)],
+                                     altitude_shift_m=p[PARAMETER_NAMES.index("sounding_shift_m")])
         air = self.atmosphere.at(self.altitude_msl(x), corr)
         downwash = self.downwash(x, p[PARAMETER_NAMES.index("downwash_mps")])
         gust = ca.vertcat(0, 0, downwash) if d is None else d[0:3] + ca.vertcat(0, 0, downwash)

@@ -15,7 +15,7 @@ COEFFICIENTS = {"CA": "C_A", "CN": "C_N", "CNY": "C_{N,Y}", "CY": "C_Y", "Cm": "
 LABELS = {
     "wind_bias_n": r"$\Delta w_N$", "wind_bias_e": r"$\Delta w_E$", "density_factor": r"$\Delta\rho/\rho$",
     "wind_gradient_n": r"$\partial w_N/\partial h$", "wind_gradient_e": r"$\partial w_E/\partial h$",
-    "downwash_mps": r"$w_{\mathrm{rotor}}$",
+    "downwash_mps": r"$w_{\mathrm{rotor}}$", "sounding_shift_m": r"$\Delta h_{\mathrm{sounding}}$",
     **{f"accel_bias_{a}": rf"$b_{{a,{a}}}$" for a in "xyz"},
     **{f"gyro_bias_{a}": rf"$b_{{\omega,{a}}}$" for a in "xyz"},
     "clock_offset_s": r"$\Delta t_{\mathrm{clock}}$", "baro_bias_pa": r"$b_p$", "baro_qbar_coef": r"$k_{\bar q}$",

@@ -261,7 +261,7 @@ def _accuracies(gps, t: np.ndarray, t_impact: float, rng: np.random.Generator):
 
 #: SI unit of each truth parameter that is not a normalised aero factor (those are "-").
 TRUTH_UNITS = {"wind_bias_n": "m/s", "wind_bias_e": "m/s", "density_factor": "-", "clock_offset_s": "s",
-               "downwash_mps": "m/s", "baro_bias_pa": "Pa", "baro_qbar_coef": "-",
+               "downwash_mps": "m/s", "sounding_shift_m": "m", "baro_bias_pa": "Pa", "baro_qbar_coef": "-",
                **{f"accel_bias_{a}": "m/s^2" for a in "xyz"}, **{f"gyro_bias_{a}": "rad/s" for a in "xyz"}}
 
 
@@ -281,7 +281,7 @@ def truth_parameters_by_name(scenario: Scenario) -> dict[str, float]:
     out = {n: float(truth.dispersions[n]) for n in DISPERSION_NAMES}
     out.update(wind_bias_n=truth.wind_bias_mps[0], wind_bias_e=truth.wind_bias_mps[1],
                density_factor=truth.density_factor, clock_offset_s=truth.clock_offset_s,
-               downwash_mps=truth.downwash_mps)
+               downwash_mps=truth.downwash_mps, sounding_shift_m=truth.sounding_shift_m)
     for axis, a, g in zip("xyz", truth.accel_bias_mps2, truth.gyro_bias_radps):
         out[f"accel_bias_{axis}"] = float(a)
         out[f"gyro_bias_{axis}"] = float(g)

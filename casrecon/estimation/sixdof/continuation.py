@@ -102,7 +102,7 @@ def solve_fit(build: Callable[[dict[str, float], dict[str, np.ndarray]], FitNlp]
             if placements == MAX_PROFILE_PLACEMENTS:
                 raise FitError(stray[0][1])
             earlier.append(sol)
-            altitudes.update({part.name: part.ground_alt_msl_m - part.states(sol.z)[:, 2] for part, _ in stray})
+            altitudes.update({part.name: part.profile_altitudes(sol.z) for part, _ in stray})
             placements += 1
             continue
         sol = dataclasses.replace(with_earlier(sol, earlier), profile_placements=placements)

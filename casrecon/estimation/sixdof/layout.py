@@ -16,6 +16,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.error_models.profile import ProfileGrid
+from casrecon.estimation.sixdof.parameters import SOUNDING_SHIFT as SHIFT
 from casrecon.estimation.sixdof.parameters import ParameterSet
 from casrecon.estimation.sixdof.subgrid import subgrid_integral_sigma
 from casrecon.estimation.sixdof.transcription import STATE_SCALE, Mesh
@@ -124,7 +125,7 @@ class DropLayout:
         step outside the cell its blocks were given), or None when they are (or no profile)."""
         if self.profile is None:
             return None
-        alt = self.ground_alt_msl_m - self.states(z)[:, 2]
+        alt = self.profile_altitudes(z)
         bad = (self.profile.outside_windows(alt, self.node_cells)
                | self.profile.outside_windows(alt, np.r_[self.interval_cells, self.interval_cells[-1]])
                | self.profile.outside_windows(alt, np.r_[self.interval_cells[0], self.interval_cells]))
@@ -135,6 +136,16 @@ class DropLayout:
                 f"guessed from the GPS than the atmosphere-profile windows reach "
                 f"({(self.profile.window_levels - 4) // 2} steps of {self.profile.step_m:g} m); the GPS "
                 f"altitudes and the fit disagree")
+
+    def profile_altitudes(self, z: np.ndarray) -> np.ndarray:
+        """Altitude of each node in the sounding's own frame (m MSL): its altitude less the
+        estimated ``sounding_shift_m`` (none estimated: its altitude). The profile corrections are
+        placed and evaluated there, so that sounding and corrections move as one (without, the
+        corrections' grid would pin the drop's altitude to its levels, docs/design/error-models.md)."""
+        alt = self.ground_alt_msl_m - self.states(z)[:, 2]
+        if SHIFT in self.params.names:
+            alt = alt - self.values(z)[self.params.index(SHIFT)]
+        return alt
 
     def extra(self, name: str) -> ExtraColumns | None:
         """The extra unknowns called ``name`` (None when the drop has none)."""
@@ -323,7 +334,7 @@ class BlockLocals:
             return p
         v = self.symbol if v is None else v
         cell = v[v.numel() - self.layout.n_profile_local:]
-        alt = self.layout_altitude(x)
+        alt = self.layout_altitude(x) - self.theta_of(theta, SHIFT)  # in the sounding's frame
         return grid.add_to_parameters(p, grid.correction(cell, alt, self.data[0]))
 
     def layout_altitude(self, x: ca.SX) -> ca.SX:

@@ -1,7 +1,7 @@
 """The estimated parameters of a fit: names, scaling, priors; and the flight model's own.
 
 Names match ``truth.json``: the dispersion factors (``CA_mult`` ...), ``wind_bias_n``,
-``wind_bias_e``, ``density_factor`` (and ``downwash_mps``) are the flight model's
+``wind_bias_e``, ``density_factor``, ``sounding_shift_m`` (and ``downwash_mps``) are the flight model's
 (:func:`model_parameters`); the measurement kinds add theirs (IMU biases, clock offset, ...; see
 :mod:`casrecon.estimation.kinds`). Each parameter is an Ipopt variable divided by its ``scale``; a
 prior, when on, is a residual ``(value - 0) / sigma``.
@@ -16,6 +16,9 @@ import numpy as np
 from casrecon.io.problem import ProblemConfig
 from casrecon.physics.aero import DISPERSION_NAMES
 
+#: Name of the sounding's altitude shift (m): the air at altitude h is the sounding's, and the
+#: profile corrections', at h - shift (:mod:`casrecon.physics.atmosphere`).
+SOUNDING_SHIFT = "sounding_shift_m"
 
 @dataclass(frozen=True)
 class ParameterSpec:
@@ -77,6 +80,9 @@ def model_parameters(cfg: ProblemConfig) -> tuple[ParameterSpec, ...]:
     specs += [ParameterSpec("wind_bias_n", "atmosphere", wind_sigma, wind_sigma if on else None, "m/s"),
               ParameterSpec("wind_bias_e", "atmosphere", wind_sigma, wind_sigma if on else None, "m/s"),
               ParameterSpec("density_factor", "atmosphere", rho_sigma, rho_sigma if on else None, "-")]
+    shift_sigma = cfg.atmosphere.sounding_shift_sigma_m
+    if shift_sigma > 0:
+        specs.append(ParameterSpec(SOUNDING_SHIFT, "atmosphere", shift_sigma, shift_sigma if on else None, "m"))
     if est.estimate_downwash:
         specs.append(ParameterSpec("downwash_mps", "atmosphere", est.downwash_sigma_mps,
                                    est.downwash_sigma_mps if on else None, "m/s"))
