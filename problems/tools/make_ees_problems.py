@@ -1,4 +1,5 @@
-"""Write problems/ees-drop-N/problem.toml from the EES paper's Table 3 (the shipped problems are described in README.md, Problems).
+"""Write problems/ees-drop-N/problem.toml from the EES paper's Table 3 (the shipped problems are
+described in README.md, Problems).
 
 Initial conditions are the paper's reconstructed Table 3 values. Release times, the site, the
 sensor noise levels, the IMU and GPS mounts and the truth biases are REPRESENTATIVE. The truth
