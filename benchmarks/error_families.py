@@ -54,7 +54,8 @@ VARIANTS = ("default", "fixed", "plain", "gusts")
 #: The ``gusts`` variant's prior: (sigma north, east, down m/s, then six model-error sigmas), times s.
 GUST_PRIOR = DisturbanceModel((0.5, 0.5, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), (3.0,) * 3 + (1.0,) * 6)
 #: Parameter groups of the worst-|z| columns, by name prefix.
-GROUPS = {"aero": ("C",), "atmosphere": ("wind_bias", "density_factor"), "imu": ("accel_bias", "gyro_bias"),
+GROUPS = {"aero": ("C",), "atmosphere": ("wind_bias", "density_factor", "sounding_shift"),
+          "imu": ("accel_bias", "gyro_bias"),
           "clock": ("clock_offset",)}
 
 

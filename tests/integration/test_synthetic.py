@@ -96,7 +96,7 @@ def test_truth_parameter_names(drop1):
     sc, data = drop1
     p = data.truth["parameters"]
     expected = {*DISPERSION_NAMES, "wind_bias_n", "wind_bias_e", "density_factor", "clock_offset_s", "downwash_mps",
-                *(f"{s}_bias_{a}" for s in ("accel", "gyro") for a in "xyz")}
+                "sounding_shift_m", *(f"{s}_bias_{a}" for s in ("accel", "gyro") for a in "xyz")}
     assert set(p) == expected
     t = sc.config.truth
     assert p["CA_mult"] == 0.1641 and p["wind_bias_e"] == -0.6782 and p["clock_offset_s"] == -0.011
