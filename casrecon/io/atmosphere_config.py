@@ -32,11 +32,12 @@ class AtmosphereConfig:
     estimate is made again on it (at most three refits).
 
     ``sounding_shift_sigma_m``: 1-sigma of the prior on the sounding's altitude shift (the
-    estimated ``sounding_shift_m``: every level that much higher in the drop's frame than the file
-    says). A radiosonde's heights are good to about 10 m (GPS or hypsometric) and the features of a
-    profile rise and sink by tens of metres between the balloon's place and time and the drop's;
-    hence 20 m. Without it (0: held at zero) a fit takes its absolute altitude from the
-    sounding's wind shape, to centimetres, even where the GPS heights say metres.
+    estimated ``sounding_shift_m``: every level, and the profile corrections, that much higher in
+    the drop's frame than the file says); 0 (the default): held at zero. Held, a fit takes its
+    absolute altitude from the sounding's wind shape, to centimetres, even where the GPS heights
+    say metres; estimated (20 m is a radiosonde's height error and a profile's rise and sink between
+    balloon and drop), the shift itself absorbs air the profile grid cannot place and the alpha_T
+    and dynamic-pressure bands suffer (docs/design/error-models.md: The sounding's altitude shift).
 
     ``humidity``: the density of moist air from the sounding's dewpoints where it has them (the
     default); false: dry air, p / (R_d T), as if the sounding had no dewpoints (to compare with a

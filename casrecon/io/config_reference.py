@@ -121,9 +121,10 @@ SIX_DOF = FileKind(
                "trusted",
                source=AtmosphereConfig, attr="atmosphere.profile_sigma_from_data"),
             key("sounding_shift_sigma_m", "float", "m", "1-sigma of the prior on the sounding's altitude shift "
-               "(the estimated sounding_shift_m: the air at altitude h is the sounding's at h - shift), for the "
-               "radiosonde's height error and the profile's rise and sink between the balloon and the drop; 0: "
-               "held at zero (the fit then takes its absolute altitude from the sounding's wind shape)",
+               "(the estimated sounding_shift_m: the air at altitude h is the sounding's, and the profile "
+               "corrections', at h - shift); 0: held at zero, the fit then takes its absolute altitude from the "
+               "sounding's wind shape. Estimated, the shift absorbs air the profile grid cannot place "
+               "(docs/design/error-models.md)",
                source=AtmosphereConfig, attr="atmosphere.sounding_shift_sigma_m"),
             key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them (levels "
                "without one take the mixing ratio interpolated in altitude); false: dry air, p / (R_d T), as a "
