@@ -9,7 +9,7 @@ drop's last nodes cross the lowest level, usually the ground). Clamping there in
 derivatives jump, and Ipopt circled such an optimum for 200 iterations. Inside the sounding the
 values are the spline's, unchanged.
 
-Two estimable corrections act on the balloon's profile:
+Estimable corrections act on the balloon's profile:
 
 - ``wind_bias`` (north, east), m/s, added at every altitude, and an optional linear change of that
   bias with altitude (``wind_gradient``, 1/s, per metre above ``gradient_ref_alt_msl_m``);

@@ -20,6 +20,7 @@ from casrecon.physics.aero import DISPERSION_NAMES
 #: profile corrections', at h - shift (:mod:`casrecon.physics.atmosphere`).
 SOUNDING_SHIFT = "sounding_shift_m"
 
+
 @dataclass(frozen=True)
 class ParameterSpec:
     """One estimated parameter.
