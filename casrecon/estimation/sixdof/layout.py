@@ -16,8 +16,7 @@ import casadi as ca
 import numpy as np
 
 from casrecon.estimation.error_models.profile import ProfileGrid
-from casrecon.estimation.sixdof.parameters import SOUNDING_SHIFT as SHIFT
-from casrecon.estimation.sixdof.parameters import ParameterSet
+from casrecon.estimation.sixdof.parameters import SOUNDING_SHIFT, ParameterSet
 from casrecon.estimation.sixdof.subgrid import subgrid_integral_sigma
 from casrecon.estimation.sixdof.transcription import STATE_SCALE, Mesh
 from casrecon.physics.disturbance import N_DISTURBANCES, DisturbanceModel
@@ -143,8 +142,8 @@ class DropLayout:
         placed and evaluated there, so that sounding and corrections move as one (without, the
         corrections' grid would pin the drop's altitude to its levels, docs/design/error-models.md)."""
         alt = self.ground_alt_msl_m - self.states(z)[:, 2]
-        if SHIFT in self.params.names:
-            alt = alt - self.values(z)[self.params.index(SHIFT)]
+        if SOUNDING_SHIFT in self.params.names:
+            alt = alt - self.values(z)[self.params.index(SOUNDING_SHIFT)]
         return alt
 
     def extra(self, name: str) -> ExtraColumns | None:
@@ -334,7 +333,7 @@ class BlockLocals:
             return p
         v = self.symbol if v is None else v
         cell = v[v.numel() - self.layout.n_profile_local:]
-        alt = self.layout_altitude(x) - self.theta_of(theta, SHIFT)  # in the sounding's frame
+        alt = self.layout_altitude(x) - self.theta_of(theta, SOUNDING_SHIFT)  # in the sounding's frame
         return grid.add_to_parameters(p, grid.correction(cell, alt, self.data[0]))
 
     def layout_altitude(self, x: ca.SX) -> ca.SX:
