@@ -12,7 +12,10 @@ family's world (its own random stream), and fits it as each variant says:
 - ``fixed``: the default error models with their configured sizes (no size estimate, no refit);
 - ``plain``: both error models off;
 - ``gusts``: ``fixed`` with gust states at every node (the weak-constraint option: 0.5, 0.5 and
-  0.3 m/s north, east, down over 3 s, the keys' default time) and the marginal estimator.
+  0.3 m/s north, east, down over 3 s, the keys' default time) and the marginal estimator;
+- ``ground``: ``default`` with the impact as a measurement of altitude (``[estimation]
+  impact_ground_sigma_m`` = GROUND_SIGMA_M: a surveyed drop zone; the simulated ground is the
+  site's exactly).
 
 Vehicles: ``ees`` (problems/ees-drop-3: 98.6 kg, 1.27 m) and ``light`` (the same shape scaled to
 60 kg and 1.0 m, its inertia with it).
@@ -50,7 +53,9 @@ from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_b
 
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEM = ROOT / "problems" / "ees-drop-3"
-VARIANTS = ("default", "fixed", "plain", "gusts")
+VARIANTS = ("default", "fixed", "plain", "gusts", "ground")
+#: The ``ground`` variant's 1-sigma of the ground's altitude at the impact, m.
+GROUND_SIGMA_M = 1.0
 #: The ``gusts`` variant's prior: (sigma north, east, down m/s, then six model-error sigmas), times s.
 GUST_PRIOR = DisturbanceModel((0.5, 0.5, 0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), (3.0,) * 3 + (1.0,) * 6)
 #: Parameter groups of the worst-|z| columns, by name prefix.
@@ -94,6 +99,8 @@ def fit_variant(scenario: Scenario, variant: str) -> Scenario:
         gps = dataclasses.replace(gps, error_model_from_data=False)
     if variant == "gusts":
         estimation = dataclasses.replace(estimation, disturbance=GUST_PRIOR, method="marginal")
+    elif variant == "ground":
+        estimation = dataclasses.replace(estimation, impact_ground_sigma_m=GROUND_SIGMA_M)
     elif variant == "plain":
         atm = dataclasses.replace(atm, profile_wind_sigma_mps=0.0, profile_density_sigma=0.0,
                                   profile_sigma_from_data=False)

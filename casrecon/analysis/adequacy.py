@@ -170,7 +170,9 @@ HINTS = {
     "prior": "an input (mass, aero database, IMU mounting, sounding or atmosphere) or a prior is wrong: the fit "
              "moved parameters far to make up for it",
     "ground": "the site's ground altitude or the GPS height is wrong, or the IMU clock ([sensors.imu.clock] "
-              "utc_at_zero): a clock error moves the impact along the descent",
+              "utc_at_zero): a clock error moves the impact along the descent; with the impact as a measurement "
+              "([estimation] impact_ground_sigma_m), also the fit's altitude held where the sounding's wind "
+              "structure lets the trajectory sit, off where the air differs from the sounding",
     "pessimistic": "those sigmas are pessimistic for these data (a receiver's accuracy estimate, a noise figure "
                    "given as an upper bound, a GPS error model whose white part is larger than the receiver's), so "
                    "these channels weigh too little and the bands are wider than the data need",

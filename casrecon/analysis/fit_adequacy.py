@@ -47,7 +47,8 @@ def prior_arrays(specs, values: np.ndarray, covariance: np.ndarray) -> tuple[lis
 def impact_check(result) -> tuple[GroundCheck | None, tuple[str, ...]]:
     """Height above the site's ground at the detected impact: the last node's, moved on at its
     vertical speed to the impact time (at most MAX_EXTRAPOLATION_S), against 3 sigma of the last
-    node's height plus GROUND_TOLERANCE_M."""
+    node's height plus GROUND_TOLERANCE_M; where the impact was a measurement
+    (:mod:`casrecon.estimation.kinds.ground`), above the measured ground, against 3 of its sigmas."""
     h, h_sigma = result.column("h_agl_m")
     dt = float(result.data.impact_imu_s - result.node_time_s[-1])
     if not 0.0 <= dt <= MAX_EXTRAPOLATION_S:
@@ -55,10 +56,18 @@ def impact_check(result) -> tuple[GroundCheck | None, tuple[str, ...]]:
                       f"(checked within 0 to {MAX_EXTRAPOLATION_S:g} s)",)
     vel_d = float(result.states[-1, 5])
     at_impact = float(h[-1] - vel_d * dt)
-    limit = float(3 * h_sigma[-1] + GROUND_TOLERANCE_M)
-    text = (f"height above the site's ground at the detected impact {at_impact:+.1f} m (last node {h[-1]:.1f} m, "
-            f"{dt:.2f} s earlier, descending {vel_d:.1f} m/s); accepted within {limit:.1f} m "
-            f"(3-sigma {3 * h_sigma[-1]:.1f} m + {GROUND_TOLERANCE_M:g} m)")
+    ground = result.measurements.get("ground")
+    if ground is not None:  # the impact was a measurement: its residual against 3 of its sigmas
+        at_impact -= ground.height_agl_m
+        limit = 3.0 * ground.sigma_m
+        text = (f"height above the measured ground at the detected impact {at_impact:+.2f} m (last node "
+                f"{h[-1]:.1f} m above the site's, {dt:.2f} s earlier, descending {vel_d:.1f} m/s); accepted "
+                f"within {limit:.2f} m (3 sigma of the impact measurement, [estimation] impact_ground_sigma_m)")
+    else:
+        limit = float(3 * h_sigma[-1] + GROUND_TOLERANCE_M)
+        text = (f"height above the site's ground at the detected impact {at_impact:+.1f} m (last node {h[-1]:.1f} m, "
+                f"{dt:.2f} s earlier, descending {vel_d:.1f} m/s); accepted within {limit:.1f} m "
+                f"(3-sigma {3 * h_sigma[-1]:.1f} m + {GROUND_TOLERANCE_M:g} m)")
     if abs(at_impact) > limit and abs(vel_d) > 1.0:  # a clock error moves the impact along the descent
         text += (f"; the miss is also what an IMU clock error of {abs(at_impact / vel_d):.2f} s would make "
                  "([sensors.imu.clock] utc_at_zero)")

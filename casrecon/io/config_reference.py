@@ -73,7 +73,8 @@ _ESTIMATION_KEYS = (
     ("imu_bias_prior", "bool", ""), ("clock_prior", "bool", ""), ("clock_sigma_s", "float", "s"),
     ("estimate_clock", "bool", ""), ("clock_offset_guess_s", "float", "s"), ("estimate_downwash", "bool", ""),
     ("downwash_sigma_mps", "float", "m/s"), ("max_h_acc_m", "float", "m"), ("max_v_acc_m", "float", "m"),
-    ("max_s_acc_mps", "float", "m/s"), ("min_num_sv", "int", ""),
+    ("max_s_acc_mps", "float", "m/s"), ("min_num_sv", "int", ""), ("impact_ground_sigma_m", "float", "m"),
+    ("impact_ground_alt_msl_m", "float", "m"),
 )
 
 SIX_DOF = FileKind(

@@ -105,6 +105,17 @@ class EstimationConfig:
         GPS fixes reporting worse accuracy are dropped.
     min_num_sv : int
         GPS fixes with fewer satellites are dropped.
+    impact_ground_sigma_m : float, optional
+        1-sigma (m) of the ground's altitude where the vehicle hit it. Given, the impact becomes a
+        measurement of altitude (:mod:`casrecon.estimation.kinds.ground`): at the impact instant
+        (detected from the IMU, or ``impact_imu_s``) the centre of mass was at
+        ``impact_ground_alt_msl_m``. Not given (default): the impact is only checked, within 30 m
+        (the verdict's ground test). Include in it how far above the first contact point the centre
+        of mass was and how well the ground's altitude is known (a survey: decimetres; a terrain
+        model: metres).
+    impact_ground_alt_msl_m : float, optional
+        Altitude (m above mean sea level) of the centre of mass at the impact instant; default the
+        site's ``ground_alt_msl_m``. Only with ``impact_ground_sigma_m``.
     """
 
     start_after_release_s: float = 3.5
@@ -136,6 +147,8 @@ class EstimationConfig:
     max_v_acc_m: float = 10.0
     max_s_acc_mps: float = 1.0
     min_num_sv: int = 6
+    impact_ground_sigma_m: float | None = None
+    impact_ground_alt_msl_m: float | None = None
 
     @property
     def gps_quality(self) -> GpsQuality:
@@ -221,6 +234,11 @@ def parse_estimation(t: Fields) -> EstimationConfig:
         max_h_acc_m=t.number("max_h_acc_m", d.max_h_acc_m, positive=True),
         max_v_acc_m=t.number("max_v_acc_m", d.max_v_acc_m, positive=True),
         max_s_acc_mps=t.number("max_s_acc_mps", d.max_s_acc_mps, positive=True),
-        min_num_sv=t.integer("min_num_sv", d.min_num_sv, 0), disturbance=parse_disturbance(t))
+        min_num_sv=t.integer("min_num_sv", d.min_num_sv, 0), disturbance=parse_disturbance(t),
+        impact_ground_sigma_m=t.number("impact_ground_sigma_m", positive=True),
+        impact_ground_alt_msl_m=t.number("impact_ground_alt_msl_m"))
+    if cfg.impact_ground_alt_msl_m is not None and cfg.impact_ground_sigma_m is None:
+        raise t.error("impact_ground_alt_msl_m", "give impact_ground_sigma_m with it (how well that altitude is "
+                      "known, m): without it the impact is not a measurement")
     t.reject_unknown()
     return cfg

@@ -25,6 +25,7 @@ from casrecon.estimation.kinds.baro import BaroKind
 from casrecon.estimation.kinds.base import DropContext, MeasurementKind
 from casrecon.estimation.kinds.disturbance import disturbance_terms, profile_terms
 from casrecon.estimation.kinds.gps import GpsKind
+from casrecon.estimation.kinds.ground import GroundKind
 from casrecon.estimation.kinds.imu import ImuKind
 from casrecon.estimation.kinds.priors import prior_terms
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError
@@ -36,7 +37,7 @@ from casrecon.physics.dynamics import FlightModel
 
 #: The measurement kinds of a 6-DOF drop fit, in residual order (a kind whose ``load`` returns
 #: None for a problem contributes nothing to it).
-MEASUREMENT_KINDS: tuple[MeasurementKind, ...] = (ImuKind(), GpsKind(), BaroKind())
+MEASUREMENT_KINDS: tuple[MeasurementKind, ...] = (ImuKind(), GpsKind(), BaroKind(), GroundKind())
 #: z columns of the first quaternion of a drop, relative to its first node.
 QUATERNION = np.arange(6, 10)
 
