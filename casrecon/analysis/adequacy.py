@@ -54,12 +54,13 @@ class GroundCheck:
     Attributes
     ----------
     what : str
-        ``"impact"`` (height above ground at the detected impact) or ``"lowest"`` (lowest point of
-        a track that ends in the air).
+        ``"impact"`` (height above ground at the detected impact), ``"measured impact"`` (the same
+        where the impact was a measurement of altitude: above the measured ground) or ``"lowest"``
+        (lowest point of a track that ends in the air).
     h_agl_m : float
-        That height above the site's ground altitude, m.
+        That height above the site's (or the measured) ground altitude, m.
     limit_m : float
-        Largest magnitude accepted (``"impact"``) or deepest accepted below ground (``"lowest"``), m.
+        Largest magnitude accepted (the impacts) or deepest accepted below ground (``"lowest"``), m.
     explanation : str
         How ``h_agl_m`` and ``limit_m`` were obtained.
     """
@@ -71,7 +72,7 @@ class GroundCheck:
 
     @property
     def ok(self) -> bool:
-        if self.what == "impact":
+        if self.what in ("impact", "measured impact"):
             return bool(abs(self.h_agl_m) <= self.limit_m)
         return bool(self.h_agl_m >= -self.limit_m)
 
@@ -218,8 +219,10 @@ def _findings(tests: list[ChannelTest], deviations: tuple[PriorDeviation, ...], 
         kinds.add("prior")
     if ground is not None and not ground.ok:
         where = "above" if ground.h_agl_m > 0 else "below"
-        text = (f"{'impact' if ground.what == 'impact' else 'track'} {abs(ground.h_agl_m):.0f} m {where} the site's "
-                f"ground (limit {ground.limit_m:.0f} m)")
+        measured = ground.what == "measured impact"
+        whose, digits = ("measured", 1) if measured else ("site's", 0)
+        text = (f"{'track' if ground.what == 'lowest' else 'impact'} {abs(ground.h_agl_m):.{digits}f} m {where} the "
+                f"{whose} ground (limit {ground.limit_m:.{digits}f} m)")
         reasons.append(text)
         line.append(text)
         kinds.add("ground")

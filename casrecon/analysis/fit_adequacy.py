@@ -71,7 +71,7 @@ def impact_check(result) -> tuple[GroundCheck | None, tuple[str, ...]]:
     if abs(at_impact) > limit and abs(vel_d) > 1.0:  # a clock error moves the impact along the descent
         text += (f"; the miss is also what an IMU clock error of {abs(at_impact / vel_d):.2f} s would make "
                  "([sensors.imu.clock] utc_at_zero)")
-    return GroundCheck("impact", at_impact, limit, text), ()
+    return GroundCheck("impact" if ground is None else "measured impact", at_impact, limit, text), ()
 
 
 def drop_channels(imu: dict, gps: dict, others: dict) -> dict[str, np.ndarray]:
