@@ -64,3 +64,10 @@ def test_an_altitude_without_its_sigma_is_an_input_error(problem_copy):
     problem_copy.write_text(text)
     with pytest.raises(InputError, match=r"impact_ground_alt_msl_m.*give impact_ground_sigma_m with it"):
         load_problem(problem_copy.parent)
+
+
+def test_a_sigma_that_is_not_positive_is_an_input_error(problem_copy):
+    text = problem_copy.read_text().replace("[estimation]\n", "[estimation]\nimpact_ground_sigma_m = 0.0\n")
+    problem_copy.write_text(text)
+    with pytest.raises(InputError, match=r"impact_ground_sigma_m"):
+        load_problem(problem_copy.parent)
