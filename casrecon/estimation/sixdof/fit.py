@@ -26,7 +26,7 @@ from casrecon.estimation.engine.laplace import marginal_solution
 from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult
 from casrecon.estimation.error_models.error_model_sigma import estimate_error_sizes, gps_estimated
-from casrecon.estimation.error_models.plausibility import implausible, not_refitted_text
+from casrecon.estimation.error_models.plausibility import implausible, judged_again, not_refitted_text
 from casrecon.estimation.error_models.profile_sigma import (
     MAX_REFITS,
     ProfileSigmaEstimate,
@@ -375,10 +375,13 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
     made on a fit agrees with the sigmas it was made with (at most MAX_REFITS refits; see
     :mod:`casrecon.estimation.error_models.profile_sigma`). An estimate beyond the plausibility limits
     (:mod:`casrecon.estimation.error_models.plausibility`) is not refitted with: the fit it was made
-    on stands, its ``gross_errors`` say why (a not-trusted verdict); once, where every finding is the
-    profile's and its GPS error model (itself within the limits) differs from the fit's, the fit is
-    first made again with that model alone and the estimate searched and judged again on it
-    (:func:`with_gps_estimate_only`); ``cfg`` is the problem's configuration, ``t0`` the
+    on stands, its ``gross_errors`` say why (a not-trusted verdict); once, where its GPS error model
+    differs from the fit's and is within the limits or only a few times beyond them
+    (:func:`~casrecon.estimation.error_models.plausibility.judged_again`), the fit is first made
+    again with that model alone and the estimate searched and judged again on it
+    (:func:`with_gps_estimate_only`; the limits are on the receiver's stated accuracies, so a gross
+    error asks for the same scale again and stands, on the refit or, when the refit fails, on the
+    fit before); ``cfg`` is the problem's configuration, ``t0`` the
     ``perf_counter`` at which the fit began, and ``fitted(scenario, start, guess_clock_s, prior,
     notes)`` makes one fit. The result's timings ``first_fit_s`` is the time of the fits before
     the last, ``estimate_s`` that of the size estimates, ``refits`` their number and
@@ -425,7 +428,7 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
         findings = implausible(estimate, cfg.atmosphere.profile_length_m)
         gps_only = with_gps_estimate_only(estimate)
         defer = (bool(findings) and not deferred and estimate.gps is not None and estimate.gps.refit
-                 and not implausible(gps_only, cfg.atmosphere.profile_length_m))
+                 and (not implausible(gps_only, cfg.atmosphere.profile_length_m) or judged_again(gps_only)))
         if findings and not defer:  # a gross error in the inputs, not a model to refit with: this fit stands
             result = standing(result, k)
             return timed(dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
@@ -450,7 +453,8 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
         except FitError as err:  # the fit before stands, and says why it was not replaced
             result = standing(result, k)
             return timed(dataclasses.replace(result, notes=result.notes + (
-                f"{estimate.text()}; the refit {refit_text(estimate, prior)} failed: {err}",)))
+                f"{estimate.text()}; the refit {refit_text(made, prior)} failed: {err}",),
+                gross_errors=result.gross_errors + (findings if defer else ())))
         chain["refits"] += 1
         for p in CHAIN_PARTS:
             chain[f"all_{p}"] += again.timings.get(p, 0.0)
