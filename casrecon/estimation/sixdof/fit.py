@@ -379,16 +379,16 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
     differs from the fit's and is within the limits or only a few times beyond them
     (:func:`~casrecon.estimation.error_models.plausibility.judged_again`), the fit is first made
     again with that model alone and the estimate searched and judged again on it
-    (:func:`with_gps_estimate_only`; the limits are on the receiver's stated accuracies, so a gross
-    error asks for the same scale again and stands, on the refit or, when the refit fails, on the
-    fit before); ``cfg`` is the problem's configuration, ``t0`` the
+    (:func:`with_gps_estimate_only`; where the GPS model itself was beyond the limits and the
+    refit's estimate is beyond them too, or the refit fails, the fit before stands with its
+    findings); ``cfg`` is the problem's configuration, ``t0`` the
     ``perf_counter`` at which the fit began, and ``fitted(scenario, start, guess_clock_s, prior,
     notes)`` makes one fit. The result's timings ``first_fit_s`` is the time of the fits before
     the last, ``estimate_s`` that of the size estimates, ``refits`` their number and
     ``all_build_s``, ``all_solve_s``, ``all_covariance_s`` the parts of every fit made. A refit
     that fails leaves the fit before it, whose notes say why. ``finished(fit)`` is the first fit
     solved to the full tolerance, where it stands (it was stopped at :data:`SIZING_DECREMENT`)."""
-    earlier_s, intended, history, deferred = 0.0, None, (), False
+    earlier_s, intended, history, deferred, judged = 0.0, None, (), False, None
     what = sizes_named(cfg) or "error-model sizes"
     chain = {"estimate_s": 0.0, "refits": 0.0} | {f"all_{p}": result.timings.get(p, 0.0) for p in CHAIN_PARTS}
 
@@ -427,8 +427,16 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
             return timed(dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",)))
         findings = implausible(estimate, cfg.atmosphere.profile_length_m)
         gps_only = with_gps_estimate_only(estimate)
+        gps_beyond = bool(implausible(gps_only, cfg.atmosphere.profile_length_m))
         defer = (bool(findings) and not deferred and estimate.gps is not None and estimate.gps.refit
-                 and (not implausible(gps_only, cfg.atmosphere.profile_length_m) or judged_again(gps_only)))
+                 and (not gps_beyond or judged_again(gps_only)))
+        if findings and judged is not None:  # the refit did not clear the GPS finding: the fit before stands
+            first, first_k, first_estimate, first_findings = judged
+            first = standing(first, first_k)
+            return timed(dataclasses.replace(first, notes=first.notes + (
+                f"{not_refitted_text(first_estimate, first_findings)}; judged again on a refit with its GPS model, "
+                f"whose estimate was beyond the limits too ({'; '.join(findings)})",),
+                gross_errors=first.gross_errors + first_findings))
         if findings and not defer:  # a gross error in the inputs, not a model to refit with: this fit stands
             result = standing(result, k)
             return timed(dataclasses.replace(result, notes=result.notes + (not_refitted_text(estimate, findings),),
@@ -436,6 +444,10 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
         made = estimate
         if defer:  # judged again once the GPS errors are the data's: see with_gps_estimate_only
             made, deferred = gps_only, True
+            if gps_beyond:  # a GPS finding itself: kept, to stand if the refit does not clear it
+                judged = (result, k, estimate, findings)
+        else:
+            judged = None
         # from this fit's configuration: the problem's with the error models the refits before set
         refit_cfg, prior = profile_refit(result.scenario.config, made)
         before = result.fit_nlp
