@@ -53,7 +53,6 @@ def test_a_gps_accuracy_scale_beyond_a_receiver_names_the_clock():
     assert implausible(estimate(gps=edge), 300.0) == ()
 
 
-
 def test_a_few_times_the_accuracy_is_judged_again_on_a_refit_a_gross_error_is_not():
     """The exact-model drop whose first fit settled 7.9 m low asked for x 4.13: judged again; the
     1 s clock's x 10.3 and rough air's x 6 to 50: not."""
@@ -62,6 +61,7 @@ def test_a_few_times_the_accuracy_is_judged_again_on_a_refit_a_gross_error_is_no
     for scales in ((10.3, 1.2), (1.0, 1.0 / (MISFIT_ACCURACY_SCALE * 1.01)), (MISFIT_ACCURACY_SCALE * 1.01, 1.0)):
         assert not judged_again(estimate(gps=GpsErrorModel(20.0, 2.0, 0.999, 0.999, *scales))), scales
     assert judged_again(estimate())  # within the limits (the rule's other branch: a profile finding)
+
 
 def test_estimates_at_the_edge_of_their_search_are_findings():
     """Measured with utc_at_zero 1 s late: profile 1.62 m/s, 2.09 % over 3000 m, GPS velocity over 10 s;

@@ -96,8 +96,7 @@ def implausible(estimate: ps.ProfileSigmaEstimate, configured_length_m: float | 
     out = []
     gps = estimate.gps
     if gps is not None:
-        for g in ("position", "velocity"):
-            scale = float(getattr(gps.estimated, f"{g}_scale"))
+        for g, scale in accuracy_scales(estimate).items():
             if scale > MAX_ACCURACY_SCALE:
                 out.append(f"the data ask for GPS {g} errors {scale:.3g} times the receiver's stated accuracies "
                            f"(plausible up to {MAX_ACCURACY_SCALE:g}): a gross error, likely {CAUSES['gps_large']}")
@@ -135,7 +134,6 @@ def not_refitted_text(estimate: ps.ProfileSigmaEstimate, findings: tuple[str, ..
             f"(casrecon.estimation.error_models.plausibility): {'; '.join(findings)}; the fit's error models stand")
 
 
-
 def judged_again(estimate: ps.ProfileSigmaEstimate) -> bool:
     """Whether a first estimate beyond the limits is to be judged again on a refit with its GPS
     error model alone: its GPS accuracy scales within [1 / MISFIT_ACCURACY_SCALE,
@@ -151,8 +149,12 @@ def judged_again(estimate: ps.ProfileSigmaEstimate) -> bool:
     before stands with its findings: on ``turbulence-altitude`` 223 (x 3.5 and 6.0) the refit's
     estimate asked for x 17.6 and a 10 m/s profile over 30 km, and publishing the refit put the
     dynamic-pressure bands at 30 % of nodes (the fit before, widened: 100 %)."""
-    gps = estimate.gps
-    if gps is None:
+    if estimate.gps is None:
         return False
-    scales = [float(getattr(gps.estimated, f"{g}_scale")) for g in ("position", "velocity")]
-    return all(1.0 / MISFIT_ACCURACY_SCALE <= s <= MISFIT_ACCURACY_SCALE for s in scales)
+    return all(1.0 / MISFIT_ACCURACY_SCALE <= s <= MISFIT_ACCURACY_SCALE for s in accuracy_scales(estimate).values())
+
+
+def accuracy_scales(estimate: ps.ProfileSigmaEstimate) -> dict[str, float]:
+    """The estimated GPS model's 1-sigma over the receiver's stated accuracies, ``"position"`` and
+    ``"velocity"`` (the estimate must have a GPS part)."""
+    return {g: float(getattr(estimate.gps.estimated, f"{g}_scale")) for g in ("position", "velocity")}
