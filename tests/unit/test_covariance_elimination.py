@@ -21,7 +21,9 @@ from casrecon.scenario import Scenario
 def gm_fit():
     cfg = Scenario.load(PROBLEMS / "ees-drop-3").config
     est = replace(cfg.estimation, start_after_release_s=20.0, end_before_impact_s=17.55)
-    gps = replace(cfg.gps, error_model=GpsErrorModel(20.0, 2.0, 0.8, 0.6))
+    # the model given, not sized from the data (on 1.5 s its estimate can make a channel white,
+    # and this test is about the elimination of the GPS errors, not about their sizes)
+    gps = replace(cfg.gps, error_model=GpsErrorModel(20.0, 2.0, 0.8, 0.6), error_model_from_data=False)
     return fit_drop(Scenario.from_config(replace(cfg, estimation=est, gps=gps)))
 
 

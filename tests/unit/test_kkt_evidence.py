@@ -71,3 +71,22 @@ def test_a_singular_kkt_matrix_gives_the_penalty_not_an_exception():
                               [ScaledRows(sps.csr_matrix(np.array([[2.0, 0.0, 0.0]])), np.array([0.5]), 1)])
     value, grad = model.log_evidence(np.zeros(1))
     assert value <= -1e11 and np.all(grad == 0)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_average_information_matches_its_dense_formula(seed):
+    """2 (diag(s_k |m_k|^2) - q^T P q), q_k = s_k J_k^T m_k, P = N (N^T H N)^-1 N^T, densely."""
+    model, held, groups, a = problem(seed)
+    x = np.array([0.3, -0.4, 0.8])
+    value, grad, info = model.log_evidence_with_information(x)
+    assert (value, *grad) == pytest.approx((*[model.log_evidence(x)[0]], *model.log_evidence(x)[1]))
+    s = np.exp(-2 * x)
+    h = held[0].T @ held[0] + sum(k * j.T @ j for k, (j, _) in zip(s, groups))
+    g = held[0].T @ held[1] + sum(k * j.T @ r for k, (j, r) in zip(s, groups))
+    n = scipy.linalg.null_space(a)
+    p = n @ np.linalg.solve(n.T @ h @ n, n.T)
+    d = -p @ g
+    misfit = [r + j @ d for j, r in groups]
+    q = np.column_stack([k * j.T @ m for k, (j, _), m in zip(s, groups, misfit)])
+    expected = 2 * (np.diag([k * m @ m for k, m in zip(s, misfit)]) - q.T @ p @ q)
+    np.testing.assert_allclose(info, expected, rtol=1e-7, atol=1e-9 * np.abs(expected).max())

@@ -4,21 +4,22 @@ error_model_from_data`` (default), the GPS errors' white and correlated sizes an
 (:mod:`.gps_error_sigma`), by one Laplace evidence on the fit's split quadratic model
 (:mod:`casrecon.estimation.numerics.split_evidence`).
 
-The search: L-BFGS-B over the log ratios of every group's sigma to the fit's, at the fit's
-correlation length and GPS correlation times, then at each other profile length
-(``profile_sigma.LENGTH_FACTORS`` times the configured one, and longer ones while the longest
-wins), then, at the most evident length, at
-each other position and then velocity correlation time (``gps_error_sigma.TIME_FACTORS`` times the
-fit's, and longer ones while the longest wins: see :func:`time_search`); the most evident
-candidate wins each round. A profile group whose estimate explains the data better than none of
-its error by less than ``profile_sigma.ZERO_EVIDENCE_NATS``, or is below
-``profile_sigma.NEGLIGIBLE_RATIO`` of the fit's sigma, is taken as zero, as without the GPS groups.
+The search: Newton steps on the average information
+(:mod:`casrecon.estimation.numerics.information_ascent`) over the log ratios of every group's sigma
+to the fit's, at the fit's correlation length and GPS correlation times, then at each other profile
+length (``profile_sigma.LENGTH_FACTORS`` times the configured one, and longer ones while the
+longest wins), then, at the most evident length, at each other position and then velocity
+correlation time (``gps_error_sigma.TIME_FACTORS`` times the fit's, and longer ones while the
+longest wins: see :func:`time_search`); the most evident candidate wins each round, where it is
+more evident by more than WIN_NATS (else the earlier stays). A profile group whose estimate explains
+the data better than none of its error by less than ``profile_sigma.ZERO_EVIDENCE_NATS``, or is
+below ``profile_sigma.NEGLIGIBLE_RATIO`` of the fit's sigma, is taken as zero, as without the GPS
+groups.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import minimize
 
 from casrecon.estimation.engine.covariance import gauss_newton_system
 from casrecon.estimation.error_models import profile_sigma as ps
@@ -36,12 +37,16 @@ from casrecon.estimation.error_models.gps_error_sigma import (
     variance_parts,
 )
 from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS
+from casrecon.estimation.numerics import information_ascent
 from casrecon.estimation.numerics.split_evidence import RowGroup, SplitQuadraticModel
 from casrecon.parallel import in_threads, single_threaded_blas
 
-#: L-BFGS-B's tolerances on the objective divided by its largest starting gradient entry (see
-#: :func:`maximised`; that scale is 10 to 300 nats): log Z to about 1e-3 nats, ratios to 0.1 %.
-FTOL, GTOL = 1e-6, 1e-4
+#: The sizes' search stops where the next Newton step would raise log Z by less than this (nats).
+TOLERANCE_NATS = 1e-3
+#: A candidate length or correlation time replaces the one chosen so far only where its log Z is
+#: higher by more than this (nats): ten times the search's precision, so that a tie (a group whose
+#: error the data do not see, its evidence flat in the length) keeps the earlier candidate.
+WIN_NATS = 10 * TOLERANCE_NATS
 
 
 def gps_estimated(result) -> bool:
@@ -76,7 +81,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     if search and grid is not None:  # the other lengths, each searched from the sizes at the fit's
         others = [(f * configured, own_times) for f in ps.LENGTH_FACTORS if f * configured != grid.length_m]
         challenger = most_evident(build, others, best[4].x) if others else None
-        if challenger is not None and challenger[0] < best[0]:
+        if challenger is not None and more_evident(challenger, best):
             best = challenger
         if others and np.isclose(best[2], max(ps.LENGTH_FACTORS) * configured):  # longer, while the evidence rises
             longer = ps.extension(max(ps.LENGTH_FACTORS), ps.LENGTH_EXTENSION, ps.MAX_LENGTH_FACTOR)
@@ -126,7 +131,7 @@ def time_search(build, best, errors, own_times: tuple[float, float], base_times:
             times = {at(f) for f in (1.0, *TIME_FACTORS)}
             times.discard(best[1])
             challenger = most_evident(build, [(best[2], t) for t in sorted(times)], best[4].x)
-            if challenger[0] < best[0]:
+            if more_evident(challenger, best):
                 best = challenger
             if np.isclose(best[1][g], max(TIME_FACTORS) * base_times[g]):  # longer, while the evidence rises
                 longer = ps.extension(max(TIME_FACTORS), EXTENSION_FACTOR, MAX_TIME_FACTOR)
@@ -140,7 +145,7 @@ def while_rising(build, best, candidates):
     the evidence stops rising. The candidates are searched side by side from ``best``'s sizes (on
     two threads: the wall time of one where there are two)."""
     for candidate in evaluated(build, candidates, best[4].x):
-        if candidate[0] >= best[0]:
+        if not more_evident(candidate, best):
             break
         best = candidate
     return best
@@ -160,33 +165,33 @@ def evaluated(build, candidates, start: np.ndarray | None = None) -> list[tuple]
             for (length, times), (model, names, fit) in zip(candidates, in_threads(searched, candidates))]
 
 
+def more_evident(candidate, other) -> bool:
+    """Whether ``candidate`` (as :func:`evaluated` returns) is more evident than ``other`` by more
+    than WIN_NATS."""
+    return bool(candidate[0] < other[0] - WIN_NATS)
+
+
 def most_evident(build, candidates, start: np.ndarray | None = None):
-    """The most evident of :func:`evaluated`'s candidates (the first of equals)."""
+    """The most evident of :func:`evaluated`'s candidates (the first of those within WIN_NATS of
+    each other)."""
     out = None
     for candidate in evaluated(build, candidates, start):
-        if out is None or candidate[0] < out[0]:
+        if out is None or more_evident(candidate, out):
             out = candidate
     return out
 
 
 def maximised(model: SplitQuadraticModel, names: list[str], start: np.ndarray | None = None):
-    """scipy's L-BFGS-B result of minimising -log Z over the groups' log ratios (bounds
-    gps_error_sigma's MIN_RATIO, MAX_RATIO for the GPS groups, profile_sigma's for the others), its
-    ``fun`` -log Z. The objective is divided by its largest gradient entry at the start (at least 1),
-    so that the first step, the gradient itself, moves a ratio by a factor e at most: a full step
-    of gradients in the hundreds left the model not positive definite and the line search stuck."""
+    """The maximum of log Z over the groups' log ratios (bounds gps_error_sigma's MIN_RATIO,
+    MAX_RATIO for the GPS groups, profile_sigma's for the others) from ``start`` (default the fit's
+    sizes), by Newton steps on the model's average information
+    (:func:`casrecon.estimation.numerics.information_ascent.maximised`, to TOLERANCE_NATS): a
+    scipy OptimizeResult, its ``fun`` -log Z."""
     x0 = np.zeros(len(names)) if start is None else np.asarray(start, float)
-    bounds = [(np.log(MIN_RATIO), np.log(MAX_RATIO)) if n.startswith("gps ") else
-              (np.log(ps.MIN_RATIO), np.log(ps.MAX_RATIO)) for n in names]
-    scale = max(1.0, float(np.max(np.abs(model.log_evidence(x0)[1]))))
-
-    def objective(x):
-        value, grad = model.log_evidence(x)
-        return -value / scale, -grad / scale
-
-    fit = minimize(objective, x0, jac=True, method="L-BFGS-B", bounds=bounds, options={"ftol": FTOL, "gtol": GTOL})
-    fit.fun = float(fit.fun) * scale
-    return fit
+    gps = np.array([n.startswith("gps ") for n in names])
+    lower = np.where(gps, np.log(MIN_RATIO), np.log(ps.MIN_RATIO))
+    upper = np.where(gps, np.log(MAX_RATIO), np.log(ps.MAX_RATIO))
+    return information_ascent.maximised(model.log_evidence_with_information, x0, lower, upper, TOLERANCE_NATS)
 
 
 def _builder(result, grid):

@@ -20,7 +20,8 @@ chi2(rho) the minimum of the quadratic model (one dense solve) and H(rho) = H_d 
 rho_k^2. Its gradient in log rho_k is chi2_k - gamma_k (the group's prior chi-square at the new
 minimum, less the values the data determine, n_k - tr(A_k H^-1 A_k^T) / rho_k^2): zero at
 MacKay's fixed point. log Z is maximised over log rho in [log MIN_RATIO, log MAX_RATIO] by
-L-BFGS-B; a group whose estimate explains the data better than none of its error by less than
+L-BFGS-B (this profile-only estimate; with the GPS errors, :mod:`.error_model_sigma`); a group
+whose estimate explains the data better than none of its error by less than
 :data:`ZERO_EVIDENCE_NATS` (log evidence), or whose estimate is below :data:`NEGLIGIBLE_RATIO` of
 the fit's sigma, has no profile error the data can see, and is taken as zero. The quadratic model
 is the fit's own (Gauss-Newton or observed information), exact for the prior, which is linear;

@@ -106,6 +106,18 @@ class KktQuadraticModel:
         own: s_k |r_k + J_k d|^2); the log det's by forward differences of STEP in each log rho_k
         (a factorisation each, on two threads: the trace's solves, one per row of J_k, cost ten times
         more)."""
+        value, gradient, _ = self._evaluated(log_ratio, information=False)
+        return value, gradient
+
+    def log_evidence_with_information(self, log_ratio: np.ndarray) -> tuple[float, np.ndarray, np.ndarray | None]:
+        """(log Z, its gradient, the average information) at ``log_ratio``, as :meth:`log_evidence`;
+        the information (None where K is singular) is average-information REML's approximation of
+        -d2 log Z / d log rho2 (as :meth:`.split_evidence.SplitQuadraticModel.log_evidence_with_information`):
+        2 (diag(s_k |m_k|^2) - q^T P q), q_k = s_k J_k^T m_k, m_k the group's fitted residuals, P the
+        z block of K^-1 (one more solve with the base point's factor, a column per group)."""
+        return self._evaluated(log_ratio, information=True)
+
+    def _evaluated(self, log_ratio: np.ndarray, information: bool) -> tuple[float, np.ndarray, np.ndarray | None]:
         x = np.asarray(log_ratio, float)
         if self._order is None:
             self._order = band_arrow_order(self._kkt(x))
@@ -114,21 +126,24 @@ class KktQuadraticModel:
         grad = self.held_gradient + sum(sk * (g.jacobian.T @ g.residuals) for sk, g in zip(s, self.groups))
         rhs = np.concatenate([-grad, np.zeros(n_g)])
         # each factor lives and dies in its thread (SuperLU's allocations may belong to the thread
-        # that made the factor): the threads return the log det and the base point's solution
-        steps = [(x, rhs)] + [(x + STEP * unit, None) for unit in np.eye(x.size)]
-        (log_det, d), *moved = in_threads(self._log_det_and_solution, steps)
+        # that made the factor): the threads return the log det and the base point's solution (and
+        # q^T P q for the information)
+        steps = [(x, rhs, information)] + [(x + STEP * unit, None, False) for unit in np.eye(x.size)]
+        (log_det, d, across), *moved = in_threads(self._log_det_and_solution, steps)
         if log_det is None:
-            return -SINGULAR, np.zeros_like(x)
+            return -SINGULAR, np.zeros_like(x), None
         d = d[:n_z]
         misfit = [g.residuals + g.jacobian @ d for g in self.groups]
         held = self.held_residuals + self.held_jacobian @ d
-        chi2 = float(held @ held) + sum(sk * float(m @ m) for sk, m in zip(s, misfit))
+        fitted = np.array([sk * float(m @ m) for sk, m in zip(s, misfit)])
+        chi2 = float(held @ held) + float(np.sum(fitted))
         value = -0.5 * chi2 - 0.5 * log_det - sum(g.count * xk for g, xk in zip(self.groups, x))
         gradient = np.empty_like(x)
-        for k, (sk, g, m, (log_det_k, _)) in enumerate(zip(s, self.groups, misfit, moved)):
+        for k, (g, (log_det_k, _, _)) in enumerate(zip(self.groups, moved)):
             slope = 0.0 if log_det_k is None else (log_det_k - log_det) / STEP
-            gradient[k] = sk * float(m @ m) - 0.5 * slope - g.count
-        return value + self.log_normaliser, gradient
+            gradient[k] = fitted[k] - 0.5 * slope - g.count
+        info = None if across is None else 2.0 * (np.diag(fitted) - 0.5 * (across + across.T))
+        return value + self.log_normaliser, gradient, info
 
     def _kkt(self, x: np.ndarray) -> sps.csc_matrix:
         """The KKT matrix at the log ratios ``x``."""
@@ -137,23 +152,35 @@ class KktQuadraticModel:
             h = h + sk * gram
         return sps.bmat([[h, self.constraints.T], [self.constraints, None]], format="csc")
 
-    def _log_det_and_solution(self, point: tuple[np.ndarray, np.ndarray | None]):
-        """(log |det K|, K^-1 rhs or None) at the log ratios and right-hand side ``point``, by a
-        SuperLU factorisation in the band-arrow order with partial pivoting; (None, None) when K is
+    def _log_det_and_solution(self, point: tuple[np.ndarray, np.ndarray | None, bool]):
+        """(log |det K|, K^-1 rhs or None, q^T P q or None) at the log ratios, right-hand side and
+        information flag ``point`` (q and P as :meth:`log_evidence_with_information`), by a
+        SuperLU factorisation in the band-arrow order with partial pivoting; Nones when K is
         singular."""
-        x, rhs = point
+        x, rhs, information = point
         try:
             lu = splu(self._kkt(x)[self._order][:, self._order].tocsc(), permc_spec="NATURAL")
         except RuntimeError:
-            return None, None
+            return None, None, None
         diag = np.abs(lu.U.diagonal())  # L has a unit diagonal
         if not (np.all(np.isfinite(diag)) and diag.min() > 0.0):
-            return None, None
+            return None, None, None
         if rhs is None:
-            return float(np.sum(np.log(diag))), None
-        solution = np.empty_like(rhs)
-        solution[self._order] = lu.solve(rhs[self._order])
-        return float(np.sum(np.log(diag))), solution
+            return float(np.sum(np.log(diag))), None, None
+
+        def solved(b: np.ndarray) -> np.ndarray:
+            out = np.empty_like(b)
+            out[self._order] = lu.solve(np.ascontiguousarray(b[self._order]))
+            return out
+
+        solution = solved(rhs)
+        if not information:
+            return float(np.sum(np.log(diag))), solution, None
+        n_z = self.held_hessian.shape[0]
+        d, s = solution[:n_z], np.exp(-2.0 * x)
+        q = np.column_stack([sk * (g.jacobian.T @ (g.residuals + g.jacobian @ d)) for sk, g in zip(s, self.groups)])
+        y = solved(np.vstack([q, np.zeros((rhs.size - n_z, q.shape[1]))]))[:n_z]
+        return float(np.sum(np.log(diag))), solution, q.T @ y
 
 
 def _pruned(matrix: sps.spmatrix) -> sps.csr_matrix:
@@ -161,4 +188,3 @@ def _pruned(matrix: sps.spmatrix) -> sps.csr_matrix:
     out = sps.csr_matrix(matrix, copy=True)
     out.eliminate_zeros()
     return out
-

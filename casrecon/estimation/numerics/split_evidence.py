@@ -121,9 +121,23 @@ class SplitQuadraticModel:
         """(log Z up to a constant, its gradient in ``log_ratio``) at ratios exp(``log_ratio``) of the
         groups' sigmas to the fit's; a penalty falling towards smaller ratios where the Hessian is
         not positive definite."""
+        value, grad, _ = self._evaluated(log_ratio, information=False)
+        return value, grad
+
+    def log_evidence_with_information(self, log_ratio: np.ndarray) -> tuple[float, np.ndarray, np.ndarray | None]:
+        """(log Z, its gradient, the average information) at ``log_ratio``, as :meth:`log_evidence`;
+        the information (groups x groups; None where the penalty is returned) approximates
+        -d2 log Z / d log_ratio2 as average-information REML does (Gilmour, Thompson and Cullis
+        1995): 2 (diag(s_k |r_k|^2) - q^T H^-1 q), q_k = s_k A_k^T r_k, r_k the group's fitted
+        residuals. Symmetric and positive semidefinite when the held part is a Gram matrix; it costs
+        one solve with the factors already made per group (a few per cent of an evaluation)."""
+        return self._evaluated(log_ratio, information=True)
+
+    def _evaluated(self, log_ratio: np.ndarray, information: bool) -> tuple[float, np.ndarray, np.ndarray | None]:
         x = np.asarray(log_ratio, float)
         s = np.exp(-2.0 * x)
-        penalty = (-NOT_DEFINITE * (1.0 + float(np.sum(1.0 / s))), -NOT_DEFINITE * 2.0 / s)
+        penalty = (-NOT_DEFINITE * (1.0 + float(np.sum(1.0 / s))), -NOT_DEFINITE * 2.0 / s, None)
+
         def scaled(rest, parts):
             return rest + sum(k * g for k, g in zip(s, parts) if g is not None)
 
@@ -143,7 +157,7 @@ class SplitQuadraticModel:
             return penalty
         d_c = scipy.linalg.cho_solve((chol, True), -(grad_c - m.T @ grad_e))
         d_e = -m_grad - m @ d_c
-        fitted = []
+        fitted, pulls = [], []
         for g, k in zip(self.groups, s):
             r = g.u.copy()
             if g.a_c is not None:
@@ -151,6 +165,9 @@ class SplitQuadraticModel:
             if g.a_e is not None:
                 r += g.a_e @ d_e
             fitted.append(k * float(r @ r))
+            if information:  # q_k = s_k A_k^T r_k in (w, z_E)
+                pulls.append((np.zeros(d_c.size) if g.a_c is None else k * (g.a_c.T @ r),
+                              np.zeros(d_e.size) if g.a_e is None else k * np.asarray(g.a_e.T @ r)))
         quad_rest = float(d_c @ self.h_cc_rest @ d_c + 2.0 * d_e @ self.b_rest @ d_c + d_e @ (self.h_ee_rest @ d_e))
         chi2 = 2.0 * float(self.grad_c_rest @ d_c + self.grad_e_rest @ d_e) + quad_rest + sum(fitted)
         value = (-0.5 * chi2 - 0.5 * factor.log_det - float(np.sum(np.log(np.diag(chol)))) - float(self.counts @ x)
@@ -167,7 +184,15 @@ class SplitQuadraticModel:
                 ee = factor.inverse_entries(coo.row, coo.col) + np.einsum("ij,ij->i", q[coo.row], m[coo.col])
                 t += float(ee @ coo.data)
             traces.append(t)
-        return value, s * np.array(traces) + np.array(fitted) - self.counts
+        grad = s * np.array(traces) + np.array(fitted) - self.counts
+        if not information:
+            return value, grad, None
+        q_c = np.column_stack([p[0] for p in pulls])
+        q_e = np.column_stack([p[1] for p in pulls])
+        y_c = s_inv @ (q_c - m.T @ q_e)                     # H^-1 q by the block inverse
+        y_e = factor.solve(q_e) - m @ y_c
+        across = q_c.T @ y_c + q_e.T @ y_e
+        return value, grad, 2.0 * (np.diag(fitted) - 0.5 * (across + across.T))
 
 
 def _inverse_from_cholesky(chol: np.ndarray) -> np.ndarray:
