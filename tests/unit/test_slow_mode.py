@@ -43,3 +43,33 @@ def test_an_extrapolated_or_shortened_step_starts_the_count_again():
     a = np.ones(10)
     mode = record(a, 0.5 * a).after(0.25 * a / 0.5, restart=True)
     assert mode.rate(0.01 * a) is None
+
+
+def test_two_alternating_modes_give_their_rate_every_two_steps_and_the_extrapolation_its_limit():
+    """Steps that turn between two modes (eigenvalues +-sqrt(rho2) of the iteration's map, as on a
+    sounding-pair drop's refit) are not one slow mode, but every step is the one two before times
+    rho2: the paired rate, and the extrapolated step lands on the limit."""
+    rng = np.random.default_rng(2)
+    u, v = rng.standard_normal(40), rng.standard_normal(40)
+    rho2 = 0.7
+    root = np.sqrt(rho2)
+    z_star = rng.standard_normal(40)
+    # e_k = (+root)^k a u + (-root)^k b v: the even and odd steps parallel, neighbours turning
+    z = [z_star + root ** k * 2.0 * u + (-root) ** k * 1.5 * v for k in range(6)]
+    steps = np.diff(z, axis=0)
+    mode = record(steps[0], steps[1], steps[2])
+    assert mode.rate(steps[3]) is None  # neighbours are not parallel
+    paired = mode.paired_rate(steps[3])
+    assert paired is not None and abs(paired - rho2) < 1e-9
+    step, what = mode.extrapolated(steps[3], steps[3])  # every step on the null space here
+    assert "two alternating modes" in what
+    assert np.abs(z[3] + step - z_star).max() < 1e-9 * np.abs(z[3] - z_star).max()
+
+
+def test_steps_that_do_not_repeat_every_two_give_no_paired_rate():
+    rng = np.random.default_rng(3)
+    a, b, c = rng.standard_normal(20), rng.standard_normal(20), rng.standard_normal(20)
+    assert record(a, b, 0.5 * a).paired_rate(c) is None  # the new step does not repeat the one two before
+    assert record(a, b, 0.5 * a).paired_rate(0.2 * b) is None  # the rates differ (0.5 and 0.2)
+    assert record(b, 0.5 * a).paired_rate(0.25 * b) is None  # three steps are needed before the new one
+    assert record(a, b, 0.5 * a).extrapolated(c, c) is None

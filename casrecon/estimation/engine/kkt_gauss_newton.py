@@ -220,7 +220,7 @@ def feasible_projection(nlp: Nlp, z: np.ndarray, grad: np.ndarray, jr: sps.spmat
 
 @dataclass(frozen=True)
 class SlowMode:
-    """The last two steps taken (scaled), to see whether the iteration has settled into one slow mode.
+    """The last three steps taken (scaled), to see whether the iteration has settled into one slow mode.
 
     Near the optimum Gauss-Newton's error shrinks by e_k+1 = M e_k, M = I - H_GN^-1 H (H the exact
     reduced Hessian); where one eigenvalue rho of M dominates, each step is the one before times rho,
@@ -232,32 +232,74 @@ class SlowMode:
     the new step's part on the constraints' null space 1 / (1 - rho) times (Aitken's extrapolation
     of a linearly converging sequence), through the same line search (the plain step if it is
     rejected), and starts counting again. Where the steps turn (ees-drop-1's profile fit, cosines
-    -0.4 to 0.9) it never applies."""
+    -0.4 to 0.9) it never applies.
 
-    previous: np.ndarray | None = None
-    last: np.ndarray | None = None
+    Where two modes alternate, M^2 = rho2 on them (eigenvalues +-sqrt(rho2) or a rotation), every
+    step is parallel to the one two before and shorter by rho2, while neighbours turn:
+    :meth:`paired_rate` gives rho2 when the new step and the one two before, and the last and the
+    one three before, are parallel and shrink at one rate (the same limits), and the steps still to
+    come from the new one dz_k on sum to (dz_k + rho2 dz_k-1) / (1 - rho2) (:meth:`extrapolated`;
+    with dz_k-1 = dz_k / rho this is Aitken's 1 / (1 - rho)). Found on the refit of a
+    ``sounding-pair`` drop (seed 240): from the fourth step on each was at cosine 0.99 to 1.000 with
+    the one two before and -0.7 with the one before, shrinking by 0.70 to 0.75 every two steps, 25
+    iterations to the decrement test."""
+
+    steps: tuple[np.ndarray, ...] = ()
+
+    @property
+    def last(self) -> np.ndarray | None:
+        """The last step taken (None before one)."""
+        return self.steps[-1] if self.steps else None
 
     def rate(self, dz: np.ndarray) -> float | None:
         """rho for the new step ``dz``, or None when the steps are not in one slow mode."""
-        if self.previous is None or self.last is None or self.last.size != dz.size:
+        if len(self.steps) < 2 or self.steps[-1].size != dz.size:
             return None
-        n0, n1, n2 = (float(np.linalg.norm(v)) for v in (self.previous, self.last, dz))
-        if min(n0, n1, n2) == 0.0:
+        return _one_rate((self.steps[-2], self.steps[-1]), (self.steps[-1], dz))
+
+    def paired_rate(self, dz: np.ndarray) -> float | None:
+        """rho2 for the new step ``dz`` where it and the last three alternate between two modes that
+        shrink at one rate every two steps (see the class docstring), or None."""
+        if len(self.steps) < 3 or self.steps[-1].size != dz.size:
             return None
-        cosines = (float(self.previous @ self.last) / (n0 * n1), float(self.last @ dz) / (n1 * n2))
-        rates = (n1 / n0, n2 / n1)
-        if min(cosines) < SLOW_MODE_COSINE or max(rates) > SLOW_MODE_MAX_RATE:
-            return None
-        if abs(rates[1] - rates[0]) > SLOW_MODE_RATE_CHANGE * rates[1]:
-            return None
-        return rates[1]
+        return _one_rate((self.steps[-3], self.steps[-1]), (self.steps[-2], dz))
+
+    def extrapolated(self, dz: np.ndarray, dz_null: np.ndarray) -> tuple[np.ndarray, str] | None:
+        """(the new step ``dz`` with its null-space part ``dz_null`` replaced by the sum of the steps
+        still to come, what was extrapolated) where the steps are in one slow mode (:meth:`rate`) or
+        two alternating ones (:meth:`paired_rate`), else None."""
+        rate = self.rate(dz)
+        if rate is not None:
+            return dz + rate / (1.0 - rate) * dz_null, f"one slow mode, rate {rate:.3f}"
+        paired = self.paired_rate(dz)
+        if paired is not None:
+            return (dz + paired / (1.0 - paired) * (dz_null + self.steps[-1]),
+                    f"two alternating modes, rate {paired:.3f} every two steps")
+        return None
 
     def after(self, step: np.ndarray, restart: bool) -> SlowMode:
         """The record after taking ``step``; ``restart``: the count starts again (an extrapolated
         step, or one the line search shortened or corrected: not a step of the iteration's own map)."""
         if restart:
             return SlowMode()
-        return SlowMode(self.last if self.last is not None and self.last.size == step.size else None, step)
+        kept = tuple(s for s in self.steps[-2:] if s.size == step.size) if self.last is not None \
+            and self.last.size == step.size else ()
+        return SlowMode((*kept, step))
+
+
+def _one_rate(first: tuple[np.ndarray, np.ndarray], second: tuple[np.ndarray, np.ndarray]) -> float | None:
+    """The ratio |b| / |a| of the pair ``second`` (a, b) where each pair's b is parallel to its a
+    (cosine at least SLOW_MODE_COSINE), both ratios are at most SLOW_MODE_MAX_RATE and they differ
+    by at most SLOW_MODE_RATE_CHANGE of the second; else None."""
+    rates = []
+    for a, b in (first, second):
+        na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+        if na == 0.0 or nb == 0.0 or float(a @ b) / (na * nb) < SLOW_MODE_COSINE:
+            return None
+        rates.append(nb / na)
+    if max(rates) > SLOW_MODE_MAX_RATE or abs(rates[1] - rates[0]) > SLOW_MODE_RATE_CHANGE * rates[1]:
+        return None
+    return rates[1]
 
 
 @single_threaded_blas()
@@ -324,17 +366,17 @@ def solve_kkt_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
         def correct(c_trial: np.ndarray, factor=factor) -> np.ndarray:
             return factor.solve(np.concatenate([np.zeros(nlp.n_z), -c_trial]))[:nlp.n_z]
 
-        rate = slow_mode.rate(dz)
+        slow = slow_mode.rate(dz) is not None or slow_mode.paired_rate(dz) is not None
         z_new = None
-        if rate is not None:  # the step summed over the iterations to come (see SlowMode)
+        if slow:  # the step summed over the iterations to come (see SlowMode)
             if dz_p is None:
                 t2 = time.perf_counter()
                 dz_p = feasibility_step(factor, c, z, bounded)
                 algebra_s += time.perf_counter() - t2
-            z_new, nu, trial_eval_s = line_search(nlp, z, r, c, grad, jr, dz + rate / (1.0 - rate) * (dz - dz_p), nu,
-                                                  bounded, correct)
+            step, what = slow_mode.extrapolated(dz, dz - dz_p)
+            z_new, nu, trial_eval_s = line_search(nlp, z, r, c, grad, jr, step, nu, bounded, correct)
             eval_s += trial_eval_s
-            LOG.debug("full-space Gauss-Newton: the step extrapolated along its slow mode (rate %.3f)%s", rate,
+            LOG.debug("full-space Gauss-Newton: the step extrapolated (%s)%s", what,
                       "" if z_new is not None else ": rejected by the line search")
         if z_new is None:
             z_new, nu, trial_eval_s = line_search(nlp, z, r, c, grad, jr, dz, nu, bounded, correct)
@@ -344,7 +386,7 @@ def solve_kkt_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
             return GaussNewtonRun(z, False, f"Gauss-Newton stopped: {status}", iteration, predicted, eval_s,
                                   algebra_s, None, lam)
         taken = z_new - z
-        full = rate is None and np.allclose(taken, dz, rtol=1e-6, atol=1e-12 * float(np.abs(dz).max()))
+        full = not slow and np.allclose(taken, dz, rtol=1e-6, atol=1e-12 * float(np.abs(dz).max()))
         slow_mode = slow_mode.after(taken, restart=not full)
         step_size, z = float(np.abs(taken).max()), z_new
     return GaussNewtonRun(z, False, f"Gauss-Newton stopped: {status} ({max_iter})", max_iter, predicted, eval_s,
