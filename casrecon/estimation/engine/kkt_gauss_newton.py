@@ -264,6 +264,11 @@ class SlowMode:
             return None
         return _one_rate((self.steps[-3], self.steps[-1]), (self.steps[-2], dz))
 
+    def applies(self, dz: np.ndarray) -> bool:
+        """Whether :meth:`extrapolated` extrapolates the new step ``dz`` (one slow mode or two
+        alternating ones)."""
+        return self.rate(dz) is not None or self.paired_rate(dz) is not None
+
     def extrapolated(self, dz: np.ndarray, dz_null: np.ndarray) -> tuple[np.ndarray, str] | None:
         """(the new step ``dz`` with its null-space part ``dz_null`` replaced by the sum of the steps
         still to come, what was extrapolated) where the steps are in one slow mode (:meth:`rate`) or
@@ -282,8 +287,8 @@ class SlowMode:
         step, or one the line search shortened or corrected: not a step of the iteration's own map)."""
         if restart:
             return SlowMode()
-        kept = tuple(s for s in self.steps[-2:] if s.size == step.size) if self.last is not None \
-            and self.last.size == step.size else ()
+        # the steps kept all have the last one's size: a step of another size (a rebuilt NLP) starts afresh
+        kept = self.steps[-2:] if self.last is not None and self.last.size == step.size else ()
         return SlowMode((*kept, step))
 
 
@@ -366,7 +371,7 @@ def solve_kkt_gauss_newton(nlp: Nlp, z0: np.ndarray, max_iter: int = 100,
         def correct(c_trial: np.ndarray, factor=factor) -> np.ndarray:
             return factor.solve(np.concatenate([np.zeros(nlp.n_z), -c_trial]))[:nlp.n_z]
 
-        slow = slow_mode.rate(dz) is not None or slow_mode.paired_rate(dz) is not None
+        slow = slow_mode.applies(dz)
         z_new = None
         if slow:  # the step summed over the iterations to come (see SlowMode)
             if dz_p is None:
