@@ -29,12 +29,14 @@ def test_converges_with_the_error_models(fit):
     assert any("atmosphere-profile corrections" in n for n in fit.notes)
     assert any("GPS errors Gauss-Markov" in n for n in fit.notes)
     # the profile sigmas the data say are the configured ones within 25 %; the GPS errors' white
-    # part is smaller than the problem's 1 % (the truth has none): one refit, whose estimate agrees
+    # part is smaller than the problem's 1 % (the truth has none; the refit's model has each size at
+    # the largest the data allow: the velocity's white part 0.8 %, measured 2026-12-05): one
+    # refit, whose estimate agrees
     estimates = [n for n in fit.notes if "GPS error model the data say" in n]
     assert len(estimates) == 2 and "refitted" in estimates[0] and estimates[1].endswith("; no refit"), estimates
     assert "wind 0.5" in estimates[0] and "density 0.4" in estimates[0]
     model = fit.scenario.config.gps.error_model
-    assert model.position_fraction > 0.998 and model.velocity_fraction > 0.998, model
+    assert model.position_fraction > 0.99 and model.velocity_fraction > 0.99, model
     assert (model.position_time_s, model.velocity_time_s) == (20.0, 2.0)
     assert abs(model.position_scale - 1) < 0.1 and abs(model.velocity_scale - 1) < 0.1, model
     # the GPS altitude at the start is 12 m off the truth, beyond the profile windows' 10 m

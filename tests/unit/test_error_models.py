@@ -287,3 +287,28 @@ def test_the_time_search_goes_past_its_longest_time_while_the_evidence_rises(mon
     assert extension(5.0, 5.0, 125.0) == pytest.approx([25.0, 125.0])
     assert extension(10.0, 10 ** 0.5, 100.0) == pytest.approx([10 ** 1.5, 100.0])
     assert extension(10.0, 10.0, 50.0) == []
+
+
+def test_a_refit_is_made_with_the_bounded_model_and_capped_at_the_configured_sizes():
+    """The refit's GPS model is the bounded one (each size at the largest the data allow, at most
+    the configured model's unless the most likely one is larger); whether a refit is needed is
+    judged on it, so a fit made at the bounds whose bounds agree stands even though its most
+    likely model (white) differs."""
+    from casrecon.estimation.error_models.error_model_sigma import configured_caps
+    from casrecon.estimation.error_models.gps_error_sigma import GpsErrorEstimate, model_from, part_sigmas
+
+    configured = GpsErrorModel()  # 99 % of the position variance correlated over 100 s, 70 % of the velocity's
+    caps = configured_caps(configured, configured)
+    assert caps == pytest.approx({g: 1.0 for g in caps})
+    fitted = model_from(configured, {"gps position white": 10.0, "gps position correlated": 0.6})
+    caps = configured_caps(configured, fitted)
+    for g, (i, j) in {"gps position white": (0, 1), "gps position correlated": (0, 2)}.items():
+        assert caps[g] == pytest.approx(part_sigmas(configured)[i, j] / part_sigmas(fitted)[i, j])
+    assert configured_caps(configured, GpsErrorModel.white())["gps position correlated"] == np.inf
+    white = model_from(fitted, {"gps position correlated": 0.005, "gps velocity correlated": 0.005})
+    estimate = GpsErrorEstimate(fitted, white, {"gps position correlated": 0.005}, (), fitted,
+                                {"gps position correlated": 1.0})
+    assert estimate.refit_model is fitted and not estimate.refit
+    assert "upper bounds" in estimate.text() and "position correlated x 1" in estimate.text()
+    unbounded = GpsErrorEstimate(fitted, white, {"gps position correlated": 0.005})
+    assert unbounded.refit_model is white and unbounded.refit

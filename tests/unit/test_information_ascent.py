@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sps
-from scipy.optimize import minimize
+from scipy.optimize import brentq, minimize
 
-from casrecon.estimation.numerics.information_ascent import maximised
+from casrecon.estimation.numerics.information_ascent import BOUND_TOL, maximised, upper_bounds
 from casrecon.estimation.numerics.split_evidence import RowGroup, SplitQuadraticModel
 from tests.unit.test_split_evidence import problem
 
@@ -131,3 +131,44 @@ def test_a_step_beyond_the_largest_is_shortened_along_the_least_information():
     out = maximised(function, np.zeros(2), np.array([-5.0, -100.0]), np.array([5.0, 100.0]), tolerance=1e-12,
                     max_evaluations=2)
     assert abs(out.x[0] - 1.0) < 0.01 and 0.0 < out.x[1] <= 2.0  # one step: x0 there, x1 capped
+
+
+# --- upper_bounds: each variable's likelihood-ratio upper bound along its profile direction ---
+
+DROP = 1.92
+
+
+def _quadratic(mu: np.ndarray, a: np.ndarray):
+    return lambda x: float(-0.5 * (x - mu) @ a @ (x - mu))
+
+
+def test_a_well_determined_variable_gets_the_quadratic_bound():
+    mu, a = np.array([0.3, -0.2]), np.array([[400.0, 100.0], [100.0, 300.0]])
+    bounds = upper_bounds(_quadratic(mu, a), mu, 0.0, a, np.full(2, -10.0), np.full(2, 10.0), np.array([0, 1]), DROP)
+    exact = mu + np.sqrt(2 * DROP * np.diag(np.linalg.inv(a)))
+    assert bounds == pytest.approx(exact, rel=1e-3)
+
+
+def test_a_weakly_determined_variable_is_searched_along_its_profile():
+    """Correlated with another: the profile bound (the other moving with it) is wider than the
+    conditional one, and the search finds it to BOUND_TOL from an information three times too
+    large (an average information is not the curvature: the quadratic start is short)."""
+    mu, a = np.array([0.0, 0.5]), np.array([[0.5, 0.45], [0.45, 0.5]])
+    function = _quadratic(mu, a)
+    bounds = upper_bounds(function, mu, 0.0, 3 * a, np.full(2, -20.0), np.full(2, 20.0), np.array([0]), DROP)
+    profile = mu[0] + np.sqrt(2 * DROP * np.linalg.inv(a)[0, 0])
+    conditional = mu[0] + np.sqrt(2 * DROP / a[0, 0])
+    assert profile > conditional + 1.0
+    assert abs(bounds[0] - profile) <= BOUND_TOL
+    assert bounds[1] == mu[1]  # not asked for
+
+
+def test_a_flat_variable_is_bounded_by_its_upper_limit_and_an_asymmetric_one_by_the_function():
+    flat = upper_bounds(lambda x: 0.0, np.zeros(1), 0.0, np.zeros((1, 1)), np.full(1, -5.0), np.full(1, 3.0),
+                        np.array([0]), DROP)
+    assert flat[0] == 3.0
+    # f(x) = x - e^x, maximum -1 at 0; f = -1 - DROP at the bound
+    bound = upper_bounds(lambda x: float(x[0] - np.exp(x[0])), np.zeros(1), -1.0, np.ones((1, 1)),
+                         np.full(1, -10.0), np.full(1, 10.0), np.array([0]), DROP)
+    root = brentq(lambda t: t - np.exp(t) + 1 + DROP, 0.0, 5.0)
+    assert abs(bound[0] - root) <= BOUND_TOL and bound[0] <= root

@@ -24,22 +24,25 @@ import numpy as np
 from casrecon.estimation.engine.covariance import gauss_newton_system
 from casrecon.estimation.error_models import profile_sigma as ps
 from casrecon.estimation.error_models.gps_error_sigma import (
+    BOUND_NATS,
     EXTENSION_FACTOR,
     MAX_RATIO,
     MAX_TIME_FACTOR,
     MIN_RATIO,
-    MIN_SHARE,
     TIME_FACTORS,
+    TIME_SEARCH_SHARE,
     GpsErrorEstimate,
     chain_order,
     gps_row_groups,
     model_from,
+    part_sigmas,
     variance_parts,
 )
 from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS
 from casrecon.estimation.numerics import information_ascent
 from casrecon.estimation.numerics.split_evidence import RowGroup, SplitQuadraticModel
 from casrecon.parallel import in_threads, single_threaded_blas
+from casrecon.physics.sensor_errors import GpsErrorModel
 
 #: The sizes' search stops where the next Newton step would raise log Z by less than this (nats).
 TOLERANCE_NATS = 1e-3
@@ -59,13 +62,15 @@ def gps_estimated(result) -> bool:
 @single_threaded_blas()
 def estimate_error_sizes(result, configured_length_m: float | None = None, profile: bool = True,
                          configured_times_s: tuple[float, float] | None = None,
-                         search: bool = True) -> ps.ProfileSigmaEstimate:
+                         search: bool = True, configured_model: GpsErrorModel | None = None) -> ps.ProfileSigmaEstimate:
     """The profile sigmas and length (when ``profile`` and the fit has the profile model) and, when
     :func:`gps_estimated`, the GPS error model the data say (the estimate's ``gps``) of a
     converged fit without disturbance states; the GPS correlation times compared are the fit's and
     TIME_FACTORS times ``configured_times_s`` (position, velocity; default the fit's). ``search``
     False: the sizes only, at the fit's length and times (a refit's estimate, after the first
-    chose them: each candidate costs 10 to 15 evaluations of 0.1 s on a 1.5 km drop). Raises ValueError as
+    chose them: each candidate costs 10 to 15 evaluations of 0.1 s on a 1.5 km drop). The GPS
+    estimate's ``bounded`` model has each group at :func:`gps_upper_bounds` with the caps of
+    ``configured_model`` (the problem's; default the fit's). Raises ValueError as
     :func:`~casrecon.estimation.error_models.profile_sigma.estimate_profile_sigma`."""
     if not gps_estimated(result):
         return ps.estimate_profile_sigma(result, configured_length_m)
@@ -105,7 +110,11 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
             ratio[k] = 0.0
     base, _ = own_model.log_evidence(np.zeros(len(names)))
     gps_ratios = {n: float(r) for n, r in zip(names[n_profile:], ratio[n_profile:])}
-    gps = GpsErrorEstimate(errors, model_from(errors, gps_ratios, times), gps_ratios, at_end)
+    caps = configured_caps(errors if configured_model is None else configured_model, errors)
+    bounded_ratios = {n: max(gps_ratios[n], min(float(u), caps[n]))
+                      for n, u in zip(names[n_profile:], np.exp(gps_upper_bounds(model, names, fit)[n_profile:]))}
+    gps = GpsErrorEstimate(errors, model_from(errors, gps_ratios, times), gps_ratios, at_end,
+                           model_from(errors, bounded_ratios, times), bounded_ratios)
     if grid is None:
         return ps.ProfileSigmaEstimate({}, {}, max(0.0, value - base), (), {}, fallback, 0.0, 0.0, gps)
     prior = dict(zip([PROFILE_COMPONENTS[c] for c in grid.components], grid.prior))
@@ -119,12 +128,12 @@ def time_search(build, best, errors, own_times: tuple[float, float], base_times:
     """The most evident of ``best`` (as :func:`most_evident` returns) and the candidates at each other
     position and then velocity correlation time (TIME_FACTORS times ``base_times``, at the length and
     times chosen so far), for each group the fit's model (``errors``, times ``own_times``) has
-    correlated and whose estimated correlated share is at least MIN_SHARE. Where the longest time is
+    correlated and whose estimated correlated share is at least TIME_SEARCH_SHARE. Where the longest time is
     the most evident, longer ones (EXTENSION_FACTOR times, up to MAX_TIME_FACTOR times
     ``base_times``) while the evidence rises."""
     for g in (0, 1):
         ratios = dict(zip(best[5], np.exp(best[4].x)))
-        if own_times[g] > 0 and variance_parts(errors, ratios, g)[1] >= MIN_SHARE:
+        if own_times[g] > 0 and variance_parts(errors, ratios, g)[1] >= TIME_SEARCH_SHARE:
             def at(factor: float, g=g, other=best[1]) -> tuple[float, float]:
                 return tuple(factor * base_times[g] if i == g else other[i] for i in (0, 1))
 
@@ -182,16 +191,41 @@ def most_evident(build, candidates, start: np.ndarray | None = None):
 
 
 def maximised(model: SplitQuadraticModel, names: list[str], start: np.ndarray | None = None):
-    """The maximum of log Z over the groups' log ratios (bounds gps_error_sigma's MIN_RATIO,
-    MAX_RATIO for the GPS groups, profile_sigma's for the others) from ``start`` (default the fit's
-    sizes), by Newton steps on the model's average information
+    """The maximum of log Z over the groups' log ratios (:func:`log_ratio_bounds`) from ``start``
+    (default the fit's sizes), by Newton steps on the model's average information
     (:func:`casrecon.estimation.numerics.information_ascent.maximised`, to TOLERANCE_NATS): a
-    scipy OptimizeResult, its ``fun`` -log Z."""
+    scipy OptimizeResult, its ``fun`` -log Z, its ``information`` the average information there."""
     x0 = np.zeros(len(names)) if start is None else np.asarray(start, float)
-    gps = np.array([n.startswith("gps ") for n in names])
-    lower = np.where(gps, np.log(MIN_RATIO), np.log(ps.MIN_RATIO))
-    upper = np.where(gps, np.log(MAX_RATIO), np.log(ps.MAX_RATIO))
+    lower, upper = log_ratio_bounds(names)
     return information_ascent.maximised(model.log_evidence_with_information, x0, lower, upper, TOLERANCE_NATS)
+
+
+def log_ratio_bounds(names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) log ratio of each group: gps_error_sigma's MIN_RATIO, MAX_RATIO for the GPS
+    groups, profile_sigma's for the others."""
+    gps = np.array([n.startswith("gps ") for n in names])
+    return (np.where(gps, np.log(MIN_RATIO), np.log(ps.MIN_RATIO)),
+            np.where(gps, np.log(MAX_RATIO), np.log(ps.MAX_RATIO)))
+
+
+def configured_caps(configured: GpsErrorModel, fitted: GpsErrorModel) -> dict[str, float]:
+    """Group -> the configured model's sigma of that part over the fitted model's (inf where the
+    fitted has none): how far a size the data cannot tell from smaller ones is raised at most."""
+    a, b = part_sigmas(configured), part_sigmas(fitted)
+    where = {"gps position white": (0, 1), "gps position correlated": (0, 2),
+             "gps velocity white": (1, 1), "gps velocity correlated": (1, 2)}
+    return {g: float(a[ij] / b[ij]) if b[ij] > 0 else np.inf for g, ij in where.items()}
+
+
+def gps_upper_bounds(model: SplitQuadraticModel, names: list[str], fit) -> np.ndarray:
+    """The log ratios of :func:`maximised`'s ``fit`` with each GPS group's at its upper bound: the
+    largest at which log Z, along the group's profile direction, is BOUND_NATS below its maximum
+    (:func:`casrecon.estimation.numerics.information_ascent.upper_bounds`; the profile groups
+    stay at the maximum)."""
+    lower, upper = log_ratio_bounds(names)
+    gps = np.flatnonzero([n.startswith("gps ") for n in names])
+    return information_ascent.upper_bounds(lambda x: model.log_evidence(x)[0], fit.x, -fit.fun, fit.information,
+                                           lower, upper, gps, BOUND_NATS)
 
 
 def _builder(result, grid):

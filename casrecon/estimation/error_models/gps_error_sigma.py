@@ -21,7 +21,7 @@ and correlated variances are the estimated ones.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sps
@@ -44,6 +44,22 @@ TIME_FACTORS = (0.2, 5.0)
 EXTENSION_FACTOR, MAX_TIME_FACTOR = 5.0, 125.0
 #: A refit is made when a group's ratio is beyond this factor of 1, or a correlation time changed.
 REFIT_FACTOR = 1.25
+#: How far below its maximum the log evidence lies at a group's upper bound, nats: the one-sided
+#: 97.5 % likelihood-ratio bound of one size (chi-square(1) 3.84 / 2). A refit is made with every
+#: group at its upper bound, not its most likely value: the size of an error a 40 s drop sees once
+#: is poorly determined, and a correlated part the data cannot tell from none (estimated at zero:
+#: the trajectory absorbs it) still moves the absolute position. Measured (error family
+#: ``gps-random-walk``, EES, seed 223: position errors a random walk of 0.15 m/sqrt(s)): the
+#: most likely model was white, the trusted fit's position bands held the truth at 44 % of
+#: nodes (north 1.84 m off, band sigma 0.16 m); at the position correlated sigma's bound
+#: (0.8 times the accuracies over 100 s) 100 %, the aero sigmas within 3 % of the white fit's.
+BOUND_NATS = 1.92
+#: A group's correlation time is searched only where its estimated correlated share of the error
+#: variance is at least this: a smaller correlated part is one the data hardly see, and its time
+#: is then chosen by hundredths of a nat (error family ``gps-random-walk``, EES, seed 223: a share
+#: of 2 % chose 20 s over the configured 100 s, and the upper bound of the correlated sigma at 20 s,
+#: a time the data reject more easily, left the position bands at 70 % of nodes).
+TIME_SEARCH_SHARE = 0.1
 #: A group (position, velocity) whose estimated correlated share of the error variance is below this
 #: is white in the refit's model (no correlation time to choose, no error values to carry): white
 #: errors at the stated accuracies came out 0.02 to 0.03 % on ees-drop-1.
@@ -64,28 +80,46 @@ class GpsErrorEstimate:
         The groups ("position", "velocity") whose estimated correlation time is the shortest or
         longest searched: a time the data do not size (with white errors the correlated share is not
         identifiable and its time lands anywhere); the line says so, it is no gross error.
+    bounded : GpsErrorModel or None
+        The model at each group's upper bound (the largest sigma the data allow: see
+        :mod:`casrecon.estimation.error_models.error_model_sigma`), the one a refit is made with;
+        None: the estimated one.
+    bounded_ratios : dict of str to float
+        Group -> the ratio of its upper bound to the fit's sigma (empty without ``bounded``).
     """
 
     fitted: GpsErrorModel
     estimated: GpsErrorModel
     ratios: dict[str, float]
     at_search_end: tuple[str, ...] = ()
+    bounded: GpsErrorModel | None = None
+    bounded_ratios: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def refit_model(self) -> GpsErrorModel:
+        """The model a refit is made with: ``bounded``, else ``estimated``."""
+        return self.estimated if self.bounded is None else self.bounded
 
     @property
     def refit(self) -> bool:
-        """Whether the estimated model differs from the fitted one: a correlation time, or the total,
+        """Whether the refit's model differs from the fitted one: a correlation time, or the total,
         white or correlated 1-sigma of position or velocity beyond :data:`REFIT_FACTOR` (compared
         on the models, so a white part the estimate would make smaller than the correlated
         fraction's cap allows does not ask for refit after refit)."""
-        return models_differ(self.fitted, self.estimated)
+        return models_differ(self.fitted, self.refit_model)
 
     def text(self) -> str:
-        """One line: the estimated model against the fit's."""
+        """One line: the estimated model against the fit's (and the bounded one, if any)."""
         ratios = ", ".join(f"{g[4:]} sigma x {r:.3g}" for g, r in self.ratios.items())
         edges = "".join(f"; the {g} correlation time is at the end of its search: not sized by the data"
                         for g in self.at_search_end)
+        bounded = ""
+        if self.bounded is not None:
+            ups = ", ".join(f"{g[4:]} x {r:.3g}" for g, r in self.bounded_ratios.items())
+            bounded = (f"; at the sizes' upper bounds (the largest the data allow, log evidence "
+                       f"{BOUND_NATS:g} nats below its maximum: {ups}): {self.bounded.describe()}")
         return (f"GPS error model the data say (type-II maximum likelihood; {ratios}): "
-                f"{self.estimated.describe()} (fitted with {self.fitted.describe()}){edges}")
+                f"{self.estimated.describe()}{bounded} (fitted with {self.fitted.describe()}){edges}")
 
 
 def part_sigmas(model: GpsErrorModel) -> np.ndarray:

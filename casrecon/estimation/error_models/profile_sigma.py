@@ -384,7 +384,7 @@ def profile_refit(cfg: ProblemConfig, estimate: ProfileSigmaEstimate) -> tuple[P
     a GPS estimate the configuration's GPS error model is the estimated one (prior None too when
     the fit had no profile model)."""
     if estimate.gps is not None:
-        cfg = replace(cfg, gps=replace(cfg.gps, error_model=estimate.gps.estimated))
+        cfg = replace(cfg, gps=replace(cfg.gps, error_model=estimate.gps.refit_model))
         if not estimate.fitted:  # the profile sigmas were not estimated: the configured ones stand
             return cfg, None
     if not any(estimate.estimated.values()):
@@ -399,7 +399,7 @@ def profile_refit(cfg: ProblemConfig, estimate: ProfileSigmaEstimate) -> tuple[P
 
 def refit_text(estimate: ProfileSigmaEstimate, prior: np.ndarray | None) -> str:
     """How the refit of :func:`profile_refit` was made, for the fit's notes."""
-    gps = "" if estimate.gps is None else f" and {estimate.gps.estimated.describe()}"
+    gps = "" if estimate.gps is None else f" and {estimate.gps.refit_model.describe()}"
     if not estimate.fitted:
         return "with" + gps[4:]
     if prior is None:

@@ -43,7 +43,7 @@ def maximised(function: Callable[[np.ndarray], tuple[float, np.ndarray, np.ndarr
     -------
     scipy.optimize.OptimizeResult
         ``x``, ``fun`` (minus the value, as scipy's minimisers), ``jac`` (minus the gradient),
-        ``nfev``, ``success`` and ``message``.
+        ``information`` (at ``x``), ``nfev``, ``success`` and ``message``.
     """
     lower, upper = np.asarray(lower, float), np.asarray(upper, float)
     x = np.clip(np.asarray(start, float), lower, upper)
@@ -69,7 +69,8 @@ def maximised(function: Callable[[np.ndarray], tuple[float, np.ndarray, np.ndarr
         if evaluations >= max_evaluations:
             message = "evaluation limit"
             break
-    return OptimizeResult(x=x, fun=-value, jac=-grad, nfev=evaluations, success=success, message=message)
+    return OptimizeResult(x=x, fun=-value, jac=-grad, information=information, nfev=evaluations, success=success,
+                          message=message)
 
 
 def _step(x: np.ndarray, grad: np.ndarray, information: np.ndarray | None, lower: np.ndarray,
@@ -123,3 +124,77 @@ def _capped(block: np.ndarray, grad: np.ndarray) -> np.ndarray:
         if high <= 1.1 * low:
             break
     return step(high)
+
+
+#: Diagonal added to the information before its inverse gives the profile directions of
+#: :func:`upper_bounds` (a variable the function does not see would make it singular).
+RIDGE = 1e-3
+#: :func:`upper_bounds` takes the quadratic (Wald) bound where it moves a variable by less than this
+#: (near the maximum the function is quadratic; only weakly determined variables are searched).
+WALD_ENOUGH = 0.2
+#: Precision of a searched bound, in the variable's units.
+BOUND_TOL = 0.05
+
+
+def upper_bounds(value_at: Callable[[np.ndarray], float], x: np.ndarray, value: float, information: np.ndarray,
+                 lower: np.ndarray, upper: np.ndarray, which: np.ndarray, drop: float) -> np.ndarray:
+    """Each variable's likelihood-ratio upper bound at a maximum: for each index in ``which``, the
+    largest x_j at which the function, along its profile direction (the other variables moved
+    with x_j by the regression the information implies, then clipped to their bounds), is at
+    most ``drop`` below ``value``.
+
+    Parameters
+    ----------
+    value_at : callable
+        x -> the function's value.
+    x, value : (n,) array, float
+        The maximum (:func:`maximised`'s ``x``, ``-fun``).
+    information : (n, n) array
+        The information at ``x`` (an approximation of the negative Hessian).
+    lower, upper : (n,) arrays
+        The bounds of the variables.
+    which : int array
+        The variables to bound.
+    drop : float
+        How far below ``value`` the bound lies (1.92 for a one-sided 97.5 % bound of one
+        log-likelihood variable).
+
+    Returns
+    -------
+    (n,) array
+        ``x`` with each variable of ``which`` at its upper bound (at most ``upper``). Where the
+        quadratic bound sqrt(2 drop / profile information) moves it by less than WALD_ENOUGH, that
+        one; else searched along the direction by bracketing and bisection to BOUND_TOL.
+    """
+    x = np.asarray(x, float)
+    symmetric = 0.5 * (information + information.T)
+    covariance = np.linalg.inv(symmetric + RIDGE * np.eye(x.size))
+    out = x.copy()
+    for j in np.asarray(which, np.int64):
+        direction = covariance[:, j] / covariance[j, j]
+        room = upper[j] - x[j]
+        wald = float(np.sqrt(2.0 * drop * covariance[j, j]))
+        if room <= 0.0:
+            continue
+        if wald < WALD_ENOUGH:
+            out[j] = x[j] + min(wald, room)
+            continue
+
+        def below(t: float, j=j, direction=direction) -> bool:
+            return value - value_at(np.clip(x + t * direction, lower, upper)) >= drop
+
+        inside, t = 0.0, min(wald, room)
+        while not below(t):  # bracket: the bound lies between ``inside`` and ``t``
+            inside = t
+            if t >= room:
+                break
+            t = min(2.0 * t, room)
+        else:
+            while t - inside > BOUND_TOL:
+                middle = 0.5 * (inside + t)
+                if below(middle):
+                    t = middle
+                else:
+                    inside = middle
+        out[j] = x[j] + inside
+    return out

@@ -416,7 +416,7 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
                 estimate = estimate_error_sizes(result, cfg.atmosphere.profile_length_m,
                                                 profile=cfg.atmosphere.profile_sigma_from_data,
                                                 configured_times_s=(errors.position_time_s, errors.velocity_time_s),
-                                                search=intended is None)
+                                                search=intended is None, configured_model=errors)
             chain["estimate_s"] += time.perf_counter() - t_estimate
         except (np.linalg.LinAlgError, ValueError) as err:
             result = standing(result, k)
