@@ -304,7 +304,7 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
             with fit_stage("covariance"):
                 r = fit_nlp.nlp.residual_vector(sol.z)
                 cov = covariance_or_fail(fit_nlp.nlp, sol.z, r, sol.reduced,
-                                         information=settings.information_for(fit_nlp.parts), lam_g=sol.lam_g)
+                                         information=solved.information_for(fit_nlp.parts), lam_g=sol.lam_g)
         timings = {"data_s": t_data - t0, "initial_guess_s": t1 - t_data, "build_s": build_s, "solve_s": sol.solve_s,
                    "solve_evaluation_s": sol.evaluation_s, "solve_stop_test_s": sol.stop_test_s,
                    "solve_linear_algebra_s": sol.linear_algebra_s}
@@ -316,7 +316,8 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
     refits = settings.method != "marginal" and bool(sizes_named(cfg))
     result = fitted(scenario, lambda fit_nlp: fit_nlp.pack(x0, np.zeros(params.n)), cfg.estimation.clock_offset_guess_s,
                     label=f"fit 1 of up to {MAX_REFITS + 1}" if refits else "fit",
-                    solved=dataclasses.replace(settings, decrement_tol=SIZING_DECREMENT) if refits else settings)
+                    solved=dataclasses.replace(settings, decrement_tol=SIZING_DECREMENT, information="expected")
+                    if refits else settings)
 
     def finished(fit: FitResult) -> FitResult:  # fit 1, solved to the full tolerance from where it stopped
         return fitted(fit.scenario, lambda fit_nlp: transferred(fit.fit_nlp, fit_nlp, fit.z),
