@@ -180,7 +180,7 @@ def upper_bounds(value_at: Callable[[np.ndarray], float], x: np.ndarray, value: 
             out[j] = x[j] + min(wald, room)
             continue
 
-        def below(t: float, j=j, direction=direction) -> bool:
+        def below(t: float, direction=direction) -> bool:
             return value - value_at(np.clip(x + t * direction, lower, upper)) >= drop
 
         inside, t = 0.0, min(wald, room)

@@ -334,7 +334,10 @@ def fit_drop(scenario: Scenario, *, linear_solver: str | None = None, hessian: s
 #: 0.3 sigma of its optimum, the fit's quadratic model moves the log evidence by about 0.05 nats,
 #: far below the 3 nats that decide anything (:data:`~.profile_sigma.ZERO_EVIDENCE_NATS`); the
 #: Gauss-Newton tail it saves (the profile's weakly determined coefficients converge linearly) was
-#: 6 of 12 iterations, 4 of 27 s, on benchmarks/default_cost.py's case.
+#: 6 of 12 iterations, 4 of 27 s, on benchmarks/default_cost.py's case. Its covariance is formed on
+#: the Gauss-Newton curvature: the estimate made on it fell back to that curvature on every case
+#: looked at (docs/design/error-models.md), and a first fit that stands is solved and its
+#: covariance formed again.
 SIZING_DECREMENT = 0.1
 
 
