@@ -191,9 +191,12 @@ SIX_DOF = FileKind(
             *gps_error_keys("gps.error_model"),
             key("error_model_from_data", "bool", "", "After a MAP fit with a GPS error model, estimate its white "
                "and correlated sizes (position and velocity) and correlation times from the data (type-II maximum "
-               "likelihood, with the atmosphere-profile sigmas) and refit with them while they change by more "
-               "than 25 %; false: the model as configured. The correlation times compared are 0.2, 1 and 5 times "
-               "the configured, and longer ones (up to 125 times) while the evidence rises. An accuracy scale "
+               "likelihood, with the atmosphere-profile sigmas) and refit with each size at its upper bound (the "
+               "largest the data allow, log evidence 1.92 nats below its maximum; at most the configured model's "
+               "size of that part unless the most likely one is larger) while they change by more than 25 %; "
+               "false: the model as configured. The correlation times compared (for a correlated part of 10 % of "
+               "the variance or more) are 0.2, 1 and 5 times the configured, and longer ones (up to 125 times) "
+               "while the evidence rises. An accuracy scale "
                "outside 1/3 to 3 times the receiver's accuracies is a gross input error (the IMU clock, a datum, "
                "units): not refitted with, the verdict not trusted", source=GpsConfig,
                attr="gps.error_model_from_data"),

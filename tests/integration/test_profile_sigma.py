@@ -116,7 +116,8 @@ def larger_error(tmp_path_factory):
 def test_a_larger_profile_error_than_configured_is_estimated(larger_error):
     """The observed information's data part is indefinite on this drop, so its evidence stopped at
     about 1.1 times the configured sigmas (no refit); the estimate on the Gauss-Newton curvature
-    finds the flown size, the refit's estimate agrees with it, and the refit holds the truth."""
+    (the first fit's covariance is formed on it) finds the flown size, the refit's estimate agrees
+    with it, and the refit holds the truth."""
     scenario, r = larger_error
     notes = [n for n in r.notes if "type-II" in n]
     print("\n".join(notes))

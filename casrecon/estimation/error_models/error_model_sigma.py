@@ -79,6 +79,7 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     grid = result.part.profile if profile else None
     configured = None if grid is None else (grid.length_m if configured_length_m is None else configured_length_m)
     build, own_model, fallback = _builder(result, grid)
+    on_gauss_newton = fallback or not result.covariance.information.startswith("observed")
     errors = result.scenario.config.gps.error_model
     own_times = (errors.position_time_s, errors.velocity_time_s)
     length = None if grid is None else grid.length_m
@@ -116,12 +117,13 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     gps = GpsErrorEstimate(errors, model_from(errors, gps_ratios, times), gps_ratios, at_end,
                            model_from(errors, bounded_ratios, times), bounded_ratios)
     if grid is None:
-        return ps.ProfileSigmaEstimate({}, {}, max(0.0, value - base), (), {}, fallback, 0.0, 0.0, gps)
+        return ps.ProfileSigmaEstimate({}, {}, max(0.0, value - base), (), {}, fallback, 0.0, 0.0, gps,
+                                       gauss_newton=on_gauss_newton)
     prior = dict(zip([PROFILE_COMPONENTS[c] for c in grid.components], grid.prior))
     fitted = {g: float(prior[ps.GROUPS[g][0]]) for g in names[:n_profile]}
     estimated = {g: fitted[g] * float(r) for g, r in zip(names[:n_profile], ratio[:n_profile])}
     return ps.ProfileSigmaEstimate(fitted, estimated, max(0.0, value - base), tuple(prior), against_zero,
-                                   fallback, grid.length_m, length, gps)
+                                   fallback, grid.length_m, length, gps, gauss_newton=on_gauss_newton)
 
 
 def time_search(build, best, errors, own_times: tuple[float, float], base_times: tuple[float, float]):

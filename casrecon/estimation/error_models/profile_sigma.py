@@ -113,6 +113,9 @@ class ProfileSigmaEstimate:
     gps : GpsErrorEstimate or None
         The GPS error model estimated with them (:mod:`casrecon.estimation.error_models.error_model_sigma`);
         None: not estimated. Without the profile model the groups above are empty.
+    gauss_newton : bool
+        The estimate was made on the Gauss-Newton curvature (as a fallback, or because the fit's
+        covariance was formed on it: the default path's first fit).
     """
 
     fitted: dict[str, float]
@@ -124,6 +127,7 @@ class ProfileSigmaEstimate:
     fitted_length_m: float = 0.0
     length_m: float = 0.0
     gps: GpsErrorEstimate | None = None
+    gauss_newton: bool = False
 
     @property
     def refit(self) -> bool:
@@ -159,7 +163,7 @@ class ProfileSigmaEstimate:
                  f"{unit[g][1] * self.fitted[g]:.3g}; log evidence over none {self.against_zero[g]:+.1f})"
                  for g in self.fitted]
         fallback = (", on the Gauss-Newton curvature: the observed information's data part is indefinite"
-                    if self.gauss_newton_fallback else "")
+                    if self.gauss_newton_fallback else ", on the Gauss-Newton curvature" if self.gauss_newton else "")
         length = ("" if not self.length_m else
                   f", correlation length {self.length_m:.0f} m (fitted with {self.fitted_length_m:.0f} m)"
                   if self.length_m != self.fitted_length_m else f", correlation length {self.length_m:.0f} m")
@@ -357,7 +361,8 @@ def estimate_profile_sigma(result, configured_length_m: float | None = None) -> 
     estimated = {g: fitted[g] * float(r) for g, r in zip(groups, ratio)}
     fallback = model.gauss_newton and result.covariance.information.startswith("observed")
     return ProfileSigmaEstimate(fitted, estimated, max(0.0, float(-best.fun - base)), tuple(prior), against_zero,
-                                fallback, grid.length_m, (grid.length_m, *lengths)[pick])
+                                fallback, grid.length_m, (grid.length_m, *lengths)[pick],
+                                gauss_newton=model.gauss_newton)
 
 
 def extension(longest: float, step: float, limit: float) -> list[float]:
