@@ -223,7 +223,10 @@ def gps_upper_bounds(model: SplitQuadraticModel, names: list[str], fit) -> np.nd
     """The log ratios of :func:`maximised`'s ``fit`` with each GPS group's at its upper bound: the
     largest at which log Z, along the group's profile direction, is BOUND_NATS below its maximum
     (:func:`casrecon.estimation.numerics.information_ascent.upper_bounds`; the profile groups
-    stay at the maximum)."""
+    stay at the maximum). Where the maximum has no information (its quadratic model not definite
+    there), the maximum itself."""
+    if fit.information is None:
+        return np.asarray(fit.x, float)
     lower, upper = log_ratio_bounds(names)
     gps = np.flatnonzero([n.startswith("gps ") for n in names])
     return information_ascent.upper_bounds(lambda x: model.log_evidence(x)[0], fit.x, -fit.fun, fit.information,
