@@ -72,7 +72,7 @@ class SolveResult:
     linear_algebra_s: float = 0.0
     marginal: object | None = None  # laplace.MarginalRun when the marginal-likelihood estimator moved z
     profile_placements: int = 0     # times the atmosphere-profile windows were placed again (continuation)
-    clocks_held: tuple = ()         # (drop, clock offset s) held at its plausibility limit (continuation)
+    clocks_held: tuple[tuple[str, float], ...] = ()  # (drop, clock offset s) held at its limit (continuation)
 
 
 #: Ipopt stops "at an acceptable level" after ACCEPTABLE_ITER successive iterates whose scaled

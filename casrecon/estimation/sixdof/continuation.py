@@ -191,12 +191,14 @@ def at_limit(fit_nlp: FitNlp, name: str, clock_s: float) -> bool:
     return bool(abs(part.guess_clock_s) < limit <= abs(clock_s) * (1.0 + 1e-3))
 
 
-def held_clock_text(name: str, clock_s: float, limit_s: float) -> str:
-    """The verdict's finding on a clock offset held at its plausibility limit."""
-    return (f"{name}: the IMU-to-GPS clock offset is held at {clock_s:+.3f} s, its plausibility limit "
-            f"({CLOCK_LIMIT_SIGMAS:g} sigma of its prior, {limit_s:.3f} s), and the data ask for more: the model "
-            "probably does not fit the data (forces it does not have: gusts, air rougher than the profile grid, "
-            "a sounding of another place or altitude), or the IMU clock is off ([sensors.imu.clock] utc_at_zero; "
+def held_clock_text(part, clock_s: float) -> str:
+    """The verdict's finding on a drop's (a DropLayout's) clock offset ``clock_s`` (s) held at its
+    plausibility limit."""
+    return (f"{part.name}: the IMU-to-GPS clock offset is held at {clock_s:+.3f} s, its plausibility limit "
+            f"({CLOCK_LIMIT_SIGMAS:g} sigma of its prior, {clock_limit_s(part):.3f} s), and the data ask for more: "
+            "the model probably does not fit the data (forces it does not have: gusts, air rougher than the "
+            "profile grid, a sounding of another place or altitude), or the IMU clock is off ([sensors.imu.clock] "
+            "utc_at_zero; "
             "give [estimation] clock_offset_guess_s if the offset is known to be large)")
 
 

@@ -37,7 +37,7 @@ from casrecon.estimation.kinds.base import MeasurementKind
 from casrecon.estimation.kinds.sample_terms import SampleTerms
 from casrecon.estimation.kinds.samples import SampleKind, check_kinds
 from casrecon.estimation.sixdof.bands import MAX_BAND_NODES, columns_of, trajectory_with_bands
-from casrecon.estimation.sixdof.continuation import clock_bounds, clock_limit_s, held_clock_text, solve_fit, transferred
+from casrecon.estimation.sixdof.continuation import clock_bounds, held_clock_text, solve_fit, transferred
 from casrecon.estimation.sixdof.drop import MEASUREMENT_KINDS, FitNlp, build_nlp, load_measurements, parameter_set
 from casrecon.estimation.sixdof.fitdata import FitData, FitDataError, load_fit_data
 from casrecon.estimation.sixdof.initial_guess import initial_guess
@@ -141,7 +141,7 @@ def drop_result(scenario: Scenario, data: FitData, fit_nlp: FitNlp, index: int, 
         condition=cov.condition, covariance=cov, nlp=nlp, part=part, z=sol.z, residuals=r,
         measurements=dict(fit_nlp.contexts[index].measurements),
         notes=data.notes + weak_constraint_notes(part) + error_model_notes(scenario, part) + _placement_notes(sol),
-        fit_nlp=fit_nlp, gross_errors=tuple(held_clock_text(part.name, clock_s, clock_limit_s(part))
+        fit_nlp=fit_nlp, gross_errors=tuple(held_clock_text(part, clock_s)
                                             for name, clock_s in sol.clocks_held if name == part.name))
     return result
 
