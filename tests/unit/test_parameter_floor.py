@@ -1,0 +1,52 @@
+"""The widened covariance's floor: every parameter direction widened at least a share of the most
+widened one's factor (casrecon.analysis.widened_uncertainty.parameter_floor)."""
+
+import numpy as np
+
+from casrecon.analysis.widened_uncertainty import parameter_floor
+from casrecon.estimation.engine.block_sandwich import covering
+
+
+def random_covariance(rng, n):
+    a = rng.normal(size=(n, n))
+    return a @ a.T + n * np.eye(n)
+
+
+def test_floor_widens_every_parameter_direction_by_a_share_of_the_largest_factor():
+    rng = np.random.default_rng(3)
+    n_w, theta = 12, np.array([1, 4, 7])
+    model = random_covariance(rng, n_w)
+    rows = np.eye(n_w)[theta]
+    widened = model + 40.0 * np.outer(model @ rows.T @ [1.0, 0.0, 0.0], model @ rows.T @ [1.0, 0.0, 0.0]) / model[1, 1]
+    k, floor = parameter_floor(model, widened, rows, share=0.5)
+    m_t, w_t = rows @ model @ rows.T, rows @ widened @ rows.T
+    lam = np.linalg.eigvals(np.linalg.solve(m_t, w_t)).real
+    assert np.isclose(k, 0.5 * np.max(lam)) and k > 10.0  # one direction widened by the sandwich, 41 times
+    np.testing.assert_allclose(rows @ floor @ rows.T, k * m_t, rtol=1e-10)  # every direction k times
+    # the states grow only by what the parameters explain: their covariance given the parameters stays
+    rest = np.setdiff1d(np.arange(n_w), theta)
+
+    def conditional(c):
+        return c[np.ix_(rest, rest)] - c[np.ix_(rest, theta)] @ np.linalg.solve(c[np.ix_(theta, theta)], c[np.ix_(theta, rest)])
+
+    np.testing.assert_allclose(conditional(floor), conditional(model), rtol=1e-8, atol=1e-10)
+    both = covering(widened, [floor])
+    for c in (widened, floor):
+        assert np.min(np.linalg.eigvalsh(both - c)) > -1e-8 * np.max(np.abs(both))
+
+
+def test_no_floor_when_nothing_was_widened():
+    rng = np.random.default_rng(4)
+    model = random_covariance(rng, 6)
+    k, floor = parameter_floor(model, model, np.eye(6)[[0, 2]])
+    assert k == 1.0
+    np.testing.assert_allclose(floor, model)
+
+
+def test_floor_is_one_when_the_largest_factor_is_below_the_share():
+    rng = np.random.default_rng(5)
+    model = random_covariance(rng, 5)
+    rows = np.eye(5)[[0, 1]]
+    k, floor = parameter_floor(model, 3.0 * model, rows, share=0.1)  # widened x3 everywhere: 0.3 < 1
+    assert k == 1.0
+    np.testing.assert_allclose(floor, model)
