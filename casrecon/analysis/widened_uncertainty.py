@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from casrecon.analysis.altitude_floor import altitude_floored
 from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwiches, covering
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.sixdof.bands import trajectory_with_bands
@@ -279,8 +280,16 @@ def published_result(result, trusted: bool):
     """The result a fit publishes (with a note on its time-block sandwich): widened
     (:func:`widened_result`) when the verdict does not trust it (``trusted`` False) or its sandwich
     exceeds the model's at p < :data:`P_WIDEN`, else ``result``'s own sigmas; a fit whose
-    covariance cannot be widened says why when it should have been. Returns (result, Widening or
+    covariance cannot be widened says why when it should have been. Either way its absolute
+    altitude's bands are at least what the GPS heights alone say
+    (:func:`~casrecon.analysis.altitude_floor.altitude_floored`). Returns (result, Widening or
     None)."""
+    out, widening = sandwich_published(result, trusted)
+    return altitude_floored(out)[0], widening
+
+
+def sandwich_published(result, trusted: bool):
+    """:func:`published_result` without the altitude floor."""
     refused = widening_refused(result)
     if refused is not None:
         if trusted:
