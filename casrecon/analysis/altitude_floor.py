@@ -19,8 +19,9 @@ floor's variance is v + d^2: the GPS heights' own uncertainty of the absolute al
 disagreement of the two placements, which the one the fit chose cannot be trusted to resolve. (d
 is not the generalised-least-squares mean: the model scales each fix's correlated error by its
 accuracy, and that mean then explains a constant offset as correlated error wherever the
-accuracies vary: on `fine-grid` seed 253 below, 2.1 m for a mean of 9.6 m.) The ground's altitude at the impact, where it is a
-measurement (``[estimation] impact_ground_sigma_m``), is combined with v. A fit whose GPS height
+accuracies vary: on the case below, 2.1 m for a mean of 9.6 m.) The ground's altitude at the
+impact, where it is a measurement (``[estimation] impact_ground_sigma_m``), is combined with v. A
+fit without GPS heights gets no floor. A fit whose GPS height
 errors are white gets a floor of about its accuracy over the root of the fix count (centimetres to
 decimetres), one with correlated errors the correlated part's size; a fit registered a profile step
 off, that step. Chosen on the error-family study's `fine-grid` seed 253 (a trusted fit 10.0 m low
@@ -62,13 +63,15 @@ def altitude_floor_m(result) -> float:
     """The floor (m) of ``result``'s absolute-altitude bands: sqrt(v + d^2), v the
     :func:`offset_variance` of its fixes' down positions under its GPS error model (combined with
     the impact's ground altitude where the fit measures it), d their residuals' accuracy-weighted
-    mean."""
+    mean; 0 without GPS heights."""
     gps = gps_residuals(result)
     ok = np.isfinite(gps["residual"][:, DOWN]) & np.isfinite(gps["sigma"][:, DOWN])
+    if not np.any(ok):
+        return 0.0
     errors = result.scenario.config.gps.error_model
     sigma = gps["sigma"][ok, DOWN]
     variance = offset_variance(gps["time_imu_s"][ok], sigma, float(errors.fraction[DOWN]), float(errors.time_s[DOWN]))
-    offset = float(np.sum(gps["residual"][ok, DOWN] / sigma ** 2) / np.sum(1.0 / sigma ** 2)) if sigma.size else 0.0
+    offset = float(np.sum(gps["residual"][ok, DOWN] / sigma ** 2) / np.sum(1.0 / sigma ** 2))
     ground_sigma = result.scenario.config.estimation.impact_ground_sigma_m
     if ground_sigma is not None and ground_sigma > 0:
         variance = 1.0 / (1.0 / variance + 1.0 / ground_sigma ** 2)
@@ -92,7 +95,7 @@ def altitude_floored(result):
     if not raised:
         return result, floor
     note = (f"absolute altitude: the vertical-position and height bands are at least {floor:.2f} m (1-sigma), what "
-            f"the GPS heights alone say under the fit's GPS error model, their offset from the fit included (at {raised} "
-            f"of {table_sigma.shape[0]} nodes the fit's own band was narrower: its registration to the sounding's wind "
-            "and density shape, which the air flown need not share)")
+            f"the GPS heights alone say under the fit's GPS error model, their offset from the fit included "
+            f"(at {raised} of {table_sigma.shape[0]} nodes the fit's own band was narrower: its registration to the "
+            "sounding's wind and density shape, which the air flown need not share)")
     return dataclasses.replace(result, table_sigma=table_sigma, notes=result.notes + (note,)), floor

@@ -35,8 +35,9 @@ class AtmosphereConfig:
     estimated ``sounding_shift_m``: every level, and the profile corrections, that much higher in
     the drop's frame than the file says); 0 (the default): held at zero. Held, a fit takes its
     absolute altitude from the sounding's wind shape, to centimetres, even where the GPS heights
-    say metres (its published altitude bands are floored by what the GPS heights say); estimated (20 m is a radiosonde's height error and a profile's rise and sink between
-    balloon and drop), the shift itself absorbs air the profile grid cannot place and the alpha_T
+    say metres (its published altitude bands are floored by what the GPS heights say); estimated
+    (20 m is a radiosonde's height error and a profile's rise and sink between balloon and drop),
+    the shift itself absorbs air the profile grid cannot place and the alpha_T
     and dynamic-pressure bands suffer (docs/design/error-models.md: The sounding's altitude shift).
 
     ``humidity``: the density of moist air from the sounding's dewpoints where it has them (the

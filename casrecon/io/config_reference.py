@@ -124,8 +124,8 @@ SIX_DOF = FileKind(
             key("sounding_shift_sigma_m", "float", "m", "1-sigma of the prior on the sounding's altitude shift "
                "(the estimated sounding_shift_m: the air at altitude h is the sounding's, and the profile "
                "corrections', at h - shift); 0: held at zero, the fit then takes its absolute altitude from the "
-               "sounding's wind shape (its published altitude bands floored by what the GPS heights say). Estimated, the shift absorbs air the profile grid cannot place "
-               "(docs/design/error-models.md)",
+               "sounding's wind shape (its published altitude bands floored by what the GPS heights say). "
+               "Estimated, the shift absorbs air the profile grid cannot place (docs/design/error-models.md)",
                source=AtmosphereConfig, attr="atmosphere.sounding_shift_sigma_m"),
             key("humidity", "bool", "", "Moist-air density from the sounding's dewpoints where it has them (levels "
                "without one take the mixing ratio interpolated in altitude); false: dry air, p / (R_d T), as a "

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import casrecon
-from casrecon.analysis.fit_products import result_adequacy
 from casrecon.analysis.altitude_floor import altitude_floor_m
+from casrecon.analysis.fit_products import result_adequacy
 from casrecon.analysis.widened_uncertainty import published_result
 from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario

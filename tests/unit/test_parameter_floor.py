@@ -27,7 +27,8 @@ def test_floor_widens_every_parameter_direction_by_a_share_of_the_largest_factor
     rest = np.setdiff1d(np.arange(n_w), theta)
 
     def conditional(c):
-        return c[np.ix_(rest, rest)] - c[np.ix_(rest, theta)] @ np.linalg.solve(c[np.ix_(theta, theta)], c[np.ix_(theta, rest)])
+        cross = c[np.ix_(rest, theta)]
+        return c[np.ix_(rest, rest)] - cross @ np.linalg.solve(c[np.ix_(theta, theta)], cross.T)
 
     np.testing.assert_allclose(conditional(floor), conditional(model), rtol=1e-8, atol=1e-10)
     both = covering(widened, [floor])
