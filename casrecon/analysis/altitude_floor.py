@@ -34,9 +34,9 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import scipy.linalg
 
 from casrecon.estimation.sixdof.diagnostics import gps_residuals
+from casrecon.physics.sensor_errors import innovations
 
 #: Band columns floored, each holding the absolute altitude (m).
 ALTITUDE_COLUMNS = ("pos_d_m", "h_agl_m")
@@ -48,15 +48,15 @@ def offset_variance(time_s: np.ndarray, sigma_m: np.ndarray, fraction: float, ti
     """Variance (m^2) of the generalised-least-squares estimate of a constant offset from fixes at
     ``time_s`` (s) whose errors have 1-sigma ``sigma_m`` (m), a share ``fraction`` of each variance
     a first-order Gauss-Markov process of correlation time ``time_constant_s`` (s; 0: white) and
-    the rest white: 1 / (1^T S^-1 1)."""
+    the rest white: 1 / (1^T S^-1 1), with 1^T S^-1 1 the squared norm of the offset's whitened
+    innovations under that model (:func:`~casrecon.physics.sensor_errors.innovations`, which whitens
+    the fit's GPS residuals the same way)."""
     t, s = np.asarray(time_s, float), np.asarray(sigma_m, float)
     if t.size == 0:
         return float("inf")
-    f = fraction if time_constant_s > 0 else 0.0
-    cov = np.diag((1.0 - f) * s ** 2)
-    if f > 0:
-        cov = cov + f * np.outer(s, s) * np.exp(-np.abs(t[:, None] - t[None, :]) / time_constant_s)
-    return float(1.0 / np.sum(scipy.linalg.cho_solve(scipy.linalg.cho_factor(cov, lower=True), np.ones(t.size))))
+    order = np.argsort(t, kind="stable")
+    whitened = innovations(1.0 / s[order], t[order], time_constant_s, fraction)
+    return float(1.0 / np.sum(whitened ** 2))
 
 
 def altitude_floor_m(result) -> float:

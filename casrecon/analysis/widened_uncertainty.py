@@ -42,6 +42,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from casrecon.analysis.altitude_floor import altitude_floored
 from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwiches, covering
@@ -231,9 +232,8 @@ def parameter_floor(model_w: np.ndarray, widened_w: np.ndarray, theta_rows: np.n
     c_t = theta_rows @ model_w
     model_theta = c_t @ theta_rows.T
     widened_theta = theta_rows @ widened_w @ theta_rows.T
-    chol = np.linalg.cholesky(0.5 * (model_theta + model_theta.T))
-    inv = np.linalg.inv(chol)
-    lam = np.linalg.eigvalsh(inv @ (0.5 * (widened_theta + widened_theta.T)) @ inv.T)
+    lam = scipy.linalg.eigh(0.5 * (widened_theta + widened_theta.T), 0.5 * (model_theta + model_theta.T),
+                            eigvals_only=True)
     k = max(1.0, share * float(np.max(lam)))
     return k, model_w + (k - 1.0) * c_t.T @ np.linalg.solve(model_theta, c_t)
 
