@@ -44,8 +44,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from casrecon.analysis.accel_bias_floor import bias_floored
 from casrecon.analysis.altitude_floor import altitude_floored
-from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwiches, covering
+from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwiches, covering, grown_along
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.sixdof.bands import trajectory_with_bands
 from casrecon.estimation.sixdof.diagnostics import gps_residuals, imu_residuals
@@ -229,13 +230,12 @@ def parameter_floor(model_w: np.ndarray, widened_w: np.ndarray, theta_rows: np.n
     245, docs/studies/error-families.md: a combination of Cm_add, Cl_add, CN_add and CA_mult
     left at x1.1 held 7 of its sigmas' error while the most widened direction was x700). A model
     the data show grossly wrong in one parameter direction is not trusted in the others either."""
-    c_t = theta_rows @ model_w
-    model_theta = c_t @ theta_rows.T
+    model_theta = theta_rows @ model_w @ theta_rows.T
     widened_theta = theta_rows @ widened_w @ theta_rows.T
     lam = scipy.linalg.eigh(0.5 * (widened_theta + widened_theta.T), 0.5 * (model_theta + model_theta.T),
                             eigvals_only=True)
     k = max(1.0, share * float(np.max(lam)))
-    return k, model_w + (k - 1.0) * c_t.T @ np.linalg.solve(model_theta, c_t)
+    return k, grown_along(model_w, theta_rows, k)
 
 
 def widened_result(result, block_s: float = BLOCK_S, sandwiches: list[BlockSandwich] | None = None,
@@ -286,7 +286,7 @@ def published_result(result, trusted: bool):
     (:func:`~casrecon.analysis.altitude_floor.altitude_floored`). Returns (result, Widening or
     None)."""
     out, widening = sandwich_published(result, trusted)
-    return altitude_floored(out)[0], widening
+    return altitude_floored(bias_floored(out)[0])[0], widening
 
 
 def sandwich_published(result, trusted: bool):

@@ -4,7 +4,7 @@ widened one's factor (casrecon.analysis.widened_uncertainty.parameter_floor)."""
 import numpy as np
 
 from casrecon.analysis.widened_uncertainty import parameter_floor
-from casrecon.estimation.engine.block_sandwich import covering
+from casrecon.estimation.engine.block_sandwich import covering, grown_along
 
 
 def random_covariance(rng, n):
@@ -51,3 +51,19 @@ def test_floor_is_one_when_the_largest_factor_is_below_the_share():
     k, floor = parameter_floor(model, 3.0 * model, rows, share=0.1)  # widened x3 everywhere: 0.3 < 1
     assert k == 1.0
     np.testing.assert_allclose(floor, model)
+
+
+def test_grown_along_scales_the_combinations_and_keeps_the_rest_given_them():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(6, 6))
+    c = a @ a.T + 0.1 * np.eye(6)
+    rows = rng.normal(size=(2, 6))
+    f = grown_along(c, rows, 5.0)
+    np.testing.assert_allclose(rows @ f @ rows.T, 5.0 * rows @ c @ rows.T, rtol=1e-10)
+    assert np.min(np.linalg.eigvalsh(f - c)) > -1e-10  # it only grows
+
+    def given_rows(m):
+        return m - m @ rows.T @ np.linalg.solve(rows @ m @ rows.T, rows @ m)
+
+    np.testing.assert_allclose(given_rows(f), given_rows(c), atol=1e-10)
+    np.testing.assert_allclose(grown_along(c, rows, 1.0), c)

@@ -164,6 +164,14 @@ def covering(cov: np.ndarray, others: list[np.ndarray]) -> np.ndarray:
     return out
 
 
+def grown_along(cov_w: np.ndarray, rows: np.ndarray, factor: float) -> np.ndarray:
+    """C + (k - 1) C R^T (R C R^T)^-1 R C: the covariance ``cov_w`` (C, reduced coordinates) with
+    the covariance of the combinations ``rows`` (R, one per row) ``factor`` (k) times its own and
+    everything else grown with them by its regression on them (its covariance given them unchanged)."""
+    c_r = rows @ cov_w
+    return cov_w + (factor - 1.0) * c_r.T @ np.linalg.solve(c_r @ rows.T, c_r)
+
+
 def scaled_chi2_sf(value: float, mean: float, variance: float) -> float:
     """P(X >= value) for X = a chi-square(nu) with X's ``mean`` and ``variance`` (nan when the
     variance is not positive)."""
