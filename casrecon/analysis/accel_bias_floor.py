@@ -54,6 +54,8 @@ BIAS_NAMES = ("accel_bias_x", "accel_bias_y", "accel_bias_z")
 #: The fit's and the kinematic bias along the specific force differ significantly beyond this many
 #: sigmas of their difference (the two taken as independent).
 DETECTION_SIGMA = 3.0
+#: How the note of a widened fit begins.
+NOTE_START = "accelerometer bias along the specific force"
 #: Fixes closer than this to either end of the fit's nodes are not used (s).
 END_MARGIN_S = 0.5
 
@@ -210,7 +212,7 @@ def bias_floored(result, detection_sigma: float = DETECTION_SIGMA):
     _, before = trajectory_with_bands(result.scenario.model, part, result.z, cov)
     _, after = trajectory_with_bands(result.scenario.model, part, result.z, widened)
     table_sigma = np.sqrt(np.asarray(result.table_sigma, float) ** 2 + np.maximum(after ** 2 - before ** 2, 0.0))
-    note = (f"accelerometer bias along the specific force (IMU axes {np.round(check.direction_imu, 3).tolist()}): "
+    note = (f"{NOTE_START} (IMU axes {np.round(check.direction_imu, 3).tolist()}): "
             f"the fit's {check.fit_mps2:+.4f} +- {check.fit_sigma_mps2:.4f} m/s^2 differs from what the GPS velocities "
             f"and the IMU alone say ({check.kinematic_mps2:+.4f} +- {check.kinematic_sigma_mps2:.4f} m/s^2, "
             f"{check.n_fixes} fixes) by {check.z:+.1f} sigma: forces the model does not have (gusts, air rougher than "

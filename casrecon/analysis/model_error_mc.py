@@ -135,6 +135,7 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     the truth (or the failure); with ``forced_widening``, for a fit published with its own sigmas also
     what the widened ones would have been (``forced_widening``: sigma, nees, coverage; 1 to 6 s more),
     for studies of the publication rule."""
+    from casrecon.analysis.accel_bias_floor import NOTE_START as BIAS_NOTE
     from casrecon.analysis.fit_products import result_adequacy
     from casrecon.analysis.widened_uncertainty import published_result, widened_result, widening_refused
     from casrecon.estimation.sixdof.fit import FitError, fit_drop
@@ -151,7 +152,8 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     out = {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
            "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
            "coverage": band_coverage(r, trajectory, release_imu_s), **verdict_summary(verdict),
-           "widened": widening is not None}
+           "widened": widening is not None,
+           "bias_floored": any(n.startswith(BIAS_NOTE) for n in r.notes)}
     if forced_widening and widening is None and widening_refused(model) is None:  # what widening would publish
         forced, _ = widened_result(model, reason="a study's comparison")
         _, forced_nees = parameter_errors(forced, truth)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from casrecon.analysis.accel_bias_floor import BIAS_NAMES, DETECTION_SIGMA, bias_floored, kinematic_bias
+from casrecon.analysis.accel_bias_floor import BIAS_NAMES, DETECTION_SIGMA, NOTE_START, bias_floored, kinematic_bias
 from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name
@@ -61,4 +61,4 @@ def test_a_bias_traded_against_the_drag_is_found_and_covered(exact_fit):
     np.testing.assert_allclose(np.diag(wide.correlation), 1.0, atol=1e-9)
     np.testing.assert_allclose(wide.correlation, wide.correlation.T, atol=1e-9)
     note = wide.notes[-1]
-    assert note.startswith("accelerometer bias along the specific force") and "GPS velocities" in note
+    assert note.startswith(NOTE_START) and "GPS velocities" in note
