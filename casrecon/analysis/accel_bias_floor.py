@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from casrecon.analysis.adequacy import IndependentCheck
 from casrecon.estimation.engine.block_sandwich import grown_along
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.kinds.imu import model_and_bias_values
@@ -95,6 +96,12 @@ class KinematicBias:
     def z(self) -> float:
         """The difference over its combined sigma."""
         return self.difference_mps2 / math.hypot(self.kinematic_sigma_mps2, self.fit_sigma_mps2)
+
+    def check(self) -> IndependentCheck:
+        """As one test of the model-adequacy verdict."""
+        return IndependentCheck("accelerometer bias along the specific force", self.z, (
+            f"fit {self.fit_mps2:+.4f} +- {self.fit_sigma_mps2:.4f} m/s^2, from the GPS velocities and the IMU alone "
+            f"{self.kinematic_mps2:+.4f} +- {self.kinematic_sigma_mps2:.4f} m/s^2"))
 
     @property
     def floor_variance(self) -> float:

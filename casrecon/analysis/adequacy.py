@@ -161,6 +161,25 @@ class Adequacy:
                    processes=tuple(ProcessScale.from_dict(p) for p in doc.get("processes", ())))
 
 
+@dataclass(frozen=True)
+class IndependentCheck:
+    """A quantity of the fit measured again without its model, as one test of the verdict.
+
+    Attributes
+    ----------
+    name : str
+        What is compared (the report's words).
+    z : float
+        The fit's value less the independent one, over the sigma of that difference.
+    text : str
+        Both values with their sigmas and units, for the report.
+    """
+
+    name: str
+    z: float
+    text: str
+
+
 #: Why a kind of failure matters, appended once to the verdict line.
 HINTS = {
     "gps_correlated": "real GPS errors are time-correlated (FlySight: lag-1 0.8 to 1.0) and the fit assumes white "
@@ -174,6 +193,8 @@ HINTS = {
               "utc_at_zero): a clock error moves the impact along the descent; with the impact as a measurement "
               "([estimation] impact_ground_sigma_m), also the fit's altitude held where the sounding's wind "
               "structure lets the trajectory sit, off where the air differs from the sounding",
+    "independent": "forces the flight model does not have (gusts, air rougher than the atmosphere profile) were "
+                   "traded against a parameter that the data measure without the model",
     "pessimistic": "those sigmas are pessimistic for these data (a receiver's accuracy estimate, a noise figure "
                    "given as an upper bound, a GPS error model whose white part is larger than the receiver's), so "
                    "these channels weigh too little and the bands are wider than the data need",
@@ -245,7 +266,7 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
            posterior_cov: np.ndarray, units: list[str] | None = None, ground: GroundCheck | None = None,
            alpha: float = FAMILY_ALPHA, notes: tuple[str, ...] = (), gps_model: bool = False,
            prior_hint: str = HINTS["prior"], processes: tuple[ProcessPrior, ...] = (),
-           gross: tuple[str, ...] = ()) -> Adequacy:
+           gross: tuple[str, ...] = (), checks: tuple[IndependentCheck, ...] = ()) -> Adequacy:
     """The verdict of one fit.
 
     Parameters
@@ -278,6 +299,9 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
         Gross errors found before the verdict, each with its likely cause (an error-model estimate
         beyond :mod:`casrecon.estimation.error_models.plausibility`'s limits): each fails it, first
         in the line. Not counted among the tests (a limit, not a probability).
+    checks : tuple of IndependentCheck
+        Quantities of the fit measured again without its model: each one test, failed beyond the
+        family-wise z limit.
 
     Returns
     -------
@@ -285,7 +309,7 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     """
     n_priors = len(prior_names)
     channels = {name: r for name, r in channels.items() if np.isfinite(np.asarray(r, dtype=float)).any()}
-    n_tests = 2 * len(channels) + (1 if n_priors else 0) + n_priors + len(processes)
+    n_tests = 2 * len(channels) + (1 if n_priors else 0) + n_priors + len(processes) + len(checks)
     a = alpha / max(n_tests, 1)
     tests = [channel_test(name, r, a) for name, r in channels.items()]
     scales = tuple(process_scale(p, a) for p in processes)
@@ -300,6 +324,9 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
     cautions, small = _small_scale(tests)
     process_reasons, process_items, process_cautions, process_small = process_findings(scales)
     reasons, items, cautions = reasons + process_reasons, items + process_items, cautions + process_cautions
+    failed = [f"{c.name}: {c.text}, {c.z:+.1f} sigma apart" for c in checks if abs(c.z) > z_limit]
+    if failed:
+        reasons, items, kinds = reasons + failed, items + failed, kinds | {"independent"}
     if gross:
         reasons, items = list(gross) + reasons, ["gross input error: " + "; ".join(gross)] + items
     small = "; ".join(([small] if small else []) + process_small)
@@ -317,7 +344,7 @@ def assess(channels: dict[str, np.ndarray], prior_names: list[str], values: np.n
         if gps_model and "gps_correlated" in kinds:
             kinds = (kinds - {"gps_correlated"}) | {"gps_model"}
         hints = [prior_hint if k == "prior" else HINTS[k]
-                 for k in ("gps_correlated", "gps_model", "prior", "ground") if k in kinds]
+                 for k in ("gps_correlated", "gps_model", "prior", "ground", "independent") if k in kinds]
         if hints:
             line += " (" + "; ".join(hints) + ")"
         if small:

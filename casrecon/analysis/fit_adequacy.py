@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from casrecon.analysis.accel_bias_floor import kinematic_bias
 from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
 from casrecon.analysis.process_scale import ProcessPrior
 from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS, PROFILE_UNITS
@@ -118,8 +119,10 @@ def drop_adequacy(result, imu: dict, gps: dict, others: dict, alpha: float = FAM
     if result.part.n_u:
         notes += ("the Gauss-Markov priors of the disturbance states are not tested",)
     gps_model = result.scenario.config.gps.error_model.enabled
+    bias = kinematic_bias(result)
     return assess(drop_channels(imu, gps, others), names, values, prior_sigma, post, units, ground, alpha, notes,
-                  gps_model, processes=profile_priors(result), gross=getattr(result, "gross_errors", ()))
+                  gps_model, processes=profile_priors(result), gross=getattr(result, "gross_errors", ()),
+                  checks=() if bias is None else (bias.check(),))
 
 
 def profile_priors(result) -> tuple[ProcessPrior, ...]:
