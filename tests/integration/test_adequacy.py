@@ -3,7 +3,8 @@ exact model): the exact problem is trusted; a vehicle mass 30 % high, a site gro
 low (300 m is refused before solving by the data check) and an IMU mounted 1 deg off its declared
 axes are each flagged, by the test that should see them. Four fits of ~25 s each (longer on a loaded machine).
 
-Measured when written (ees-drop-1): exact: 44 tests passed (45 with the kinematic accelerometer-bias check, 2026-12-05), prior NEES 29.4 on 19 dof, impact
+Measured when written (ees-drop-1): exact: 44 tests passed (45 with the kinematic accelerometer-bias
+check, 2026-12-05), prior NEES 29.4 on 19 dof, impact
 -0.2 m from the ground; mass x1.3: CA_mult z +10.5, density_factor -6.1, CN_add -4.1, prior NEES
 209 (interval up to 50.4), gyro residuals correlated (lag-1 0.11 to 0.27); ground 300 m low (before the data check
 existed): only the ground check failed, impact +299.8 m; IMU 1 deg about y: gyro x reduced chi-square 134, lag-1

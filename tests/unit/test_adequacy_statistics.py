@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, assess
+from casrecon.analysis.adequacy import FAMILY_ALPHA, Adequacy, GroundCheck, IndependentCheck, assess
 from casrecon.analysis.adequacy_tests import (
     channel_test,
     lag1_autocorrelation,
@@ -166,3 +166,18 @@ def test_residuals_smaller_than_their_sigmas_make_conservative_bands_not_untrust
     assert not a.trusted and a.reasons == (a.reasons[0],) and "GPS pos e" in a.reasons[0]
     assert a.line.startswith("bands NOT to be trusted: reduced chi-square above its interval: GPS pos e")
     assert "; also residuals smaller than their sigmas: GPS pos n" in a.line
+
+
+def test_an_independent_check_is_one_test_and_fails_beyond_the_family_limit():
+    rng = np.random.default_rng(5)
+    channels = white_channels(rng)
+    args = (["CA_mult"], np.array([0.1]), np.array([1 / 3]), np.array([[0.001]]))
+    without = assess(channels, *args)
+    close = assess(channels, *args, checks=(IndependentCheck("accelerometer bias", 1.5, "fit 0.1, kinematic 0.09"),))
+    assert close.trusted and close.n_tests == without.n_tests + 1
+    limit = close.z_limit
+    far = assess(channels, *args, checks=(IndependentCheck("accelerometer bias", -(limit + 0.1), "fit 0.1, kin 0.0"),))
+    assert not far.trusted
+    assert far.reasons[-1].startswith("accelerometer bias: fit 0.1, kin 0.0") and "sigma apart" in far.reasons[-1]
+    assert "without the model" in far.line  # the hint
+    assert assess(channels, *args, checks=(IndependentCheck("b", limit - 0.01, "t"),)).trusted
