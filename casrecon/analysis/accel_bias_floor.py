@@ -10,22 +10,29 @@ residuals do to the estimate, not what the model absorbed.
 
 That bias is also measured without any flight model: the GPS velocities differ between two fixes
 by the integral of the acceleration, which is the fit's attitude times the IMU's specific force
-less its bias, plus gravity and the Coriolis term (kinematics, no aerodynamics). A least-squares
-fit of the initial velocity and the three biases to the fixes' velocities (generalised least
-squares under the fit's GPS error model, each component whitened by its Kalman innovations) gives
-the bias; along the mean specific force's direction u (for a falling capsule its axis) an error of
-the fit's attitude moves it only to second order (the specific force is near vertical, an attitude
-error turns it sideways), so only that component, u . b, is compared. On `turbulence` 262 it gave
-0.0031 +- 0.0019 m/s^2 against a truth of 0.0045 (the fit's -0.066); on the exact-model drop
-`none` 253, 0.0263 +- 0.0019 against 0.0233 (the fit's 0.0235 +- 0.0004).
+less its bias, plus gravity and the Coriolis term (kinematics, no aerodynamics). Only the down
+component is used: the specific force is near vertical, so an error of the fit's attitude turns it
+sideways and moves its down component only to second order (on the turbulence drops the
+horizontal components fitted this way had reduced chi-squares of 5 to 8 from the attitude's
+errors; the down one does not). A least-squares fit of the initial down velocity and a bias beta
+along the mean specific force's direction u (IMU axes; a falling capsule's axis) beyond the fit's
+own, and a clock offset of the fixes beyond the fit's (the fit may hold its own at a limit), to
+the fixes' centre-of-mass down velocities, gives u . b = u . b_fit + beta: generalised least
+squares at the receiver's stated accuracies, whitened by Kalman innovations under the correlated
+share and time of the fit's down-velocity error model (not under the sizes the fit estimated:
+those take up what its flight model cannot follow, which this check must not), its variance
+scaled up by the regression's reduced chi-square where that exceeds 1.
 
 Where the fit's u . b differs from the kinematic one by more than :data:`DETECTION_SIGMA` of their
 combined sigma (a test the model fails: false alarms about 0.3 % of exact-model drops), the
 published covariance is widened along that direction to the difference squared plus the kinematic
 variance, every other parameter and the trajectory growing with it by its regression on u . b
 (:func:`~casrecon.estimation.engine.block_sandwich.grown_along`); a note says so. Otherwise nothing
-changes: the kinematic sigma (0.002 m/s^2 on these drops) is three to five times the fit's, and
-flooring every fit with it would widen the drag's sigmas on fits that are right.
+changes: the kinematic sigma (about 0.002 m/s^2 on the study's drops) is three to five times the
+fit's, and flooring every fit with it would widen the drag's sigmas on fits that are right. The
+same comparison is one test of the model-adequacy verdict
+(:class:`~casrecon.analysis.adequacy.IndependentCheck`). Chosen on the study's selection seeds
+(docs/studies/error-families.md, "The accelerometer bias checked by kinematics").
 
 Not counted in the kinematic sigma: the accelerometers' white noise integrated (0.02 m/s^2 at 500
 Hz gives 0.006 m/s after 40 s, against GPS velocity errors of 0.05 to 0.1 m/s per fix); the
@@ -57,6 +64,10 @@ BIAS_NAMES = ("accel_bias_x", "accel_bias_y", "accel_bias_z")
 DETECTION_SIGMA = 3.0
 #: How the note of a widened fit begins.
 NOTE_START = "accelerometer bias along the specific force"
+#: Index of the down component among NED.
+DOWN = 2
+#: Half-width of the window over which the down acceleration at a fix is averaged (s).
+CLOCK_WINDOW_S = 0.1
 #: Fixes closer than this to either end of the fit's nodes are not used (s).
 END_MARGIN_S = 0.5
 
@@ -146,56 +157,58 @@ def kinematic_bias(result) -> KinematicBias | None:
     omega_dot = _at(t, t_nodes, np.gradient(states[:, 10:13], t_nodes, axis=0))
     lever = np.asarray(veh.lever(veh.imu_position_m), float).ravel()
     accel_imu = data.accel_imu[inside]
-    # specific force at the centre of mass, body axes, with the fit's bias put back (solved for below)
+    u = np.mean(accel_imu, axis=0)
+    u = u / np.linalg.norm(u)
+    # specific force at the centre of mass, body axes, less the fit's bias; its down component in NED
     f_cm = (accel_imu - bias[:3]) @ imu_to_body.T - np.cross(omega_dot, lever) - np.cross(omega, np.cross(omega, lever))
-    accel_ned = np.einsum("kij,kj->ki", c_nb, f_cm + bias[:3] @ imu_to_body.T)
+    accel_down = np.einsum("kj,kj->k", c_nb[:, 2, :], f_cm)
     options = result.scenario.model.options
     if options.gravity != "off":
         height = site.ground_alt_msl_m - (_at(t, t_nodes, states[:, 2:3])[:, 0] if options.gravity == "wgs84" else 0.0)
-        accel_ned[:, 2] += normal_gravity(math.radians(site.lat_deg), height)
+        accel_down = accel_down + normal_gravity(math.radians(site.lat_deg), height)
     if options.earth_rotation:
         lat = math.radians(site.lat_deg)
         rate = EARTH_RATE * np.array([math.cos(lat), 0.0, -math.sin(lat)])
-        accel_ned -= 2.0 * np.cross(rate, _at(t, t_nodes, states[:, 3:6]))
+        accel_down = accel_down - 2.0 * np.cross(rate, _at(t, t_nodes, states[:, 3:6]))[:, 2]
     gps = gps_residuals(result)
     fix_t = gps["time_imu_s"]
-    vel, sigma = data.gps_vel_ned, gps["sigma"][:, 3:6]
+    # the receiver's stated accuracies, not the fit's scaled ones: the sizes a fit estimates take up
+    # what its flight model cannot follow, which this check must not (the regression's own reduced
+    # chi-square scales them up instead)
+    vel, sigma = data.gps_vel_ned, data.gps_sigma[:, 3:6]
     used = ((fix_t > t[0] + END_MARGIN_S) & (fix_t < t[-1] - END_MARGIN_S)
             & np.all(np.isfinite(vel), 1) & np.all(np.isfinite(sigma), 1))
     if np.count_nonzero(used) < 3:
         return None
     order = np.argsort(fix_t[used], kind="stable")
-    fix_t, vel, sigma = fix_t[used][order], vel[used][order], sigma[used][order]
+    fix_t, vel, sigma = fix_t[used][order], vel[used][order, DOWN], sigma[used][order, DOWN]
     # antenna velocity to centre of mass: v_cm = v_ant - C_nb (w x r_ant)
     lever_gps = np.asarray(veh.lever(veh.gps_position_m), float).ravel()
-    vel_cm = vel - np.einsum("kij,kj->ki", dcm_body_to_ned_array(_at(fix_t, t_nodes, states[:, 6:10])),
+    vel_cm = vel - np.einsum("kj,kj->k", dcm_body_to_ned_array(_at(fix_t, t_nodes, states[:, 6:10]))[:, 2, :],
                              np.cross(_at(fix_t, t_nodes, states[:, 10:13]), lever_gps))
-    integral = _at(fix_t, t, _cumulative(t, accel_ned))                                       # (M, 3)
-    bias_gain = _at(fix_t, t, _cumulative(t, np.einsum("kij,jl->kil", c_nb, imu_to_body)))    # (M, 3, 3)
-    # v_k = v0 + integral_k - bias_gain_k b, whitened per NED component under the GPS error model
+    cumulative = _cumulative(t, accel_down[:, None])
+    integral = _at(fix_t, t, cumulative)[:, 0]
+    # the down acceleration at each fix, for a clock offset beyond the fit's (a mean over +-CLOCK_WINDOW_S)
+    accel_at_fix = (_at(fix_t + CLOCK_WINDOW_S, t, cumulative) - _at(fix_t - CLOCK_WINDOW_S, t, cumulative))[:, 0] / (
+        2.0 * CLOCK_WINDOW_S)
+    # a bias beta u more than the fit's lowers the down acceleration by (C_nb R_ib u)_down beta
+    gain = _at(fix_t, t, _cumulative(t, (c_nb[:, 2, :] @ (imu_to_body @ u))[:, None]))[:, 0]
+    # v_k = v0 + integral_k - gain_k beta + a_k delta (delta: the fixes' times later than the fit
+    # says), whitened under the GPS error model's down-velocity correlation
     errors = cfg.gps.error_model
-    design, rhs = [], []
-    for i in range(3):
-        columns = np.zeros((fix_t.size, 6))
-        columns[:, i] = 1.0
-        columns[:, 3:] = -bias_gain[:, i, :]
-        tau, share = float(errors.time_s[3 + i]), float(errors.fraction[3 + i])
-        design.append(np.column_stack([innovations(columns[:, j] / sigma[:, i], fix_t, tau, share)
-                                       for j in range(6)]))
-        rhs.append(innovations((vel_cm[:, i] - integral[:, i]) / sigma[:, i], fix_t, tau, share))
-    a, y = np.vstack(design), np.concatenate(rhs)
+    tau, share = float(errors.time_s[3 + DOWN]), float(errors.fraction[3 + DOWN])
+    a = np.column_stack([innovations(col / sigma, fix_t, tau, share)
+                         for col in (np.ones_like(gain), -gain, accel_at_fix)])
+    y = innovations((vel_cm - integral) / sigma, fix_t, tau, share)
     solution, *_ = np.linalg.lstsq(a, y, rcond=None)
-    covariance = np.linalg.inv(a.T @ a)[3:, 3:]
-    dof = max(y.size - 6, 1)
-    reduced = float(np.sum((y - a @ solution) ** 2) / dof)
-    u = np.mean(accel_imu, axis=0)
-    u = u / np.linalg.norm(u)
+    reduced = float(np.sum((y - a @ solution) ** 2) / max(y.size - 3, 1))
+    variance = float(np.linalg.inv(a.T @ a)[1, 1]) * max(reduced, 1.0)
     idx = [names.index(n) for n in BIAS_NAMES]
     fit_cov = result.correlation[np.ix_(idx, idx)] * np.outer(result.sigma[idx], result.sigma[idx])
-    return KinematicBias(direction_imu=u, kinematic_mps2=float(u @ solution[3:]),
-                         kinematic_sigma_mps2=float(np.sqrt(u @ covariance @ u * max(reduced, 1.0))),
-                         fit_mps2=float(u @ result.values[idx]), fit_sigma_mps2=float(np.sqrt(u @ fit_cov @ u)),
-                         n_fixes=int(fix_t.size), reduced_chi2=reduced)
+    fit_u = float(u @ bias[:3])
+    return KinematicBias(direction_imu=u, kinematic_mps2=fit_u + float(solution[1]),
+                         kinematic_sigma_mps2=math.sqrt(variance), fit_mps2=fit_u,
+                         fit_sigma_mps2=float(np.sqrt(u @ fit_cov @ u)), n_fixes=int(fix_t.size), reduced_chi2=reduced)
 
 
 def bias_floored(result, detection_sigma: float = DETECTION_SIGMA):
