@@ -12,9 +12,9 @@ That bias is also measured without any flight model: the GPS velocities differ b
 by the integral of the acceleration, which is the fit's attitude times the IMU's specific force
 less its bias, plus gravity and the Coriolis term (kinematics, no aerodynamics). Only the down
 component is used: the specific force is near vertical, so an error of the fit's attitude turns it
-sideways and moves its down component only to second order (on the turbulence drops the
-horizontal components fitted this way had reduced chi-squares of 5 to 8 from the attitude's
-errors; the down one does not). A least-squares fit of the initial down velocity and a bias beta
+sideways and moves its down component only to second order (the lateral biases found from all
+three components were 7 sigmas off the truth on `turbulence` 262, where the fit's attitude was
+off). A least-squares fit of the initial down velocity and a bias beta
 along the mean specific force's direction u (IMU axes; a falling capsule's axis) beyond the fit's
 own, and a clock offset of the fixes beyond the fit's (the fit may hold its own at a limit), to
 the fixes' centre-of-mass down velocities, gives u . b = u . b_fit + beta: generalised least
@@ -24,7 +24,7 @@ those take up what its flight model cannot follow, which this check must not), i
 scaled up by the regression's reduced chi-square where that exceeds 1.
 
 Where the fit's u . b differs from the kinematic one by more than :data:`DETECTION_SIGMA` of their
-combined sigma (a test the model fails: false alarms about 0.3 % of exact-model drops), the
+combined sigma (if both are Gaussian, about 0.3 % of drops whose model is right), the
 published covariance is widened along that direction to the difference squared plus the kinematic
 variance, every other parameter and the trajectory growing with it by its regression on u . b
 (:func:`~casrecon.estimation.engine.block_sandwich.grown_along`); a note says so. Otherwise nothing
@@ -35,8 +35,9 @@ same comparison is one test of the model-adequacy verdict
 (docs/studies/error-families.md, "The accelerometer bias checked by kinematics").
 
 Not counted in the kinematic sigma: the accelerometers' white noise integrated (0.02 m/s^2 at 500
-Hz gives 0.006 m/s after 40 s, against GPS velocity errors of 0.05 to 0.1 m/s per fix); the
-regression's reduced chi-square above 1 scales it up.
+Hz gives 0.006 m/s after 40 s, against GPS velocity errors of 0.05 to 0.1 m/s per fix). Under gusts
+in time the regression's reduced chi-square is 5 to 10 (the same with the true attitude and rates
+in place of the fit's; cause not found), and scales the sigma up there.
 """
 
 from __future__ import annotations
