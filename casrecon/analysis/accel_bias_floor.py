@@ -17,11 +17,12 @@ three components were 7 sigmas off the truth on `turbulence` 262, where the fit'
 off). A least-squares fit of the initial down velocity and a bias beta
 along the mean specific force's direction u (IMU axes; a falling capsule's axis) beyond the fit's
 own, and a clock offset of the fixes beyond the fit's (the fit may hold its own at a limit), to
-the fixes' centre-of-mass down velocities, gives u . b = u . b_fit + beta: generalised least
-squares at the receiver's stated accuracies, whitened by Kalman innovations under the correlated
-share and time of the fit's down-velocity error model (not under the sizes the fit estimated:
-those take up what its flight model cannot follow, which this check must not), its variance
-scaled up by the regression's reduced chi-square where that exceeds 1.
+the fixes' centre-of-mass down velocities, gives u . b = u . b_fit + beta: weighted least squares
+at the receiver's stated accuracies, its variance scaled by the residuals' own reduced chi-square
+(where above 1) and lag-1 autocorrelation rho ((1 + rho) / (1 - rho), rho at least 0). Not by the
+fit's GPS error model: its sizes and correlation are estimated from residuals that take up what
+the flight model cannot follow (under gusts in time, whitening white GPS velocity errors under the
+correlation the fit had estimated gave this regression reduced chi-squares of 5 to 10).
 
 Where the fit's u . b differs from the kinematic one by more than :data:`DETECTION_SIGMA` of their
 combined sigma (if both are Gaussian, about 0.3 % of drops whose model is right), the
@@ -34,10 +35,8 @@ same comparison is one test of the model-adequacy verdict
 (:class:`~casrecon.analysis.adequacy.IndependentCheck`). Chosen on the study's selection seeds
 (docs/studies/error-families.md, "The accelerometer bias checked by kinematics").
 
-Not counted in the kinematic sigma: the accelerometers' white noise integrated (0.02 m/s^2 at 500
-Hz gives 0.006 m/s after 40 s, against GPS velocity errors of 0.05 to 0.1 m/s per fix). Under gusts
-in time the regression's reduced chi-square is 5 to 10 (the same with the true attitude and rates
-in place of the fit's; cause not found), and scales the sigma up there.
+Not counted in the kinematic sigma: the accelerometers' white noise integrated (0.05 m/s^2 at 500
+Hz gives 0.014 m/s after 40 s, against GPS velocity accuracies of 0.1 to 0.3 m/s per fix).
 """
 
 from __future__ import annotations
@@ -56,7 +55,6 @@ from casrecon.estimation.sixdof.bands import trajectory_with_bands
 from casrecon.estimation.sixdof.diagnostics import gps_residuals
 from casrecon.physics.earth import EARTH_RATE, normal_gravity
 from casrecon.physics.rotations import dcm_body_to_ned_array
-from casrecon.physics.sensor_errors import innovations
 
 #: The accelerometer bias parameters (IMU axes, m/s^2).
 BIAS_NAMES = ("accel_bias_x", "accel_bias_y", "accel_bias_z")
@@ -69,6 +67,9 @@ NOTE_START = "accelerometer bias along the specific force"
 DOWN = 2
 #: Half-width of the window over which the down acceleration at a fix is averaged (s).
 CLOCK_WINDOW_S = 0.1
+#: Largest lag-1 autocorrelation of the regression's residuals taken (the variance factor
+#: (1 + rho) / (1 - rho) is then 39).
+MAX_LAG1 = 0.95
 #: Fixes closer than this to either end of the fit's nodes are not used (s).
 END_MARGIN_S = 0.5
 
@@ -89,6 +90,9 @@ class KinematicBias:
         GPS fixes used.
     reduced_chi2 : float
         Of the kinematic regression (the sigma above is scaled by its root where it exceeds 1).
+    lag1 : float
+        Lag-1 autocorrelation of the regression's residuals, at least 0 (the variance above is
+        scaled by (1 + lag1) / (1 - lag1)).
     """
 
     direction_imu: np.ndarray
@@ -98,6 +102,7 @@ class KinematicBias:
     fit_sigma_mps2: float
     n_fixes: int
     reduced_chi2: float
+    lag1: float
 
     @property
     def difference_mps2(self) -> float:
@@ -195,21 +200,22 @@ def kinematic_bias(result) -> KinematicBias | None:
     # a bias beta u more than the fit's lowers the down acceleration by (C_nb R_ib u)_down beta
     gain = _at(fix_t, t, _cumulative(t, (c_nb[:, 2, :] @ (imu_to_body @ u))[:, None]))[:, 0]
     # v_k = v0 + integral_k - gain_k beta + a_k delta (delta: the fixes' times later than the fit
-    # says), whitened under the GPS error model's down-velocity correlation
-    errors = cfg.gps.error_model
-    tau, share = float(errors.time_s[3 + DOWN]), float(errors.fraction[3 + DOWN])
-    a = np.column_stack([innovations(col / sigma, fix_t, tau, share)
-                         for col in (np.ones_like(gain), -gain, accel_at_fix)])
-    y = innovations((vel_cm - integral) / sigma, fix_t, tau, share)
+    # says), weighted by the stated accuracies; the variance scaled by the residuals' own size and
+    # lag-1 correlation (not by the fit's GPS error model: see the module)
+    a = np.column_stack([np.ones_like(gain), -gain, accel_at_fix]) / sigma[:, None]
+    y = (vel_cm - integral) / sigma
     solution, *_ = np.linalg.lstsq(a, y, rcond=None)
-    reduced = float(np.sum((y - a @ solution) ** 2) / max(y.size - 3, 1))
-    variance = float(np.linalg.inv(a.T @ a)[1, 1]) * max(reduced, 1.0)
+    residual = y - a @ solution
+    reduced = float(np.sum(residual ** 2) / max(y.size - 3, 1))
+    lag1 = float(np.clip(np.sum(residual[1:] * residual[:-1]) / np.sum(residual ** 2), 0.0, MAX_LAG1))
+    variance = float(np.linalg.inv(a.T @ a)[1, 1]) * max(reduced, 1.0) * (1.0 + lag1) / (1.0 - lag1)
     idx = [names.index(n) for n in BIAS_NAMES]
     fit_cov = result.correlation[np.ix_(idx, idx)] * np.outer(result.sigma[idx], result.sigma[idx])
     fit_u = float(u @ bias[:3])
     return KinematicBias(direction_imu=u, kinematic_mps2=fit_u + float(solution[1]),
                          kinematic_sigma_mps2=math.sqrt(variance), fit_mps2=fit_u,
-                         fit_sigma_mps2=float(np.sqrt(u @ fit_cov @ u)), n_fixes=int(fix_t.size), reduced_chi2=reduced)
+                         fit_sigma_mps2=float(np.sqrt(u @ fit_cov @ u)), n_fixes=int(fix_t.size), reduced_chi2=reduced,
+                         lag1=lag1)
 
 
 def bias_floored(result, detection_sigma: float = DETECTION_SIGMA):
