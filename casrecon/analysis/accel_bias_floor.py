@@ -144,7 +144,7 @@ def kinematic_bias(result) -> KinematicBias | None:
     with the fit's attitude, body rates and clock offset (see the module); None when it cannot be
     formed: the fit does not estimate all three accelerometer biases, its covariance is not a
     :class:`~casrecon.estimation.engine.covariance.Covariance`, an accelerometer saturates within
-    the fit, or fewer than three fixes have velocities."""
+    the fit, or fewer than four fixes have velocities."""
     names = result.params.names
     if not all(n in names for n in BIAS_NAMES) or not isinstance(result.covariance, Covariance):
         return None
@@ -184,7 +184,7 @@ def kinematic_bias(result) -> KinematicBias | None:
     vel, sigma = data.gps_vel_ned, data.gps_sigma[:, 3:6]
     used = ((fix_t > t[0] + END_MARGIN_S) & (fix_t < t[-1] - END_MARGIN_S)
             & np.all(np.isfinite(vel), 1) & np.all(np.isfinite(sigma), 1))
-    if np.count_nonzero(used) < 3:
+    if np.count_nonzero(used) < 4:  # three unknowns, and one fix to spare
         return None
     order = np.argsort(fix_t[used], kind="stable")
     fix_t, vel, sigma = fix_t[used][order], vel[used][order, DOWN], sigma[used][order, DOWN]
