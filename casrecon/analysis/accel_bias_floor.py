@@ -45,7 +45,9 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
 
 from casrecon.analysis.adequacy import IndependentCheck
 from casrecon.estimation.engine.block_sandwich import grown_along
@@ -53,8 +55,10 @@ from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.kinds.imu import model_and_bias_values
 from casrecon.estimation.sixdof.bands import trajectory_with_bands
 from casrecon.estimation.sixdof.diagnostics import gps_residuals
-from casrecon.physics.earth import EARTH_RATE, normal_gravity
+from casrecon.physics.dynamics import STATE_NAMES
+from casrecon.physics.numpy_call import numpy_call
 from casrecon.physics.rotations import dcm_body_to_ned_array
+from casrecon.physics.sensors import gps_antenna_ned, lever_acceleration
 
 #: The accelerometer bias parameters (IMU axes, m/s^2).
 BIAS_NAMES = ("accel_bias_x", "accel_bias_y", "accel_bias_z")
@@ -126,10 +130,25 @@ class KinematicBias:
         return self.difference_mps2 ** 2 + self.kinematic_sigma_mps2 ** 2
 
 
-def _cumulative(time_s: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """Trapezoidal integral of ``values`` (n, ...) from ``time_s[0]`` to each ``time_s``."""
-    steps = np.diff(time_s).reshape((-1,) + (1,) * (values.ndim - 1))
-    return np.concatenate([np.zeros((1,) + values.shape[1:]), np.cumsum(0.5 * (values[1:] + values[:-1]) * steps, 0)])
+def _mapped(function: ca.Function, *columns: np.ndarray) -> np.ndarray:
+    """``function`` (one output) at each row of ``columns`` (each (n, m)), as (n, k)."""
+    return numpy_call(function.map(columns[0].shape[0]), *(c.T for c in columns))[0].T
+
+
+def field_acceleration(model, states: np.ndarray) -> np.ndarray:
+    """The flight model's field acceleration (NED, m/s^2: gravity and Coriolis,
+    :meth:`~casrecon.physics.dynamics.FlightModel.field_acceleration_ned`) at each of the (n, 13)
+    ``states``, (n, 3)."""
+    x = ca.SX.sym("x", model.n_states)
+    return _mapped(ca.Function("field", [x], [model.field_acceleration_ned(x)]), states)
+
+
+def antenna_velocity(vehicle, states: np.ndarray) -> np.ndarray:
+    """The GPS antenna's velocity less the centre of mass's (NED, m/s,
+    :func:`~casrecon.physics.sensors.gps_antenna_ned`) at each of the (n, 13) ``states``, (n, 3)."""
+    x = ca.SX.sym("x", len(STATE_NAMES))
+    _, v_antenna = gps_antenna_ned(vehicle, x[0:3], x[3:6], x[6:10], x[10:13])
+    return _mapped(ca.Function("antenna", [x], [v_antenna - x[3:6]]), states)
 
 
 def _at(time_s: np.ndarray, sample_time_s: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -149,7 +168,7 @@ def kinematic_bias(result) -> KinematicBias | None:
     if not all(n in names for n in BIAS_NAMES) or not isinstance(result.covariance, Covariance):
         return None
     data, cfg = result.data, result.scenario.config
-    veh, site = cfg.vehicle, cfg.site
+    veh = cfg.vehicle
     t_nodes = result.node_time_s
     inside = (data.imu_time_s >= t_nodes[0]) & (data.imu_time_s <= t_nodes[-1])
     if not np.all(data.accel_valid[inside]):
@@ -158,24 +177,19 @@ def kinematic_bias(result) -> KinematicBias | None:
     _, bias = model_and_bias_values(result)
     imu_to_body = np.asarray(veh.imu_to_body, float)
     states = result.states
-    c_nb = dcm_body_to_ned_array(_at(t, t_nodes, states[:, 6:10]))
-    omega = _at(t, t_nodes, states[:, 10:13])
-    omega_dot = _at(t, t_nodes, np.gradient(states[:, 10:13], t_nodes, axis=0))
-    lever = np.asarray(veh.lever(veh.imu_position_m), float).ravel()
+    omega_dot = np.gradient(states[:, 10:13], t_nodes, axis=0)
+    at_samples = _at(t, t_nodes, states)
+    c_nb = dcm_body_to_ned_array(at_samples[:, 6:10])
+    # the flight model's own terms: the field (gravity, Coriolis) at the nodes, interpolated (it is
+    # smooth); the lever-arm specific force, quadratic in the rates, at the samples themselves
+    field = _at(t, t_nodes, field_acceleration(result.scenario.model, states))
+    lever = lever_acceleration(veh, at_samples[:, 10:13], _at(t, t_nodes, omega_dot))
     accel_imu = data.accel_imu[inside]
     u = np.mean(accel_imu, axis=0)
     u = u / np.linalg.norm(u)
     # specific force at the centre of mass, body axes, less the fit's bias; its down component in NED
-    f_cm = (accel_imu - bias[:3]) @ imu_to_body.T - np.cross(omega_dot, lever) - np.cross(omega, np.cross(omega, lever))
-    accel_down = np.einsum("kj,kj->k", c_nb[:, 2, :], f_cm)
-    options = result.scenario.model.options
-    if options.gravity != "off":
-        height = site.ground_alt_msl_m - (_at(t, t_nodes, states[:, 2:3])[:, 0] if options.gravity == "wgs84" else 0.0)
-        accel_down = accel_down + normal_gravity(math.radians(site.lat_deg), height)
-    if options.earth_rotation:
-        lat = math.radians(site.lat_deg)
-        rate = EARTH_RATE * np.array([math.cos(lat), 0.0, -math.sin(lat)])
-        accel_down = accel_down - 2.0 * np.cross(rate, _at(t, t_nodes, states[:, 3:6]))[:, 2]
+    f_cm = (accel_imu - bias[:3]) @ imu_to_body.T - lever
+    accel_down = np.einsum("kj,kj->k", c_nb[:, 2, :], f_cm) + field[:, DOWN]
     gps = gps_residuals(result)
     fix_t = gps["time_imu_s"]
     # the receiver's stated accuracies, not the fit's scaled ones: the sizes a fit estimates take up
@@ -188,17 +202,14 @@ def kinematic_bias(result) -> KinematicBias | None:
         return None
     order = np.argsort(fix_t[used], kind="stable")
     fix_t, vel, sigma = fix_t[used][order], vel[used][order, DOWN], sigma[used][order, DOWN]
-    # antenna velocity to centre of mass: v_cm = v_ant - C_nb (w x r_ant)
-    lever_gps = np.asarray(veh.lever(veh.gps_position_m), float).ravel()
-    vel_cm = vel - np.einsum("kj,kj->k", dcm_body_to_ned_array(_at(fix_t, t_nodes, states[:, 6:10]))[:, 2, :],
-                             np.cross(_at(fix_t, t_nodes, states[:, 10:13]), lever_gps))
-    cumulative = _cumulative(t, accel_down[:, None])
-    integral = _at(fix_t, t, cumulative)[:, 0]
+    vel_cm = vel - antenna_velocity(veh, _at(fix_t, t_nodes, states))[:, DOWN]  # antenna to centre of mass
+    cumulative = cumulative_trapezoid(accel_down, t, initial=0.0)
+    integral = np.interp(fix_t, t, cumulative)
     # the down acceleration at each fix, for a clock offset beyond the fit's (a mean over +-CLOCK_WINDOW_S)
-    accel_at_fix = (_at(fix_t + CLOCK_WINDOW_S, t, cumulative) - _at(fix_t - CLOCK_WINDOW_S, t, cumulative))[:, 0] / (
-        2.0 * CLOCK_WINDOW_S)
+    accel_at_fix = (np.interp(fix_t + CLOCK_WINDOW_S, t, cumulative)
+                    - np.interp(fix_t - CLOCK_WINDOW_S, t, cumulative)) / (2.0 * CLOCK_WINDOW_S)
     # a bias beta u more than the fit's lowers the down acceleration by (C_nb R_ib u)_down beta
-    gain = _at(fix_t, t, _cumulative(t, (c_nb[:, 2, :] @ (imu_to_body @ u))[:, None]))[:, 0]
+    gain = np.interp(fix_t, t, cumulative_trapezoid(c_nb[:, 2, :] @ (imu_to_body @ u), t, initial=0.0))
     # v_k = v0 + integral_k - gain_k beta + a_k delta (delta: the fixes' times later than the fit
     # says), weighted by the stated accuracies; the variance scaled by the residuals' own size and
     # lag-1 correlation (not by the fit's GPS error model: see the module)

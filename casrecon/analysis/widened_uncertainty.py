@@ -281,8 +281,10 @@ def published_result(result, trusted: bool):
     """The result a fit publishes (with a note on its time-block sandwich): widened
     (:func:`widened_result`) when the verdict does not trust it (``trusted`` False) or its sandwich
     exceeds the model's at p < :data:`P_WIDEN`, else ``result``'s own sigmas; a fit whose
-    covariance cannot be widened says why when it should have been. Either way its absolute
-    altitude's bands are at least what the GPS heights alone say
+    covariance cannot be widened says why when it should have been. Either way its covariance is
+    widened along the accelerometer bias where the fit's differs from the GPS velocities' and the
+    IMU's (:func:`~casrecon.analysis.accel_bias_floor.bias_floored`), and its absolute altitude's
+    bands are at least what the GPS heights alone say
     (:func:`~casrecon.analysis.altitude_floor.altitude_floored`). Returns (result, Widening or
     None)."""
     out, widening = sandwich_published(result, trusted)

@@ -156,6 +156,14 @@ class FlightModel:
         """Gravity vector in NED, m/s^2, per :class:`DynamicsOptions`."""
         return gravity_vector(self.site, self.options, self.altitude_msl(x))
 
+    def field_acceleration_ned(self, x):
+        """NED acceleration (m/s^2) at state ``x`` of a body on which no force acts but gravity:
+        gravity (:meth:`gravity_ned`) and, with ``earth_rotation``, the Coriolis term."""
+        accel = self.gravity_ned(x)
+        if self.options.earth_rotation:
+            accel = accel + coriolis_acceleration(math.radians(self.site.lat_deg), x[3:6])
+        return accel
+
     def terms(self, x, p, d=None) -> dict:
         """Every intermediate of the equations of motion, for ``x``, ``p`` and the disturbance
         ``d`` (CasADi; ``d`` None is no disturbance)."""
@@ -177,9 +185,7 @@ class FlightModel:
             force, moment = ca.DM.zeros(3), ca.DM.zeros(3)
         if d is not None:
             force, moment = force + d[3:6], moment + d[6:9]
-        accel = c_nb @ force / veh.mass_kg + self.gravity_ned(x)
-        if self.options.earth_rotation:
-            accel += coriolis_acceleration(math.radians(self.site.lat_deg), v_ned)
+        accel = c_nb @ force / veh.mass_kg + self.field_acceleration_ned(x)
         w_dot = self._inertia_inv @ (moment - ca.cross(w, self._inertia @ w))
         xdot = ca.vertcat(v_ned, accel, quat_derivative(q, w), w_dot)
         return {"xdot": xdot, "force_body": force, "moment_cm": moment, "omega_dot": w_dot,

@@ -1,4 +1,5 @@
-"""IMU and GPS measurement models (docs/design.md: Sensors); pure CasADi, SI units.
+"""IMU and GPS measurement models (docs/design.md: Sensors); CasADi expressions (and
+:func:`lever_acceleration`, one of them evaluated on numpy arrays), SI units.
 
 Biases, scale factors and noise are the estimator's and the simulator's business; these functions
 give the noise-free quantity each sensor senses.
@@ -9,6 +10,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from casrecon.physics.numpy_call import numpy_call
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.physics.vehicle import Vehicle
 
@@ -20,10 +22,23 @@ def imu_specific_force(vehicle: Vehicle, force_body, omega_body, omega_dot_body)
     body axes and F_b every non-gravitational force (here the aerodynamic force), then rotated from
     body to IMU axes.
     """
-    r = ca.DM(vehicle.lever(vehicle.imu_position_m))
-    f_body = force_body / vehicle.mass_kg + ca.cross(omega_dot_body, r) + ca.cross(
-        omega_body, ca.cross(omega_body, r))
+    f_body = force_body / vehicle.mass_kg + lever_specific_force(vehicle, omega_body, omega_dot_body)
     return ca.DM(np.asarray(vehicle.imu_to_body)).T @ f_body
+
+
+def lever_specific_force(vehicle: Vehicle, omega_body, omega_dot_body):
+    """What the IMU senses beyond the centre of mass's specific force, body axes, m/s^2:
+    dw/dt x r + w x (w x r), r the IMU position minus the centre of mass in body axes."""
+    r = ca.DM(vehicle.lever(vehicle.imu_position_m))
+    return ca.cross(omega_dot_body, r) + ca.cross(omega_body, ca.cross(omega_body, r))
+
+
+def lever_acceleration(vehicle: Vehicle, omega: np.ndarray, omega_dot: np.ndarray) -> np.ndarray:
+    """:func:`lever_specific_force` (body axes, m/s^2) evaluated at each of the (n, 3) body rates
+    (rad/s) and angular accelerations (rad/s^2): (n, 3)."""
+    w, w_dot = ca.SX.sym("w", 3), ca.SX.sym("w_dot", 3)
+    lever = ca.Function("lever", [w, w_dot], [lever_specific_force(vehicle, w, w_dot)]).map(omega.shape[0])
+    return numpy_call(lever, np.asarray(omega, float).T, np.asarray(omega_dot, float).T)[0].T
 
 
 def imu_angular_rate(vehicle: Vehicle, omega_body):

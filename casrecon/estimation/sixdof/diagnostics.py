@@ -15,6 +15,7 @@ from casrecon.estimation.kinds.imu import IMU_CHANNELS, ImuKind, model_and_bias_
 from casrecon.estimation.numerics.savgol import savgol_filter
 from casrecon.estimation.sixdof.bands import node_parameter_values
 from casrecon.physics.aero import DISPERSION_NAMES, aero_force_moment
+from casrecon.physics.sensors import lever_acceleration
 from casrecon.simulation.simulate import Simulator
 
 __all__ = ["IMU_CHANNELS", "imu_residuals", "gps_residuals", "pitching_moment", "reconciled_simulation"]
@@ -76,8 +77,7 @@ def pitching_moment(result) -> dict[str, np.ndarray]:
     wdot = savgol_filter(w, 51, 3, deriv=1, delta=dt, rows=idx)
     w, f = w[idx], f[idx]
     inertia = np.asarray(veh.inertia_kgm2)
-    lever_imu = veh.lever(veh.imu_position_m)
-    f_cm = f - np.cross(wdot, lever_imu) - np.cross(w, np.cross(w, lever_imu))
+    f_cm = f - lever_acceleration(veh, w, wdot)
     m_cm = wdot @ inertia.T + np.cross(w, w @ inertia.T)
     m_mrp = m_cm - np.cross(veh.lever(veh.mrp_m), veh.mass_kg * f_cm)
     qbar = result.column("qbar_pa")[0]
