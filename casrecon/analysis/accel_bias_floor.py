@@ -137,10 +137,10 @@ def _mapped(function: ca.Function, *columns: np.ndarray) -> np.ndarray:
 
 def field_acceleration(model, states: np.ndarray) -> np.ndarray:
     """The flight model's field acceleration (NED, m/s^2: gravity and Coriolis,
-    :meth:`~casrecon.physics.dynamics.FlightModel.field_acceleration_ned`) at each of the (n, 13)
+    :meth:`~casrecon.physics.dynamics.FlightModel.acceleration_ned`) at each of the (n, 13)
     ``states``, (n, 3)."""
     x = ca.SX.sym("x", model.n_states)
-    return _mapped(ca.Function("field", [x], [model.field_acceleration_ned(x)]), states)
+    return _mapped(ca.Function("field", [x], [model.acceleration_ned(x)]), states)
 
 
 def antenna_velocity(vehicle, states: np.ndarray) -> np.ndarray:

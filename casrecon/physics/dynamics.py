@@ -156,10 +156,11 @@ class FlightModel:
         """Gravity vector in NED, m/s^2, per :class:`DynamicsOptions`."""
         return gravity_vector(self.site, self.options, self.altitude_msl(x))
 
-    def field_acceleration_ned(self, x):
-        """NED acceleration (m/s^2) at state ``x`` of a body on which no force acts but gravity:
-        gravity (:meth:`gravity_ned`) and, with ``earth_rotation``, the Coriolis term."""
-        accel = self.gravity_ned(x)
+    def acceleration_ned(self, x, specific_force_ned=0):
+        """NED acceleration (m/s^2) at state ``x`` of a body that feels ``specific_force_ned``
+        (m/s^2, NED; 0: no force but gravity): that, gravity (:meth:`gravity_ned`) and, with
+        ``earth_rotation``, the Coriolis term, summed in that order (the simulator's bytes)."""
+        accel = specific_force_ned + self.gravity_ned(x)
         if self.options.earth_rotation:
             accel = accel + coriolis_acceleration(math.radians(self.site.lat_deg), x[3:6])
         return accel
@@ -185,7 +186,7 @@ class FlightModel:
             force, moment = ca.DM.zeros(3), ca.DM.zeros(3)
         if d is not None:
             force, moment = force + d[3:6], moment + d[6:9]
-        accel = c_nb @ force / veh.mass_kg + self.field_acceleration_ned(x)
+        accel = self.acceleration_ned(x, c_nb @ force / veh.mass_kg)
         w_dot = self._inertia_inv @ (moment - ca.cross(w, self._inertia @ w))
         xdot = ca.vertcat(v_ned, accel, quat_derivative(q, w), w_dot)
         return {"xdot": xdot, "force_body": force, "moment_cm": moment, "omega_dot": w_dot,

@@ -22,15 +22,18 @@ def imu_specific_force(vehicle: Vehicle, force_body, omega_body, omega_dot_body)
     body axes and F_b every non-gravitational force (here the aerodynamic force), then rotated from
     body to IMU axes.
     """
-    f_body = force_body / vehicle.mass_kg + lever_specific_force(vehicle, omega_body, omega_dot_body)
+    f_body = lever_specific_force(vehicle, omega_body, omega_dot_body, force_body / vehicle.mass_kg)
     return ca.DM(np.asarray(vehicle.imu_to_body)).T @ f_body
 
 
-def lever_specific_force(vehicle: Vehicle, omega_body, omega_dot_body):
-    """What the IMU senses beyond the centre of mass's specific force, body axes, m/s^2:
-    dw/dt x r + w x (w x r), r the IMU position minus the centre of mass in body axes."""
+def lever_specific_force(vehicle: Vehicle, omega_body, omega_dot_body, cm_specific_force_body=0):
+    """Specific force at the IMU, body axes, m/s^2: the centre of mass's
+    ``cm_specific_force_body`` (m/s^2; 0 gives what the IMU senses beyond it) plus
+    dw/dt x r + w x (w x r), r the IMU position minus the centre of mass in body axes; summed in
+    that order (the simulator's bytes)."""
     r = ca.DM(vehicle.lever(vehicle.imu_position_m))
-    return ca.cross(omega_dot_body, r) + ca.cross(omega_body, ca.cross(omega_body, r))
+    return cm_specific_force_body + ca.cross(omega_dot_body, r) + ca.cross(
+        omega_body, ca.cross(omega_body, r))
 
 
 def lever_acceleration(vehicle: Vehicle, omega: np.ndarray, omega_dot: np.ndarray) -> np.ndarray:
