@@ -132,9 +132,11 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
                 method: str | None = None, information: str | None = None, forced_widening: bool = False) -> dict:
     """Fit ``scenario`` (by ``method``, "map" or "marginal", its covariance from ``information``,
     "observed" or "expected"; defaults its ``[estimation]``'s) and summarise what it publishes against
-    the truth (or the failure); with ``forced_widening``, for a fit published with its own sigmas also
-    what the widened ones would have been (``forced_widening``: sigma, nees, coverage; 1 to 6 s more),
-    for studies of the publication rule."""
+    the truth (or the failure): the published parameters' errors, sigmas and correlations and the
+    model's (the fit's own, before any widening), NEES, band coverage, verdict; with
+    ``forced_widening``, for a fit published with its own sigmas also what the widened ones would
+    have been (``forced_widening``: sigma, nees, coverage; 1 to 6 s more), for studies of the
+    publication rule."""
     from casrecon.analysis.accel_bias_floor import NOTE_START as BIAS_NOTE
     from casrecon.analysis.fit_products import result_adequacy
     from casrecon.analysis.widened_uncertainty import published_result, widened_result, widening_refused
@@ -150,6 +152,8 @@ def fit_summary(scenario: Scenario, truth: dict[str, float], trajectory, release
     r, widening = published_result(r, verdict.trusted)  # what the fit publishes (widened if the data say so)
     e, nees = parameter_errors(r, truth)
     out = {"names": list(r.params.names), "error": e.tolist(), "sigma": r.sigma.tolist(), "nees": nees,
+           "correlation": r.correlation.tolist(), "model_sigma": model.sigma.tolist(),
+           "model_correlation": model.correlation.tolist(),
            "reduced_chi2": r.reduced_chi2, "iterations": r.solver.iterations, "seconds": time.perf_counter() - t0,
            "coverage": band_coverage(r, trajectory, release_imu_s), **verdict_summary(verdict),
            "widened": widening is not None,
