@@ -3,8 +3,8 @@ widened one's factor (casrecon.analysis.widened_uncertainty.parameter_floor)."""
 
 import numpy as np
 
-from casrecon.analysis.widened_uncertainty import parameter_floor
-from casrecon.estimation.engine.block_sandwich import covering, grown_along
+from casrecon.analysis.widened_uncertainty import combination_floor, parameter_floor
+from casrecon.estimation.engine.block_sandwich import covering, grown_along, grown_to
 
 
 def random_covariance(rng, n):
@@ -67,3 +67,50 @@ def test_grown_along_scales_the_combinations_and_keeps_the_rest_given_them():
 
     np.testing.assert_allclose(given_rows(f), given_rows(c), atol=1e-10)
     np.testing.assert_allclose(grown_along(c, rows, 1.0), c)
+
+
+def test_grown_to_sets_the_combinations_covariance_and_keeps_the_rest_given_them():
+    rng = np.random.default_rng(8)
+    a = rng.normal(size=(7, 7))
+    c = a @ a.T + 0.1 * np.eye(7)
+    rows = rng.normal(size=(3, 7))
+    p = rows @ c @ rows.T
+    b = rng.normal(size=(3, 3))
+    target = p + b @ b.T
+    f = grown_to(c, rows, target)
+    np.testing.assert_allclose(rows @ f @ rows.T, target, rtol=1e-10)
+    assert np.min(np.linalg.eigvalsh(f - c)) > -1e-10
+    np.testing.assert_allclose(grown_to(c, rows, 5.0 * p), grown_along(c, rows, 5.0), rtol=1e-10)
+
+
+def test_combination_floor_raises_only_the_near_degenerate_combination():
+    rng = np.random.default_rng(9)
+    n_w, theta = 10, np.array([0, 3, 5, 8])
+    rows = np.eye(n_w)[theta]
+    vec, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    corr = vec @ np.diag([5e-4, 0.6, 1.2, 2.2]) @ vec.T
+    scale = np.diag(1.0 / np.sqrt(np.diag(corr)) * [1.0, 3.0, 0.2, 7.0])
+    p_theta = scale @ corr @ scale  # one combination known to about 2 % of its parts' sigmas
+    gain = rng.normal(size=(n_w - 4, 4))  # the states: their regression on the parameters, plus their own
+    rest = np.setdiff1d(np.arange(n_w), theta)
+    c = np.zeros((n_w, n_w))
+    c[np.ix_(theta, theta)] = p_theta
+    c[np.ix_(rest, theta)] = gain @ p_theta
+    c[np.ix_(theta, rest)] = p_theta @ gain.T
+    c[np.ix_(rest, rest)] = gain @ p_theta @ gain.T + random_covariance(rng, n_w - 4)
+    p = rows @ c @ rows.T
+    s = np.sqrt(np.diag(p))
+    lam_before = np.linalg.eigvalsh(p / np.outer(s, s))
+    assert lam_before[0] < 1e-3 < lam_before[1]
+    m, f = combination_floor(c, rows, smallest=1e-3)
+    assert m == 1
+    q = rows @ f @ rows.T
+    sq = np.sqrt(np.diag(q))
+    lam_after = np.linalg.eigvalsh(q / np.outer(s, s))  # in the sigmas before
+    np.testing.assert_allclose(lam_after[0], 1e-3, rtol=1e-6)
+    np.testing.assert_allclose(lam_after[1:], lam_before[1:], rtol=1e-8)
+    assert np.all(sq >= s) and np.all(sq <= s * np.sqrt(1 + 1e-3) + 1e-12)
+    plain = random_covariance(rng, n_w)  # correlations far from degenerate: nothing raised
+    m0, same = combination_floor(plain, rows, smallest=1e-3)
+    assert m0 == 0
+    np.testing.assert_array_equal(same, plain)

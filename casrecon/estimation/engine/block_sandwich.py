@@ -172,6 +172,16 @@ def grown_along(cov_w: np.ndarray, rows: np.ndarray, factor: float) -> np.ndarra
     return cov_w + (factor - 1.0) * c_r.T @ np.linalg.solve(c_r @ rows.T, c_r)
 
 
+def grown_to(cov_w: np.ndarray, rows: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """C + C R^T P^-1 (P' - P) P^-1 R C, P = R C R^T: the covariance ``cov_w`` (C, reduced
+    coordinates) with the covariance of the combinations ``rows`` (R, one per row) made ``target``
+    (P', at least P) and everything else grown with them by its regression on them (its covariance
+    given them unchanged); :func:`grown_along` is P' = k P."""
+    c_r = rows @ cov_w
+    gain = np.linalg.solve(c_r @ rows.T, c_r)
+    return cov_w + gain.T @ (target - c_r @ rows.T) @ gain
+
+
 def scaled_chi2_sf(value: float, mean: float, variance: float) -> float:
     """P(X >= value) for X = a chi-square(nu) with X's ``mean`` and ``variance`` (nan when the
     variance is not positive)."""
