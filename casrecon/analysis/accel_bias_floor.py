@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
+from scipy.interpolate import interp1d
 
 from casrecon.analysis.adequacy import IndependentCheck
 from casrecon.estimation.engine.block_sandwich import grown_along
@@ -152,10 +153,10 @@ def antenna_velocity(vehicle, states: np.ndarray) -> np.ndarray:
 
 
 def _at(time_s: np.ndarray, sample_time_s: np.ndarray, values: np.ndarray) -> np.ndarray:
-    """``values`` (n, ...) linearly interpolated to ``time_s``, every trailing index apart."""
-    flat = values.reshape(values.shape[0], -1)
-    out = np.column_stack([np.interp(time_s, sample_time_s, flat[:, j]) for j in range(flat.shape[1])])
-    return out.reshape((time_s.size,) + values.shape[1:])
+    """``values`` (n, ...) linearly interpolated to ``time_s``, every trailing index apart (the end
+    values held beyond the samples)."""
+    return interp1d(sample_time_s, values, axis=0, assume_sorted=True, bounds_error=False,
+                    fill_value=(values[0], values[-1]))(time_s)
 
 
 def kinematic_bias(result) -> KinematicBias | None:

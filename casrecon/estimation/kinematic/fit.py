@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
+from scipy.interpolate import interp1d
 from scipy.spatial.transform import Rotation
 
 from casrecon.estimation.engine.blocks import BlockSet, Term, unit_norm_term
@@ -176,10 +177,6 @@ def _dm(arrays) -> list:
     return [ca.DM(np.asarray(a, float)) for a in arrays]
 
 
-def _at_nodes(t: np.ndarray, samples_t: np.ndarray, values: np.ndarray) -> np.ndarray:
-    return np.column_stack([np.interp(t, samples_t, values[:, i]) for i in range(values.shape[1])])
-
-
 def carried_states(previous: KinematicResult, nodes: np.ndarray) -> np.ndarray:
     """(K, 10) states of ``previous`` at the times ``nodes``: positions and velocities interpolated
     linearly, quaternions component-wise between sign-aligned neighbours, renormalised."""
@@ -221,7 +218,8 @@ def initial_guess(data: KinematicData, nodes: np.ndarray, pre: Preintegrated, op
     for q in pre.delta[:, :4]:
         rel.append(rel[-1] * Rotation.from_quat([q[1], q[2], q[3], q[0]]))
     rel = Rotation.concatenate(rel)
-    f_nodes = _at_nodes(nodes, data.imu_time_s, accel)
+    f_nodes = interp1d(data.imu_time_s, accel, axis=0, assume_sorted=True, bounds_error=False,
+                       fill_value=(accel[0], accel[-1]))(nodes)
     accel_ned = np.column_stack([_smooth_derivative(nodes, vel[:, i], span) for i in range(3)])
     g = np.array([0.0, 0.0, 9.80665 if options.gravity != "off" else 0.0])
     target = accel_ned - g
