@@ -48,7 +48,7 @@ import numpy as np
 import scipy.linalg
 
 from casrecon.analysis.accel_bias_floor import bias_floored
-from casrecon.analysis.altitude_floor import altitude_floored
+from casrecon.analysis.position_floor import position_floored
 from casrecon.estimation.engine.block_sandwich import BlockSandwich, block_sandwiches, covering, grown_along, grown_to
 from casrecon.estimation.engine.covariance import Covariance
 from casrecon.estimation.sixdof.bands import trajectory_with_bands
@@ -326,16 +326,16 @@ def published_result(result, trusted: bool):
     exceeds the model's at p < :data:`P_WIDEN`, else ``result``'s own sigmas; a fit whose
     covariance cannot be widened says why when it should have been. Either way its covariance is
     widened along the accelerometer bias where the fit's differs from the GPS velocities' and the
-    IMU's (:func:`~casrecon.analysis.accel_bias_floor.bias_floored`), and its absolute altitude's
-    bands are at least what the GPS heights alone say
-    (:func:`~casrecon.analysis.altitude_floor.altitude_floored`). Returns (result, Widening or
+    IMU's (:func:`~casrecon.analysis.accel_bias_floor.bias_floored`), and its absolute position's
+    bands are at least what the GPS fixes alone say
+    (:func:`~casrecon.analysis.position_floor.position_floored`). Returns (result, Widening or
     None)."""
     out, widening = sandwich_published(result, trusted)
-    return altitude_floored(bias_floored(out)[0])[0], widening
+    return position_floored(bias_floored(out)[0])[0], widening
 
 
 def sandwich_published(result, trusted: bool):
-    """:func:`published_result` without the altitude floor."""
+    """:func:`published_result` without the accelerometer-bias and position floors."""
     refused = widening_refused(result)
     if refused is not None:
         if trusted:

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import casrecon
-from casrecon.analysis.altitude_floor import altitude_floor_m
+from casrecon.analysis.position_floor import position_floor_m
+from casrecon.estimation.sixdof.diagnostics import gps_residuals
 from casrecon.analysis.fit_products import result_adequacy
 from casrecon.analysis.widened_uncertainty import published_result
 from casrecon.estimation.sixdof.fit import fit_drop
@@ -54,9 +55,14 @@ def test_widened_sigmas_cover_what_the_model_sigmas_miss(understated):
     assert np.max(np.abs(z)) < 4.5
     note = next(n for n in wide.notes if n.startswith("uncertainty widened"))
     assert "the verdict does not trust" in note and "local excess of the gyro and GPS residuals" in note
-    # the absolute altitude's bands at least what the GPS heights alone say (altitude_floor)
-    _, pos_d_sigma = wide.column("pos_d_m")
-    assert np.all(pos_d_sigma >= altitude_floor_m(model) * (1 - 1e-12))
+    # the absolute position's bands at least what the GPS fixes alone say (position_floor): one fix's
+    # accuracy at least (the median 1-sigma of the fixes, as the fit weighted them)
+    floors = position_floor_m(model)
+    fix_sigma = np.nanmedian(gps_residuals(model)["sigma"][:, :3], axis=0)
+    assert np.all(floors >= fix_sigma * (1 - 1e-12))
+    for column, floor in zip(("pos_n_m", "pos_e_m", "pos_d_m"), floors):
+        assert np.all(wide.column(column)[1] >= floor * (1 - 1e-12))
+    assert any(n.startswith("absolute position:") for n in wide.notes)
     # a trusted fit publishes what it fitted (unless its sandwich says otherwise: here it does)
     same, again = published_result(model, True)
     assert again is not None and any("the verdict trusts the fit, but" in n for n in same.notes)

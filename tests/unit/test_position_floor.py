@@ -1,9 +1,9 @@
-"""The absolute altitude's floor from the GPS heights (casrecon.analysis.altitude_floor)."""
+"""The absolute position's floor from the GPS fixes (casrecon.analysis.position_floor)."""
 
 import numpy as np
 import pytest
 
-from casrecon.analysis.altitude_floor import offset_variance
+from casrecon.analysis.position_floor import offset_variance
 
 
 def test_white_errors_give_the_weighted_mean_variance():
@@ -31,3 +31,4 @@ def test_a_constant_error_is_not_averaged_away():
 
 def test_no_fix_is_no_information():
     assert offset_variance(np.zeros(0), np.zeros(0), 0.5, 10.0) == np.inf
+
