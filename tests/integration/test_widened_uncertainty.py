@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import casrecon
-from casrecon.analysis.position_floor import position_floor_m
-from casrecon.estimation.sixdof.diagnostics import gps_residuals
 from casrecon.analysis.fit_products import result_adequacy
+from casrecon.analysis.position_floor import position_floor_m
 from casrecon.analysis.widened_uncertainty import published_result
+from casrecon.estimation.sixdof.diagnostics import gps_residuals
 from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.scenario import Scenario
 from casrecon.simulation.synthetic import truth_parameters_by_name
