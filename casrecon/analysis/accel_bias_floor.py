@@ -57,7 +57,7 @@ from casrecon.estimation.kinds.imu import model_and_bias_values
 from casrecon.estimation.sixdof.bands import trajectory_with_bands
 from casrecon.estimation.sixdof.diagnostics import gps_residuals
 from casrecon.physics.dynamics import STATE_NAMES
-from casrecon.physics.numpy_call import numpy_call
+from casrecon.physics.numpy_call import numpy_rows
 from casrecon.physics.rotations import dcm_body_to_ned_array
 from casrecon.physics.sensors import gps_antenna_ned, lever_acceleration
 
@@ -131,17 +131,12 @@ class KinematicBias:
         return self.difference_mps2 ** 2 + self.kinematic_sigma_mps2 ** 2
 
 
-def _mapped(function: ca.Function, *columns: np.ndarray) -> np.ndarray:
-    """``function`` (one output) at each row of ``columns`` (each (n, m)), as (n, k)."""
-    return numpy_call(function.map(columns[0].shape[0]), *(c.T for c in columns))[0].T
-
-
 def field_acceleration(model, states: np.ndarray) -> np.ndarray:
     """The flight model's field acceleration (NED, m/s^2: gravity and Coriolis,
     :meth:`~casrecon.physics.dynamics.FlightModel.acceleration_ned`) at each of the (n, 13)
     ``states``, (n, 3)."""
     x = ca.SX.sym("x", model.n_states)
-    return _mapped(ca.Function("field", [x], [model.acceleration_ned(x)]), states)
+    return numpy_rows(ca.Function("field", [x], [model.acceleration_ned(x)]), states)
 
 
 def antenna_velocity(vehicle, states: np.ndarray) -> np.ndarray:
@@ -149,7 +144,7 @@ def antenna_velocity(vehicle, states: np.ndarray) -> np.ndarray:
     :func:`~casrecon.physics.sensors.gps_antenna_ned`) at each of the (n, 13) ``states``, (n, 3)."""
     x = ca.SX.sym("x", len(STATE_NAMES))
     _, v_antenna = gps_antenna_ned(vehicle, x[0:3], x[3:6], x[6:10], x[10:13])
-    return _mapped(ca.Function("antenna", [x], [v_antenna - x[3:6]]), states)
+    return numpy_rows(ca.Function("antenna", [x], [v_antenna - x[3:6]]), states)
 
 
 def _at(time_s: np.ndarray, sample_time_s: np.ndarray, values: np.ndarray) -> np.ndarray:

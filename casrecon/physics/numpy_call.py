@@ -106,3 +106,11 @@ def numpy_call(function: ca.Function, *inputs) -> list[np.ndarray]:
         check_input_count(function, inputs)
         return [np.asarray(ca.DM(out), float) for out in function.call([ca.DM(x) for x in inputs])]
     return BufferedFunction(function)(*inputs)
+
+
+def numpy_rows(function: ca.Function, *rows: np.ndarray) -> np.ndarray:
+    """``function``'s first output at each row of ``rows`` (each an (n, m_i) array, one per input
+    of ``function``, whose inputs are column vectors), as an (n, k) array: the function mapped over
+    the n rows and evaluated by :func:`numpy_call`."""
+    mapped = function.map(np.shape(rows[0])[0])
+    return numpy_call(mapped, *(np.asarray(r, float).T for r in rows))[0].T

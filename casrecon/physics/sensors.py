@@ -10,7 +10,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from casrecon.physics.numpy_call import numpy_call
+from casrecon.physics.numpy_call import numpy_rows
 from casrecon.physics.rotations import dcm_body_to_ned
 from casrecon.physics.vehicle import Vehicle
 
@@ -40,8 +40,7 @@ def lever_acceleration(vehicle: Vehicle, omega: np.ndarray, omega_dot: np.ndarra
     """:func:`lever_specific_force` (body axes, m/s^2) evaluated at each of the (n, 3) body rates
     (rad/s) and angular accelerations (rad/s^2): (n, 3)."""
     w, w_dot = ca.SX.sym("w", 3), ca.SX.sym("w_dot", 3)
-    lever = ca.Function("lever", [w, w_dot], [lever_specific_force(vehicle, w, w_dot)]).map(omega.shape[0])
-    return numpy_call(lever, np.asarray(omega, float).T, np.asarray(omega_dot, float).T)[0].T
+    return numpy_rows(ca.Function("lever", [w, w_dot], [lever_specific_force(vehicle, w, w_dot)]), omega, omega_dot)
 
 
 def imu_angular_rate(vehicle: Vehicle, omega_body):

@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from casrecon.physics.numpy_call import BufferedFunction, numpy_call
+from casrecon.physics.numpy_call import BufferedFunction, numpy_call, numpy_rows
 
 
 def example() -> ca.Function:
@@ -52,3 +52,14 @@ def test_wrong_inputs_are_refused_with_the_inputs_name():
         numpy_call(f, np.zeros(3), np.zeros((4, 2)))
     with pytest.raises(ValueError, match="1 inputs given, it takes 2"):
         numpy_call(f, np.zeros(3))
+
+
+def test_numpy_rows_evaluates_the_function_at_each_row():
+    x, y = ca.SX.sym("x", 3), ca.SX.sym("y", 2)
+    f = ca.Function("f", [x, y], [ca.vertcat(x[0] * y[1], ca.sumsqr(x) + y[0])])
+    rng = np.random.default_rng(2)
+    xs, ys = rng.normal(size=(5, 3)), rng.normal(size=(5, 2))
+    out = numpy_rows(f, xs, ys)
+    want = np.column_stack([xs[:, 0] * ys[:, 1], np.sum(xs ** 2, axis=1) + ys[:, 0]])
+    assert out.shape == (5, 2)
+    np.testing.assert_allclose(out, want, rtol=1e-14)
