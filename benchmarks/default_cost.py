@@ -41,18 +41,17 @@ from pathlib import Path
 
 import numpy as np
 
-from casrecon.analysis.estimator_mc import draw_truth
 from casrecon.estimation.pointmass.fit import fit_point_mass
 from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.io.pointmass_problem import load_point_mass
 from casrecon.physics import compiled
 from casrecon.scenario import Scenario
-from casrecon.simulation.error_families import FAMILIES, family_world
-from casrecon.simulation.synthetic import synthetic_scenario, world_span
+from casrecon.simulation.error_families import FAMILIES
+from casrecon.simulation.synthetic import synthetic_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from error_families import fit_variant, vehicle_scenario  # noqa: E402  (the families study's cases)
+from error_families import fit_variant, study_case  # noqa: E402  (the families study's cases)
 
 PARTS = ("all_build_s", "all_solve_s", "all_covariance_s", "estimate_s")
 
@@ -71,11 +70,9 @@ def split(result) -> dict[str, float]:
 
 
 def drop_costs(family: str, seed: int, runs: int) -> None:
-    rng = np.random.default_rng([seed, 49])  # as error_families.run_case draws its case
-    scenario = draw_truth(vehicle_scenario("ees"), rng)
-    world = family_world(family, world_span(scenario), seed)
+    scenario, world, noise_seed = study_case(family, "ees", seed)
     with tempfile.TemporaryDirectory() as tmp:
-        sc, _ = synthetic_scenario(scenario, Path(tmp), seed=int(rng.integers(2**31)), world=world)
+        sc, _ = synthetic_scenario(scenario, Path(tmp), seed=noise_seed, world=world)
         drop_runs(sc, f"{family} seed {seed}", runs)
 
 

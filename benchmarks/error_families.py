@@ -48,7 +48,7 @@ from casrecon.parallel import parallel_map
 from casrecon.physics.disturbance import DisturbanceModel
 from casrecon.physics.sensor_errors import GpsErrorModel
 from casrecon.scenario import Scenario
-from casrecon.simulation.error_families import FAMILIES, family_world, with_air_scaled
+from casrecon.simulation.error_families import FAMILIES, SyntheticWorld, family_world, with_air_scaled
 from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name, world_span
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,17 +108,25 @@ def fit_variant(scenario: Scenario, variant: str) -> Scenario:
     return Scenario.from_config(dataclasses.replace(cfg, atmosphere=atm, gps=gps, estimation=estimation))
 
 
-def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int, air_factor: float = 1.0,
-             forced_widening: bool = False) -> dict:
-    """One drop: truth from the priors, flown through ``family``'s world (its air's departures from
-    the sounding times ``air_factor``), fitted per variant (``forced_widening``: see
-    :func:`~casrecon.analysis.model_error_mc.fit_summary`)."""
+def study_case(family: str, vehicle: str, seed: int, air_factor: float = 1.0) -> tuple[Scenario, SyntheticWorld, int]:
+    """Case ``seed`` of the study: (the vehicle's scenario with a truth drawn from the fit's priors,
+    ``family``'s world with its air's departures from the sounding times ``air_factor``, the noise
+    seed of its data), all drawn from ``default_rng([seed, 49])``: the truth depends on the seed
+    alone, so every family and both vehicles fly the same one."""
     rng = np.random.default_rng([seed, 49])
     scenario = draw_truth(vehicle_scenario(vehicle), rng)
     world = with_air_scaled(family_world(family, world_span(scenario), seed), air_factor)
+    return scenario, world, int(rng.integers(2**31))
+
+
+def run_case(family: str, vehicle: str, variants: tuple[str, ...], seed: int, air_factor: float = 1.0,
+             forced_widening: bool = False) -> dict:
+    """One drop (:func:`study_case`), fitted per variant (``forced_widening``: see
+    :func:`~casrecon.analysis.model_error_mc.fit_summary`)."""
+    scenario, world, noise_seed = study_case(family, vehicle, seed, air_factor)
     out = {"family": family, "vehicle": vehicle, "seed": seed}
     with tempfile.TemporaryDirectory() as tmp:
-        sc, data = synthetic_scenario(scenario, Path(tmp), seed=int(rng.integers(2**31)), world=world)
+        sc, data = synthetic_scenario(scenario, Path(tmp), seed=noise_seed, world=world)
         truth = truth_parameters_by_name(sc)
         release = float(data.truth["release_imu_time_s"])
         for variant in variants:

@@ -23,13 +23,12 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from error_families import VARIANTS, fit_variant, vehicle_scenario
+from error_families import VARIANTS, fit_variant, study_case
 
-from casrecon.analysis.estimator_mc import draw_truth
 from casrecon.estimation.engine.checks import FitError
 from casrecon.estimation.sixdof.fit import fit_drop
-from casrecon.simulation.error_families import FAMILIES, family_world
-from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name, world_span
+from casrecon.simulation.error_families import FAMILIES
+from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 
 
 def noise_seeds(words: list[str], study_seed: int) -> list[int]:
@@ -54,10 +53,7 @@ def main() -> None:
     ap.add_argument("--variant", default="plain", choices=list(VARIANTS))
     ap.add_argument("--noise-seeds", nargs="+", default=["study", "10-19"])
     args = ap.parse_args()
-    rng = np.random.default_rng([args.seed, 49])  # as error_families.run_case draws its case
-    scenario = draw_truth(vehicle_scenario(args.vehicle), rng)
-    study_noise = int(rng.integers(2**31))
-    world = family_world(args.family, world_span(scenario), args.seed)
+    scenario, world, study_noise = study_case(args.family, args.vehicle, args.seed)
     rows: list[np.ndarray] = []
     names: list[str] = []
     for noise in noise_seeds(args.noise_seeds, study_noise):

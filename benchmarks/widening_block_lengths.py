@@ -22,13 +22,13 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.analysis import widened_uncertainty as wu
-from casrecon.analysis.estimator_mc import draw_truth, parameter_errors
+from casrecon.analysis.estimator_mc import parameter_errors
 from casrecon.estimation.sixdof.fit import fit_drop
-from casrecon.simulation.error_families import FAMILIES, family_world
-from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name, world_span
+from casrecon.simulation.error_families import FAMILIES
+from casrecon.simulation.synthetic import synthetic_scenario, truth_parameters_by_name
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from error_families import fit_variant, vehicle_scenario  # noqa: E402  (the families study's cases)
+from error_families import fit_variant, study_case  # noqa: E402  (the families study's cases)
 
 MERGES = (1, 2, 4, 8, 16, 32)
 
@@ -39,11 +39,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=207)
     ap.add_argument("--worst", type=int, default=6, help="how many parameters to print")
     args = ap.parse_args()
-    rng = np.random.default_rng([args.seed, 49])  # as error_families.run_case draws its case
-    scenario = draw_truth(vehicle_scenario("ees"), rng)
-    world = family_world(args.family, world_span(scenario), args.seed)
+    scenario, world, noise_seed = study_case(args.family, "ees", args.seed)
     with tempfile.TemporaryDirectory() as tmp:
-        sc, _ = synthetic_scenario(scenario, Path(tmp), seed=int(rng.integers(2**31)), world=world)
+        sc, _ = synthetic_scenario(scenario, Path(tmp), seed=noise_seed, world=world)
         result = fit_drop(fit_variant(sc, "default"))
         error, _ = parameter_errors(result, truth_parameters_by_name(sc))
     span = result.node_time_s[-1] - result.node_time_s[0]
