@@ -6,6 +6,7 @@ refitted without the profile model."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -127,3 +128,17 @@ def test_a_larger_profile_error_than_configured_is_estimated(larger_error):
     assert np.all(np.abs(prior / np.array([1.0, 1.0, 0.01]) - 1) < 0.2), prior
     errors, _ = parameter_errors(r, truth_parameters_by_name(scenario))
     assert np.all(np.abs(errors / r.sigma) < 3.0), dict(zip(r.params.names, errors / r.sigma))
+
+
+def test_the_sizes_uncertainty_is_carried_into_the_covariance(larger_error):
+    """The estimate made on the fit that stands reports how well the data fix the sizes (1-sigma
+    of their logs), and that uncertainty widens the fit's covariance (never narrows it), by little
+    on a drop of this length: the note says by how much and for which parameter most."""
+    _, r = larger_error
+    estimate_note = [n for n in r.notes if "type-II" in n][-1]
+    assert estimate_note.count("% (1 sigma)") == 2, estimate_note  # wind and density, both estimated
+    carried = [n for n in r.notes if n.startswith("atmosphere-profile sizes' uncertainty")]
+    assert len(carried) == 1, r.notes
+    low, high = (float(v) for v in re.search(r"sigmas x([\d.]+) to x([\d.]+)", carried[0]).groups())
+    print(carried[0])
+    assert 1.0 <= low <= high < 1.2, carried[0]

@@ -94,6 +94,8 @@ ALLOWED_CROSS_ROOM = frozenset({
     ("sixdof", "error_models.error_model_sigma"),
     # ... and refuses to refit with sizes beyond the plausibility limits (a gross input error).
     ("sixdof", "error_models.plausibility"),
+    # ... and carries the sizes' own uncertainty into the covariance of the fit that stands.
+    ("sixdof", "error_models.size_uncertainty"),
     ("sixdof", "validation.data_checks"),
     # precheck (not data_checks) prepares each kind of problem's data as its fit would.
     ("validation.precheck", "sixdof.fitdata"),

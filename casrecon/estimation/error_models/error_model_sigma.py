@@ -123,7 +123,9 @@ def estimate_error_sizes(result, configured_length_m: float | None = None, profi
     fitted = {g: float(prior[ps.GROUPS[g][0]]) for g in names[:n_profile]}
     estimated = {g: fitted[g] * float(r) for g, r in zip(names[:n_profile], ratio[:n_profile])}
     return ps.ProfileSigmaEstimate(fitted, estimated, max(0.0, value - base), tuple(prior), against_zero,
-                                   fallback, grid.length_m, length, gps, gauss_newton=on_gauss_newton)
+                                   fallback, grid.length_m, length, gps, gauss_newton=on_gauss_newton,
+                                   log_ratio_cov=ps.estimate_covariance(lambda x: model.log_evidence(x)[1], fit.x,
+                                                                        ratio[:n_profile]))
 
 
 def time_search(build, best, errors, own_times: tuple[float, float], base_times: tuple[float, float]):

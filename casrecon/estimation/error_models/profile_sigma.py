@@ -36,7 +36,7 @@ the estimate is made again on it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
@@ -44,6 +44,7 @@ import scipy.linalg
 from casrecon.estimation.engine.covariance import gauss_newton_system
 from casrecon.estimation.error_models.gps_error_sigma import GpsErrorEstimate
 from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS, PROFILE_UNITS
+from casrecon.estimation.numerics.information_ascent import covariance_at_maximum
 from casrecon.io.problem import ProblemConfig
 
 #: Smallest and largest ratio of a group's sigma to the fit's that the search considers; an
@@ -116,6 +117,12 @@ class ProfileSigmaEstimate:
     gauss_newton : bool
         The estimate was made on the Gauss-Newton curvature (as a fallback, or because the fit's
         covariance was formed on it: the default path's first fit).
+    log_ratio_cov : ndarray or None
+        Covariance of the log of each group's estimate (the groups of ``estimated`` above zero, in
+        its order): the inverse of the log evidence's negative Hessian at its maximum
+        (:func:`~casrecon.estimation.numerics.information_ascent.covariance_at_maximum`, the GPS
+        sizes held: the refit puts them at their upper bounds); None where no group is above zero
+        or the evidence is not curved down there.
     """
 
     fitted: dict[str, float]
@@ -128,6 +135,21 @@ class ProfileSigmaEstimate:
     length_m: float = 0.0
     gps: GpsErrorEstimate | None = None
     gauss_newton: bool = False
+    log_ratio_cov: np.ndarray | None = field(default=None, compare=False)
+
+    @property
+    def uncertain_groups(self) -> tuple[str, ...]:
+        """The groups ``log_ratio_cov`` is about: those estimated above zero (none without it)."""
+        if self.log_ratio_cov is None:
+            return ()
+        return tuple(g for g in self.fitted if self.estimated[g] > 0.0)
+
+    def log_ratio_sd(self) -> dict[str, float]:
+        """Group -> the standard deviation of the log of its estimate (a relative 1-sigma, for
+        small values), for the groups of :attr:`uncertain_groups`."""
+        if self.log_ratio_cov is None:
+            return {}
+        return dict(zip(self.uncertain_groups, np.sqrt(np.diag(self.log_ratio_cov)).tolist()))
 
     @property
     def refit(self) -> bool:
@@ -159,7 +181,8 @@ class ProfileSigmaEstimate:
     def profile_text(self) -> str:
         """One line: each profile group's estimate against the fit's sigma."""
         unit = {g: PROFILE_UNITS[GROUPS[g][0]] for g in self.fitted}
-        parts = [f"{g} {unit[g][1] * self.estimated[g]:.3g} {unit[g][0]} (fitted with "
+        sd = {g: f" +-{100.0 * v:.1f} % (1 sigma)" for g, v in self.log_ratio_sd().items()}
+        parts = [f"{g} {unit[g][1] * self.estimated[g]:.3g} {unit[g][0]}{sd.get(g, '')} (fitted with "
                  f"{unit[g][1] * self.fitted[g]:.3g}; log evidence over none {self.against_zero[g]:+.1f})"
                  for g in self.fitted]
         fallback = (", on the Gauss-Newton curvature: the observed information's data part is indefinite"
@@ -362,7 +385,16 @@ def estimate_profile_sigma(result, configured_length_m: float | None = None) -> 
     fallback = model.gauss_newton and result.covariance.information.startswith("observed")
     return ProfileSigmaEstimate(fitted, estimated, max(0.0, float(-best.fun - base)), tuple(prior), against_zero,
                                 fallback, grid.length_m, (grid.length_m, *lengths)[pick],
-                                gauss_newton=model.gauss_newton)
+                                gauss_newton=model.gauss_newton,
+                                log_ratio_cov=estimate_covariance(lambda x: model.log_evidence(x)[1], best.x, ratio))
+
+
+def estimate_covariance(gradient, x: np.ndarray, ratio: np.ndarray) -> np.ndarray | None:
+    """:attr:`ProfileSigmaEstimate.log_ratio_cov` of an estimate at log ratios ``x`` (the profile
+    groups first) whose groups' ratios after the zero tests are ``ratio`` (the profile groups'),
+    ``gradient`` the gradient of its log evidence (x -> d log Z / d x)."""
+    which = [k for k, r in enumerate(ratio) if r > 0.0]
+    return covariance_at_maximum(gradient, x, which) if which else None
 
 
 def extension(longest: float, step: float, limit: float) -> list[float]:

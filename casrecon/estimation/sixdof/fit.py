@@ -27,12 +27,8 @@ from casrecon.estimation.engine.nlp import Nlp
 from casrecon.estimation.engine.solve import SolveResult
 from casrecon.estimation.error_models.error_model_sigma import estimate_error_sizes, gps_estimated
 from casrecon.estimation.error_models.plausibility import implausible, judged_again, not_refitted_text
-from casrecon.estimation.error_models.profile_sigma import (
-    MAX_REFITS,
-    ProfileSigmaEstimate,
-    profile_refit,
-    refit_text,
-)
+from casrecon.estimation.error_models.profile_sigma import MAX_REFITS, ProfileSigmaEstimate, profile_refit, refit_text
+from casrecon.estimation.error_models.size_uncertainty import with_size_uncertainty
 from casrecon.estimation.kinds.base import MeasurementKind
 from casrecon.estimation.kinds.sample_terms import SampleTerms
 from casrecon.estimation.kinds.samples import SampleKind, check_kinds
@@ -429,7 +425,8 @@ def with_profile_sigma_from_data(result: FitResult, cfg: ProblemConfig, t0: floa
                 f"{'configured' if intended is None else 'last estimated'} ones",)))
         if not estimate.differs_from(estimate.fitted if intended is None else intended):
             result = standing(result, k)
-            return timed(dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",)))
+            result = dataclasses.replace(result, notes=result.notes + (estimate.text() + "; no refit",))
+            return timed(with_size_uncertainty(result, estimate))
         findings = implausible(estimate, cfg.atmosphere.profile_length_m)
         gps_only = with_gps_estimate_only(estimate)
         gps_beyond = bool(implausible(gps_only, cfg.atmosphere.profile_length_m))
