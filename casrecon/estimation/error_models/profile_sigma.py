@@ -120,9 +120,9 @@ class ProfileSigmaEstimate:
     log_ratio_cov : ndarray or None
         Covariance of the log of each group's estimate (the groups of ``estimated`` above zero, in
         its order): the inverse of the log evidence's negative Hessian at its maximum
-        (:func:`~casrecon.estimation.numerics.information_ascent.covariance_at_maximum`, the GPS
-        sizes held: the refit puts them at their upper bounds); None where no group is above zero
-        or the evidence is not curved down there.
+        (:func:`~casrecon.estimation.numerics.information_ascent.covariance_at_maximum`,
+        conditional on the GPS sizes there); None where no group is above zero or the evidence is
+        not curved down there.
     """
 
     fitted: dict[str, float]

@@ -13,8 +13,8 @@ group's whitened prior rows and residuals at the fit (the stationarity condition
 differentiated in log rho_k: the group's prior gradient A_k^T u_k / rho_k^2 changes by
 -2 A_k^T u_k), and V the covariance of the log ratios the estimate made on this fit reports
 (:attr:`~.profile_sigma.ProfileSigmaEstimate.log_ratio_cov`: the inverse of the log evidence's
-negative Hessian at its maximum, the GPS error sizes held at the values the refit used, their upper
-bounds). Everything read from the covariance afterwards (parameter sigmas and correlations,
+negative Hessian at its maximum, conditional on the GPS error sizes there; the GPS sizes the refit
+uses are their upper bounds, not estimates to be integrated). Everything read from the covariance afterwards (parameter sigmas and correlations,
 trajectory bands, the verdict's tests, a widening) carries it. The correlation length is a choice
 among a few candidates, not a continuous estimate: its uncertainty is not carried.
 
