@@ -16,7 +16,10 @@ differentiated in log rho_k: the group's prior gradient A_k^T u_k / rho_k^2 chan
 negative Hessian at its maximum, conditional on the GPS error sizes there; the GPS sizes the refit
 uses are their upper bounds, not estimates to be integrated). Everything read from the covariance afterwards (parameter sigmas and correlations,
 trajectory bands, the verdict's tests, a widening) carries it. The correlation length is a choice
-among a few candidates, not a continuous estimate: its uncertainty is not carried.
+among a few candidates, not a continuous estimate: its uncertainty is not carried. First order:
+where a size is poorly determined (a standard deviation of its log near 1) the estimate's
+dependence on it is far from linear over that range (it levels off towards the plain fit's as the
+size goes to zero), and the linear term overstates the spread: conservative.
 
 Measured on three error-family drops (docs/studies/error-families.md, fourteenth session) the
 sizes are determined to 4 to 7 % (hundreds of profile levels under thousands of GPS fixes and IMU
