@@ -19,7 +19,8 @@ trajectory bands, the verdict's tests, a widening) carries it. The correlation l
 among a few candidates, not a continuous estimate: its uncertainty is not carried. First order:
 where a size is poorly determined (a standard deviation of its log near 1) the estimate's
 dependence on it is far from linear over that range (it levels off towards the plain fit's as the
-size goes to zero), and the linear term overstates the spread: conservative.
+size goes to zero, and towards the unconstrained profile's as it grows), and the linear term only
+indicates the spread; on the drops measured the logs' standard deviations are 0.04 to 0.07.
 
 Measured on three error-family drops (docs/studies/error-families.md, fourteenth session) the
 sizes are determined to 4 to 7 % (hundreds of profile levels under thousands of GPS fixes and IMU
