@@ -14,8 +14,9 @@ differentiated in log rho_k: the group's prior gradient A_k^T u_k / rho_k^2 chan
 -2 A_k^T u_k), and V the covariance of the log ratios the estimate made on this fit reports
 (:attr:`~.profile_sigma.ProfileSigmaEstimate.log_ratio_cov`: the inverse of the log evidence's
 negative Hessian at its maximum, conditional on the GPS error sizes there; the GPS sizes the refit
-uses are their upper bounds, not estimates to be integrated). Everything read from the covariance afterwards (parameter sigmas and correlations,
-trajectory bands, the verdict's tests, a widening) carries it. The correlation length is a choice
+uses are their upper bounds, not estimates to be integrated). Everything read from the covariance
+afterwards (parameter sigmas and correlations, trajectory bands, the verdict's tests, a widening)
+carries it. The correlation length is a choice
 among a few candidates, not a continuous estimate: its uncertainty is not carried. First order:
 where a size is poorly determined (a standard deviation of its log near 1) the estimate's
 dependence on it is far from linear over that range (it levels off towards the plain fit's as the
