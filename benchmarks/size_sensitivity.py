@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS
-from casrecon.estimation.error_models.profile_sigma import GROUPS, profile_prior_rows
+from casrecon.estimation.error_models.profile_sigma import group_masks, profile_prior_rows
 from casrecon.estimation.error_models.size_uncertainty import sensitivity
 from casrecon.estimation.sixdof.fit import fit_drop
 from casrecon.simulation.synthetic import synthetic_scenario
@@ -55,8 +55,7 @@ def main() -> None:
         # D from the fit's covariance as published: with D V D^T already in it (under 2 % of cov_w on
         # the drops measured), which changes D by as little
         cov, prior = r.covariance, profile_prior_rows(r)
-        names = np.array([PROFILE_COMPONENTS[c] for c in grid.components])
-        wind = np.isin(names[prior.component_of_row], GROUPS["wind"])
+        (wind,) = group_masks(grid, prior.component_of_row, ("wind",))
         a = prior.jacobian @ cov.basis[prior.cols]
         d = sensitivity(cov.cov_w, [a[wind]], [prior.residuals[wind]])[:, 0]
         predicted = (cov.basis @ d)[r.part.theta_cols] * r.part.params.scales

@@ -260,15 +260,13 @@ def _builder(result, grid):
         names: list[str] = []
         log_det = 0.0
         if prior is not None:
-            comp_names = np.array([PROFILE_COMPONENTS[c] for c in grid.components])
             if length == grid.length_m:
                 w, u, comp, det = prior.jacobian, prior.residuals, prior.component_of_row, 0.0
             else:
                 w, u, comp, det = ps.prior_rows_at(result, prior, length)
             a = w @ basis[prior.cols]
             log_det += det
-            for g, comps in ps.GROUPS.items():
-                mask = np.isin(comp_names[comp], comps)
+            for g, mask in zip(ps.GROUPS, ps.group_masks(grid, comp)):
                 if mask.any():
                     groups.append(RowGroup(a[mask], None, u[mask], int(mask.sum())))
                     names.append(g)

@@ -266,6 +266,14 @@ def profile_prior_rows(result) -> ProfilePriorRows:
                             component_of_col[np.argmax(w != 0, axis=1)])
 
 
+def group_masks(grid, component_of_row: np.ndarray, groups=tuple(GROUPS)) -> list[np.ndarray]:
+    """Per sigma group of ``groups`` (names of :data:`GROUPS`), which prior rows are its: a boolean
+    mask over the rows, each row's component given by ``component_of_row`` (indices into the grid's
+    ``components``, as :class:`ProfilePriorRows` has them)."""
+    names = np.array([PROFILE_COMPONENTS[c] for c in grid.components])
+    return [np.isin(names[component_of_row], GROUPS[g]) for g in groups]
+
+
 def prior_rows_at(result, prior: ProfilePriorRows, length_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """The fit's profile prior rebuilt with the correlation length ``length_m`` (m): (W, u = W z,
     component of each row, log det of its whitening less the fit's). One process per component,
@@ -307,12 +315,11 @@ def quadratic_model(result, lengths_m: tuple[float, ...] = ()) -> tuple[list[Qua
     the length: only the prior's rows change (:func:`prior_rows_at`)."""
     grid, cov = result.part.profile, result.covariance
     prior = profile_prior_rows(result)
-    names = np.array([PROFILE_COMPONENTS[c] for c in grid.components])
-    groups = [g for g, comps in GROUPS.items() if np.isin(names[prior.component_of_row], comps).any()]
+    groups = [g for g, m in zip(GROUPS, group_masks(grid, prior.component_of_row)) if m.any()]
 
     def model(basis: np.ndarray, h: np.ndarray, gauss_newton: bool) -> list[QuadraticModel]:
         a = prior.jacobian @ basis[prior.cols]
-        masks = [np.isin(names[prior.component_of_row], GROUPS[g]) for g in groups]
+        masks = group_masks(grid, prior.component_of_row, groups)
         h_data = 0.5 * (h + h.T) - sum(a[m].T @ a[m] for m in masks)
         g_data = -sum(a[m].T @ prior.residuals[m] for m in masks)
         out = []
@@ -322,7 +329,7 @@ def quadratic_model(result, lengths_m: tuple[float, ...] = ()) -> tuple[list[Qua
             else:
                 w, residuals, component_of_row, log_det = prior_rows_at(result, prior, length)
                 rows = w @ basis[prior.cols]
-            at = [np.isin(names[component_of_row], GROUPS[g]) for g in groups]
+            at = group_masks(grid, component_of_row, groups)
             out.append(QuadraticModel(h_data, g_data, tuple(rows[m] for m in at), tuple(residuals[m] for m in at),
                                       gauss_newton, log_det))
         return out

@@ -16,8 +16,8 @@ differentiated in log rho_k: the group's prior gradient A_k^T u_k / rho_k^2 chan
 negative Hessian at its maximum, conditional on the GPS error sizes there; the GPS sizes the refit
 uses are their upper bounds, not estimates to be integrated). Everything read from the covariance
 afterwards (parameter sigmas and correlations, trajectory bands, the verdict's tests, a widening)
-carries it. The correlation length is a choice
-among a few candidates, not a continuous estimate: its uncertainty is not carried. First order:
+carries it. The correlation length is a choice among a few candidates, not a continuous estimate:
+its uncertainty is not carried. First order:
 where a size is poorly determined (a standard deviation of its log near 1) the estimate's
 dependence on it is far from linear over that range (it levels off towards the plain fit's as the
 size goes to zero, and towards the unconstrained profile's as it grows), and the linear term only
@@ -37,8 +37,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from casrecon.estimation.error_models.profile import PROFILE_COMPONENTS
-from casrecon.estimation.error_models.profile_sigma import GROUPS, ProfileSigmaEstimate, profile_prior_rows
+from casrecon.estimation.error_models.profile_sigma import ProfileSigmaEstimate, group_masks, profile_prior_rows
 
 
 def sensitivity(cov_w: np.ndarray, rows: Sequence[np.ndarray], residuals: Sequence[np.ndarray]) -> np.ndarray:
@@ -68,8 +67,7 @@ def with_size_uncertainty(result, estimate: ProfileSigmaEstimate):
         return result
     prior = profile_prior_rows(result)
     a = prior.jacobian @ cov.basis[prior.cols]
-    names = np.array([PROFILE_COMPONENTS[c] for c in result.part.profile.components])
-    masks = [np.isin(names[prior.component_of_row], GROUPS[g]) for g in groups]
+    masks = group_masks(result.part.profile, prior.component_of_row, groups)
     if not all(m.any() for m in masks):  # a group the fit does not have (estimated, then dropped)
         return result
     added = added_covariance(cov.cov_w, [a[m] for m in masks], [prior.residuals[m] for m in masks],
